@@ -1,0 +1,182 @@
+"""Vehicle parameters: a validated, frozen dataclass and the named presets.
+
+Rotor geometry fixes the allocation matrix that maps the four rotor thrusts to the
+collective thrust and body moments, ``[f, Mx, My, Mz] = A @ rotor_thrusts``: a rotor at
+body position ``(px, py)`` pushing ``t`` along body +z adds ``py t`` to ``Mx``, ``-px t``
+to ``My``, and its drag torque ``spin * c * t`` to ``Mz``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from quad_dob_env.validation import unknown_name_error
+
+Actuation = Literal["rotors", "wrench"]
+ACTUATIONS: tuple[str, ...] = ("rotors", "wrench")
+CONFIGURATIONS: tuple[str, ...] = ("plus", "x")
+
+
+def _require_positive(name: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise ValueError(f"VehicleParams.{name} must be a finite number > 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class VehicleParams:
+    """Rigid-body and rotor parameters of one quadrotor (SI units, z up).
+
+    ``inertia`` is the 3x3 body-frame inertia matrix as nested tuples, so the dataclass
+    stays hashable; ``inertia_matrix`` gives it as an array.
+    """
+
+    name: str
+    mass: float
+    inertia: tuple[tuple[float, float, float], ...]
+    arm_length: float
+    torque_coefficient: float  # yaw drag torque per newton of rotor thrust [m]
+    max_rotor_thrust: float  # [N], each rotor is clipped to [0, max_rotor_thrust]
+    rotor_radius: float  # [m], sets the ground effect's reach
+    configuration: str = "plus"
+    gravity: float = 9.81
+    _matrices: dict = field(default=None, init=False, repr=False, compare=False, hash=False)
+
+    def __post_init__(self) -> None:
+        for name in ("mass", "arm_length", "torque_coefficient", "max_rotor_thrust",
+                     "rotor_radius", "gravity"):
+            _require_positive(name, getattr(self, name))
+        if self.configuration not in CONFIGURATIONS:
+            raise unknown_name_error("rotor configuration", self.configuration, CONFIGURATIONS)
+        inertia = np.asarray(self.inertia, dtype=float)
+        if inertia.shape != (3, 3) or not np.all(np.isfinite(inertia)):
+            raise ValueError(
+                f"VehicleParams.inertia must be a finite 3x3 matrix, got {self.inertia!r}")
+        if not np.allclose(inertia, inertia.T, rtol=0, atol=1e-12 * np.abs(inertia).max()):
+            raise ValueError(f"VehicleParams.inertia must be symmetric, got {inertia.tolist()}")
+        principal = np.linalg.eigvalsh(inertia)
+        if principal[0] <= 0:
+            raise ValueError(
+                f"VehicleParams.inertia must be positive definite; eigenvalues {principal.tolist()}"
+            )
+        # A rigid body's principal moments obey the triangle inequality J1 + J2 >= J3.
+        if principal[0] + principal[1] < principal[2] * (1 - 1e-9):
+            raise ValueError(
+                "VehicleParams.inertia is not a rigid body's: principal moments "
+                f"{principal.tolist()} break J1 + J2 >= J3"
+            )
+        weight = self.mass * self.gravity
+        if 4 * self.max_rotor_thrust <= weight:
+            raise ValueError(
+                f"VehicleParams.max_rotor_thrust = {self.max_rotor_thrust} N cannot lift the "
+                f"vehicle: 4 rotors give {4 * self.max_rotor_thrust:.4g} N, its weight is "
+                f"{weight:.4g} N"
+            )
+        object.__setattr__(self, "inertia", tuple(tuple(float(v) for v in row) for row in inertia))
+        object.__setattr__(self, "_matrices", self._build_matrices(inertia))
+
+    def _build_matrices(self, inertia: NDArray) -> dict:
+        if self.configuration == "plus":
+            positions = self.arm_length * np.array([[1.0, 0], [0, 1], [-1, 0], [0, -1]])
+        else:
+            positions = self.arm_length / math.sqrt(2) * np.array(
+                [[1.0, -1], [1, 1], [-1, 1], [-1, -1]]
+            )
+        spin = np.array([-1.0, 1, -1, 1])  # opposite rotors turn the same way
+        allocation = np.vstack([
+            np.ones(4), positions[:, 1], -positions[:, 0], spin * self.torque_coefficient
+        ])
+        roll_pitch = np.array([
+            np.abs(allocation[1]).sum() / 2, np.abs(allocation[2]).sum() / 2
+        ]) * self.max_rotor_thrust
+        matrices = {
+            "inertia": inertia,
+            "inertia_inverse": np.linalg.inv(inertia),
+            "allocation": allocation,
+            "mixer": np.linalg.inv(allocation),
+            "moment_limit_rotors": np.array(
+                [roll_pitch[0], roll_pitch[1], 2 * self.torque_coefficient * self.max_rotor_thrust]
+            ),
+            # Wrench actuation idealises the vehicle as the paper's model does: any moment
+            # up to the rotors' roll authority, on every axis, yaw included.
+            "moment_limit_wrench": np.full(3, roll_pitch.max()),
+        }
+        for matrix in matrices.values():
+            matrix.setflags(write=False)
+        return matrices
+
+    @property
+    def inertia_matrix(self) -> NDArray[np.float64]:
+        return self._matrices["inertia"]
+
+    @property
+    def inertia_inverse(self) -> NDArray[np.float64]:
+        return self._matrices["inertia_inverse"]
+
+    @property
+    def allocation_matrix(self) -> NDArray[np.float64]:
+        """4x4 map from rotor thrusts to ``[f, Mx, My, Mz]``."""
+        return self._matrices["allocation"]
+
+    @property
+    def mixer_matrix(self) -> NDArray[np.float64]:
+        """Inverse of the allocation matrix: ``[f, Mx, My, Mz]`` to rotor thrusts."""
+        return self._matrices["mixer"]
+
+    @property
+    def hover_thrust(self) -> float:
+        return self.mass * self.gravity
+
+    @property
+    def max_total_thrust(self) -> float:
+        return 4 * self.max_rotor_thrust
+
+    def moment_limit(self, actuation: Actuation) -> NDArray[np.float64]:
+        """Largest body moment per axis [N m] that the given actuation can produce."""
+        if actuation not in ACTUATIONS:
+            raise unknown_name_error("actuation", actuation, ACTUATIONS)
+        return self._matrices[f"moment_limit_{actuation}"]
+
+    def with_changes(self, **changes: object) -> VehicleParams:
+        """A copy with some fields changed, validated like the original."""
+        unknown = sorted(set(changes) - set(self.__dataclass_fields__) - {"_matrices"})
+        if unknown:
+            valid = [f for f in self.__dataclass_fields__ if not f.startswith("_")]
+            raise unknown_name_error("VehicleParams field", unknown[0], valid)
+        return replace(self, **changes)
+
+
+def _diagonal(a: float, b: float, c: float) -> tuple[tuple[float, float, float], ...]:
+    return ((a, 0.0, 0.0), (0.0, b, 0.0), (0.0, 0.0, c))
+
+
+VEHICLES: dict[str, VehicleParams] = {
+    # Lee, Leok, McClamroch 2010 and the paper: 4.34 kg, arm 0.315 m, c = 8.004e-4 m.
+    # Rotor thrust limit (thrust/weight 2.35) and 10-inch rotors are our choice; the
+    # paper gives neither.
+    "paper": VehicleParams(
+        name="paper", mass=4.34, inertia=_diagonal(0.0820, 0.0845, 0.1377), arm_length=0.315,
+        torque_coefficient=8.004e-4, max_rotor_thrust=25.0, rotor_radius=0.127,
+        configuration="plus",
+    ),
+    # Bitcraze Crazyflie 2.x: 27 g, 46 mm arms in X, thrust/weight 2.25, 23 mm rotors,
+    # drag/thrust ratio 7.94e-12 / 3.16e-10 (as in gym-pybullet-drones).
+    "crazyflie": VehicleParams(
+        name="crazyflie", mass=0.027, inertia=_diagonal(1.4e-5, 1.4e-5, 2.17e-5),
+        arm_length=0.046, torque_coefficient=7.94e-12 / 3.16e-10,
+        max_rotor_thrust=2.25 * 0.027 * 9.81 / 4, rotor_radius=0.0231, configuration="x",
+    ),
+}
+
+
+def get_vehicle(vehicle: str | VehicleParams) -> VehicleParams:
+    """A preset by name, or the given parameters unchanged."""
+    if isinstance(vehicle, VehicleParams):
+        return vehicle
+    if vehicle not in VEHICLES:
+        raise unknown_name_error("vehicle preset", vehicle, sorted(VEHICLES))
+    return VEHICLES[vehicle]

@@ -1,0 +1,49 @@
+"""Input checks shared by every layer: each failure names the field, the value and what is allowed.
+
+This module imports nothing from the package, so every layer may use it.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+def unknown_name_error(kind: str, name: object, valid: Iterable[str]) -> ValueError:
+    """A ValueError naming the unknown value, every valid one, and the closest match."""
+    valid = list(valid)
+    message = f"unknown {kind} {name!r}; valid: {', '.join(valid)}"
+    same_but_case = [v for v in valid if v.lower() == str(name).lower()]
+    close = same_but_case or difflib.get_close_matches(str(name), valid, n=1)
+    if close:
+        message += f" (did you mean {close[0]!r}?)"
+    return ValueError(message)
+
+
+def as_vector3(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """A finite 3-vector, or a ValueError that names the field and what it got."""
+    try:
+        vector = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a finite 3-vector, got {value!r}") from None
+    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+        raise ValueError(f"{name} must be a finite 3-vector, got {value!r}")
+    return vector
+
+
+def as_finite(value: object, name: str, minimum: float | None = None,
+              strictly: bool = False) -> float:
+    """A finite float, at least (or above, if ``strictly``) ``minimum``; else ValueError."""
+    try:
+        number = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not np.isfinite(number):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if minimum is not None and (number < minimum or (strictly and number == minimum)):
+        relation = ">" if strictly else ">="
+        raise ValueError(f"{name} must be {relation} {minimum}, got {value!r}")
+    return number
