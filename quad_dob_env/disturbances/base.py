@@ -1,0 +1,80 @@
+"""The disturbance interface: a template for every force/torque model.
+
+A model gives, for each of N vehicles and K sample times, the external force d_x (world
+frame, N) and torque d_Ω (body frame, N m). Models with random parameters draw them in
+``resample`` from each vehicle's own generator, so every vehicle's disturbance follows from
+its seed alone.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+class Disturbance:
+    """External force and torque as functions of time, for a batch of vehicles.
+
+    Subclasses implement ``evaluate``; those with random parameters override ``bind``
+    (allocate per-vehicle storage) and ``resample`` (draw new values at reset).
+    """
+
+    #: True when the model draws per-vehicle parameters; the env then evaluates it every
+    #: step. Models that are a function of time alone are tabulated once per episode grid.
+    is_random: bool = False
+
+    def bind(self, num_vehicles: int) -> None:
+        """Prepare per-vehicle storage for a batch of this size."""
+
+    def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
+        """Draw fresh random parameters for vehicles ``indices``, ``rngs[j]`` for the j-th."""
+
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        """Force (N, K, 3) and torque (N, K, 3) at ``times`` (N, K)."""
+        raise NotImplementedError
+
+    def __add__(self, other: Disturbance) -> Sum:
+        if not isinstance(other, Disturbance):
+            return NotImplemented
+        return Sum([self, other])
+
+    def during(self, start: float, end: float) -> Disturbance:
+        """This disturbance, switched on only for ``start <= t < end``."""
+        from quad_dob_env.disturbances.forces import Window
+
+        return Window(self, start, end)
+
+
+class Sum(Disturbance):
+    """The sum of several disturbances; ``a + b + c`` builds one flat Sum."""
+
+    def __init__(self, parts: Sequence[Disturbance]) -> None:
+        flat: list[Disturbance] = []
+        for part in parts:
+            if not isinstance(part, Disturbance):
+                raise ValueError(f"Sum takes Disturbance models, got {type(part).__name__}")
+            flat.extend(part.parts if isinstance(part, Sum) else [part])
+        self.parts = flat
+        self.is_random = any(part.is_random for part in flat)
+
+    def bind(self, num_vehicles: int) -> None:
+        for part in self.parts:
+            part.bind(num_vehicles)
+
+    def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
+        for part in self.parts:
+            part.resample(indices, rngs)
+
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        force, torque = self.parts[0].evaluate(times)
+        force, torque = force.copy(), torque.copy()
+        for part in self.parts[1:]:
+            part_force, part_torque = part.evaluate(times)
+            force += part_force
+            torque += part_torque
+        return force, torque
+
+    def __repr__(self) -> str:
+        return " + ".join(repr(part) for part in self.parts)

@@ -1,0 +1,141 @@
+"""Time-profile force and torque models: constant, window, atan ramp, sinusoid, impulse.
+
+Each carries a force vector (world frame, N) and a torque vector (body frame, N m) that
+its profile ``p(t)`` scales: ``d_x = force p(t)``, ``d_Ω = torque p(t)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from quad_dob_env.disturbances.base import Disturbance
+from quad_dob_env.validation import as_finite, as_vector3
+
+
+class _Profile(Disturbance):
+    """A force and a torque vector scaled by one scalar profile of time."""
+
+    def __init__(self, force: ArrayLike = (0.0, 0.0, 0.0),
+                 torque: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+        name = type(self).__name__
+        self.force = as_vector3(force, f"{name}.force")
+        self.torque = as_vector3(torque, f"{name}.torque")
+
+    def profile(self, times: NDArray) -> NDArray:
+        raise NotImplementedError
+
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        scale = self.profile(times)[..., None]
+        return scale * self.force, scale * self.torque
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(force={self.force.tolist()}, torque={self.torque.tolist()})"
+
+
+class Constant(_Profile):
+    """``d = value`` at all times (the paper's Scenario II)."""
+
+    def profile(self, times: NDArray) -> NDArray:
+        return np.ones_like(times)
+
+
+class AtanRamp(_Profile):
+    """``d = value * atan(t / time_scale)``: bounded with a finite slope (paper's Scenario I)."""
+
+    def __init__(self, force: ArrayLike = (0.0, 0.0, 0.0), torque: ArrayLike = (0.0, 0.0, 0.0),
+                 time_scale: float = 2.0) -> None:
+        super().__init__(force, torque)
+        self.time_scale = as_finite(time_scale, "AtanRamp.time_scale", 0.0, strictly=True)
+
+    def profile(self, times: NDArray) -> NDArray:
+        return np.arctan(times / self.time_scale)
+
+
+class Sinusoid(_Profile):
+    """``d = value * sin(2 pi frequency t + phase)``."""
+
+    def __init__(self, force: ArrayLike = (0.0, 0.0, 0.0), torque: ArrayLike = (0.0, 0.0, 0.0),
+                 frequency: float = 1.0, phase: float = 0.0) -> None:
+        super().__init__(force, torque)
+        self.frequency = as_finite(frequency, "Sinusoid.frequency", 0.0, strictly=True)
+        self.phase = as_finite(phase, "Sinusoid.phase")
+
+    def profile(self, times: NDArray) -> NDArray:
+        return np.sin(2 * np.pi * self.frequency * times + self.phase)
+
+
+class Window(Disturbance):
+    """``inner`` switched on for ``start <= t < end`` and off otherwise (a step on and off)."""
+
+    def __init__(self, inner: Disturbance, start: float, end: float) -> None:
+        if not isinstance(inner, Disturbance):
+            raise ValueError(f"Window wraps a Disturbance, got {type(inner).__name__}")
+        self.inner = inner
+        self.is_random = inner.is_random
+        self.start = as_finite(start, "Window.start")
+        self.end = as_finite(end, "Window.end")
+        if self.end <= self.start:
+            raise ValueError(f"Window.end must be > start, got start={start}, end={end}")
+
+    def bind(self, num_vehicles: int) -> None:
+        self.inner.bind(num_vehicles)
+
+    def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
+        self.inner.resample(indices, rngs)
+
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        force, torque = self.inner.evaluate(times)
+        active = ((times >= self.start) & (times < self.end))[..., None]
+        return force * active, torque * active
+
+    def __repr__(self) -> str:
+        return f"{self.inner!r}.during({self.start}, {self.end})"
+
+
+class Impulse(Disturbance):
+    """A rectangular pulse delivering ``force_impulse`` [N s] and ``torque_impulse`` [N m s].
+
+    It lasts ``duration`` seconds from ``start``. ``start`` may be a ``(low, high)`` range:
+    each vehicle then draws its own start time, uniformly, from its generator at reset.
+    """
+
+    def __init__(self, force_impulse: ArrayLike = (0.0, 0.0, 0.0),
+                 torque_impulse: ArrayLike = (0.0, 0.0, 0.0),
+                 start: float | tuple[float, float] = 1.0, duration: float = 0.02) -> None:
+        self.force_impulse = as_vector3(force_impulse, "Impulse.force_impulse")
+        self.torque_impulse = as_vector3(torque_impulse, "Impulse.torque_impulse")
+        self.duration = as_finite(duration, "Impulse.duration", 0.0, strictly=True)
+        if np.ndim(start) == 0:
+            self.start_range = (as_finite(start, "Impulse.start"),) * 2
+        else:
+            if len(start) != 2:
+                raise ValueError(
+                    f"Impulse.start must be a time or a (low, high) range, got {start!r}")
+            low, high = (as_finite(v, "Impulse.start") for v in start)
+            if high < low:
+                raise ValueError(f"Impulse.start range needs low <= high, got {start!r}")
+            self.start_range = (low, high)
+        self.is_random = self.start_range[1] > self.start_range[0]
+        self.starts = np.full(1, self.start_range[0])
+
+    def bind(self, num_vehicles: int) -> None:
+        self.starts = np.full(num_vehicles, self.start_range[0])
+
+    def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
+        low, high = self.start_range
+        if self.is_random:
+            for index, rng in zip(indices, rngs, strict=True):
+                self.starts[index] = rng.uniform(low, high)
+
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        start = self.starts[:, None] if self.is_random else self.start_range[0]
+        active = ((times >= start) & (times < start + self.duration))[..., None] / self.duration
+        return active * self.force_impulse, active * self.torque_impulse
+
+    def __repr__(self) -> str:
+        return (f"Impulse(force_impulse={self.force_impulse.tolist()}, "
+                f"torque_impulse={self.torque_impulse.tolist()}, start={self.start_range}, "
+                f"duration={self.duration})")

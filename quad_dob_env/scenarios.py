@@ -1,0 +1,206 @@
+"""Scenarios are data: a trajectory, disturbances, an initial state, a duration and a clock.
+
+``make_scenario("paper-II")`` builds a named one; options either go to its builder (such as
+``torque_reading`` or ``vehicle``) or replace a ``Scenario`` field (``dt``, ``duration``,
+``substeps``, ...). ``gym.make``, the CLI, evaluation and the paper reproduction all go
+through here, so "paper-II" means one thing everywhere.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from quad_dob_env.disturbances import AtanRamp, Constant, Disturbance, GroundEffect
+from quad_dob_env.params import ACTUATIONS, VehicleParams, get_vehicle
+from quad_dob_env.so3 import project_to_so3
+from quad_dob_env.trajectories import Hover, PaperHelix, TakeoffHoverLanding, Trajectory
+from quad_dob_env.validation import as_finite, as_vector3, unknown_name_error
+
+# The paper's translational disturbance magnitudes [N], Scenarios I, II, II-A.
+PAPER_FORCE = (1.3, 2.0, 2.6)
+# The paper writes "d_x = 0.6 d_Ω". Read literally, d_Ω = d_x / 0.6 reaches 4.3 N m, which
+# kR = 8.81 cannot hold; the default reads it as d_Ω = 0.6 d_x.
+TORQUE_READINGS: dict[str, float] = {"0.6*dx": 0.6, "dx/0.6": 1 / 0.6}
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Everything but the policy: what the vehicle must track, what disturbs it, for how long.
+
+    Initial state: ``initial_position`` plus a uniform offset in ``±initial_position_noise``
+    per axis; ``initial_rotation`` times ``exp`` of a uniform rotation vector in
+    ``±initial_attitude_noise`` per axis; the given velocity and body rates.
+    ``floor_height`` None means open space (no floor, no crash on the ground).
+    """
+
+    name: str
+    vehicle: VehicleParams
+    trajectory: Trajectory
+    duration: float
+    disturbance: Disturbance | None = None
+    ground_effect: GroundEffect | None = None
+    floor_height: float | None = None
+    initial_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    initial_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    initial_rotation: tuple[tuple[float, ...], ...] = ((1.0, 0, 0), (0, 1.0, 0), (0, 0, 1.0))
+    initial_angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    initial_position_noise: float = 0.0
+    initial_attitude_noise: float = 0.0
+    dt: float = 0.01
+    substeps: int = 1
+    actuation: str = "rotors"
+    description: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.vehicle, VehicleParams):
+            object.__setattr__(self, "vehicle", get_vehicle(self.vehicle))
+        if not isinstance(self.trajectory, Trajectory):
+            raise ValueError(f"Scenario.trajectory must be a Trajectory, got {self.trajectory!r}")
+        if self.disturbance is not None and not isinstance(self.disturbance, Disturbance):
+            raise ValueError(
+                f"Scenario.disturbance must be a Disturbance or None, got {self.disturbance!r}"
+            )
+        if self.ground_effect is not None:
+            if not isinstance(self.ground_effect, GroundEffect):
+                raise ValueError(f"Scenario.ground_effect must be a GroundEffect or None, "
+                                 f"got {self.ground_effect!r}")
+            if self.floor_height is None:
+                raise ValueError("Scenario.ground_effect needs a floor: set floor_height")
+            self.ground_effect.law(self.vehicle, self.floor_height)  # validates its heights
+        if self.floor_height is not None:
+            as_finite(self.floor_height, "Scenario.floor_height")
+        dt = as_finite(self.dt, "Scenario.dt", 0.0, strictly=True)
+        duration = as_finite(self.duration, "Scenario.duration", dt)
+        if not isinstance(self.substeps, (int, np.integer)) or self.substeps < 1:
+            raise ValueError(f"Scenario.substeps must be an integer >= 1, got {self.substeps!r}")
+        if self.actuation not in ACTUATIONS:
+            raise unknown_name_error("actuation", self.actuation, ACTUATIONS)
+        as_finite(self.initial_position_noise, "Scenario.initial_position_noise", 0.0)
+        as_finite(self.initial_attitude_noise, "Scenario.initial_attitude_noise", 0.0)
+        for name in ("initial_position", "initial_velocity", "initial_angular_velocity"):
+            object.__setattr__(self, name,
+                               tuple(as_vector3(getattr(self, name), f"Scenario.{name}")))
+        rotation = np.asarray(self.initial_rotation, dtype=float)
+        if (rotation.shape != (3, 3) or not np.all(np.isfinite(rotation))
+                or not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-9)
+                or np.linalg.det(rotation) < 0):
+            raise ValueError(
+                "Scenario.initial_rotation must be a rotation matrix, got "
+                f"{self.initial_rotation!r}"
+            )
+        object.__setattr__(self, "initial_rotation",
+                           tuple(tuple(row) for row in project_to_so3(rotation).tolist()))
+        object.__setattr__(self, "duration", duration)
+
+    @property
+    def steps(self) -> int:
+        """Control steps in one episode."""
+        return math.floor(self.duration / self.dt + 1e-9)
+
+    def initial_rotation_matrix(self) -> NDArray[np.float64]:
+        return np.array(self.initial_rotation)
+
+    def with_changes(self, **changes: object) -> Scenario:
+        """A copy with fields replaced, validated like the original."""
+        fields = [f.name for f in dataclasses.fields(self)]
+        for key in changes:
+            if key not in fields:
+                raise unknown_name_error("Scenario field", key, fields)
+        return dataclasses.replace(self, **changes)
+
+
+def _paper(kind: str, *, vehicle: str | VehicleParams = "paper",
+           torque_reading: str = "0.6*dx") -> Scenario:
+    if torque_reading not in TORQUE_READINGS:
+        raise unknown_name_error("torque_reading", torque_reading, TORQUE_READINGS)
+    force = np.array(PAPER_FORCE)
+    torque = TORQUE_READINGS[torque_reading] * force
+    disturbance = {
+        "none": None,
+        "I": AtanRamp(force, torque, time_scale=2.0),
+        "II": Constant(force, torque),
+        "IIA": Constant(force, torque).during(5.0, 7.0),
+    }[kind]
+    what = {"none": "no disturbance", "I": "d_x = [1.3, 2.0, 2.6] atan(t/2)",
+            "II": "constant d_x = [1.3, 2.0, 2.6] N", "IIA": "II's constants for 5 <= t < 7 s"}
+    return Scenario(
+        name=f"paper-{kind}", vehicle=get_vehicle(vehicle), trajectory=PaperHelix(),
+        duration=10.0, disturbance=disturbance, dt=0.01, actuation="wrench",
+        description=f"Paper helix, {what[kind]}, d_Ω = {torque_reading} "
+                    "(moments applied directly, as in the paper's model)",
+    )
+
+
+def _ground_effect_landing(*, vehicle: str | VehicleParams = "paper",
+                           model: str = "paper") -> Scenario:
+    return Scenario(
+        name="ground-effect-landing", vehicle=get_vehicle(vehicle),
+        trajectory=TakeoffHoverLanding(start_height=0.15, hover_height=0.15, end_height=0.05,
+                                       climb_time=0.0, hover_time=2.0, descent_time=3.0),
+        duration=8.0, ground_effect=GroundEffect(model), floor_height=0.0,
+        initial_position=(0.0, 0.0, 0.15),
+        description=f"Hover at 0.15 m, descend to 0.05 m in ground effect ({model} law)",
+    )
+
+
+def _hover(*, vehicle: str | VehicleParams = "paper", height: float = 1.0,
+           step_force: float = 0.0) -> Scenario:
+    params = get_vehicle(vehicle)
+    disturbance = None
+    if step_force:
+        # a fraction of the vehicle's weight, so the scenario means the same for any vehicle
+        disturbance = Constant(force=(step_force * params.hover_thrust, 0.0, 0.0)).during(3.0, 6.0)
+    return Scenario(
+        name="hover-step-force" if step_force else "hover-calm", vehicle=params,
+        trajectory=Hover((0.0, 0.0, height)), duration=10.0, disturbance=disturbance,
+        floor_height=0.0, initial_position=(0.0, 0.0, height), initial_position_noise=0.1,
+        initial_attitude_noise=0.1,
+        description="Hold a hover point from a perturbed start"
+        + (f"; +x force of {step_force:g} weights for 3 <= t < 6 s" if step_force else ""),
+    )
+
+
+SCENARIOS: dict[str, Callable[..., Scenario]] = {
+    "paper-none": lambda **kw: _paper("none", **kw),
+    "paper-I": lambda **kw: _paper("I", **kw),
+    "paper-II": lambda **kw: _paper("II", **kw),
+    "paper-IIA": lambda **kw: _paper("IIA", **kw),
+    "ground-effect-landing": _ground_effect_landing,
+    "hover-calm": _hover,
+    "hover-step-force": lambda **kw: _hover(step_force=0.2, **kw),
+}
+_BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
+    "paper-none": ("vehicle", "torque_reading"), "paper-I": ("vehicle", "torque_reading"),
+    "paper-II": ("vehicle", "torque_reading"), "paper-IIA": ("vehicle", "torque_reading"),
+    "ground-effect-landing": tuple(inspect.signature(_ground_effect_landing).parameters),
+    "hover-calm": tuple(inspect.signature(_hover).parameters),
+    "hover-step-force": ("vehicle", "height"),
+}
+
+
+def list_scenarios() -> list[str]:
+    return list(SCENARIOS)
+
+
+def make_scenario(scenario: str | Scenario, **options: object) -> Scenario:
+    """The named scenario with ``options`` applied (builder options, then Scenario fields)."""
+    if isinstance(scenario, Scenario):
+        return scenario.with_changes(**options) if options else scenario
+    if scenario not in SCENARIOS:
+        raise unknown_name_error("scenario", scenario, SCENARIOS)
+    builder_options = {k: options.pop(k) for k in list(options)
+                       if k in _BUILDER_OPTIONS[scenario]}
+    fields = [f.name for f in dataclasses.fields(Scenario)]
+    for key in options:
+        if key not in fields:
+            raise unknown_name_error(f"option for scenario {scenario!r}", key,
+                                     [*_BUILDER_OPTIONS[scenario], *fields])
+    built = SCENARIOS[scenario](**builder_options)
+    return built.with_changes(**options) if options else built

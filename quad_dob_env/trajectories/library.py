@@ -1,0 +1,150 @@
+"""The trajectories that ship: paper helix, hover, circle, lemniscate, take-off/hover/landing."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.polynomial import polynomial
+from numpy.typing import ArrayLike, NDArray
+
+from quad_dob_env.trajectories.base import DERIVATIVE_ORDERS, Trajectory
+from quad_dob_env.validation import as_finite, as_vector3
+
+
+def _constant_yaw(times: NDArray, yaw: float, yaw_rate: float = 0.0) -> NDArray:
+    return np.stack([yaw + yaw_rate * times, np.full_like(times, yaw_rate),
+                     np.zeros_like(times)])
+
+
+class Harmonic(Trajectory):
+    """``x_d,i(t) = offset_i + drift_i t + sum_j A_ij sin(ω_ij t + φ_ij)``, yaw ``ψ0 + ψ' t``.
+
+    ``terms`` lists ``(axis, amplitude, angular_frequency, phase)``. Every derivative is
+    closed-form: ``d^k/dt^k sin(ωt + φ) = ω^k sin(ωt + φ + kπ/2)``.
+    """
+
+    def __init__(self, offset: ArrayLike = (0.0, 0.0, 0.0), drift: ArrayLike = (0.0, 0.0, 0.0),
+                 terms: Sequence[tuple[int, float, float, float]] = (), yaw: float = 0.0,
+                 yaw_rate: float = 0.0) -> None:
+        self.offset = as_vector3(offset, f"{type(self).__name__}.offset")
+        self.drift = as_vector3(drift, f"{type(self).__name__}.drift")
+        self.terms = [(int(axis), float(a), float(w), float(phase))
+                      for axis, a, w, phase in terms]
+        for axis, *_ in self.terms:
+            if axis not in (0, 1, 2):
+                raise ValueError(f"harmonic term axis must be 0, 1 or 2, got {axis}")
+        self.yaw = as_finite(yaw, "yaw")
+        self.yaw_rate = as_finite(yaw_rate, "yaw_rate")
+
+    def position_derivatives(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = np.zeros((DERIVATIVE_ORDERS, times.shape[0], 3))
+        out[0] = self.offset + times[:, None] * self.drift
+        out[1] = self.drift
+        for axis, amplitude, omega, phase in self.terms:
+            angle = omega * times + phase
+            sin, cos = amplitude * np.sin(angle), amplitude * np.cos(angle)
+            # orders 0..4 of sin: sin, cos, -sin, -cos, sin, each times ω^k
+            for order, value in enumerate((sin, cos, -sin, -cos, sin)):
+                out[order, :, axis] += omega**order * value
+        return out
+
+    def yaw_derivatives(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        return _constant_yaw(times, self.yaw, self.yaw_rate)
+
+
+class PaperHelix(Harmonic):
+    """The paper's reference: ``x_d = [0.4 t, 0.4 sin πt, 0.6 cos πt]``,
+    ``b1d = [cos πt, sin πt, 0]``."""
+
+    def __init__(self, forward_speed: float = 0.4, lateral_amplitude: float = 0.4,
+                 vertical_amplitude: float = 0.6, angular_frequency: float = math.pi,
+                 yaw_rate: float = math.pi) -> None:
+        w = as_finite(angular_frequency, "PaperHelix.angular_frequency", 0.0, strictly=True)
+        super().__init__(
+            drift=(forward_speed, 0.0, 0.0),
+            terms=[(1, lateral_amplitude, w, 0.0), (2, vertical_amplitude, w, math.pi / 2)],
+            yaw=0.0, yaw_rate=yaw_rate,
+        )
+
+
+class Hover(Harmonic):
+    """Stay at ``position`` facing ``yaw``."""
+
+    def __init__(self, position: ArrayLike = (0.0, 0.0, 1.0), yaw: float = 0.0) -> None:
+        super().__init__(offset=position, yaw=yaw)
+
+
+class Circle(Harmonic):
+    """A horizontal circle of ``radius`` about ``center`` in ``period`` seconds, fixed heading."""
+
+    def __init__(self, center: ArrayLike = (0.0, 0.0, 1.0), radius: float = 1.0,
+                 period: float = 5.0, yaw: float = 0.0) -> None:
+        as_finite(radius, "Circle.radius", 0.0, strictly=True)
+        w = 2 * math.pi / as_finite(period, "Circle.period", 0.0, strictly=True)
+        super().__init__(offset=center, yaw=yaw,
+                         terms=[(0, radius, w, math.pi / 2), (1, radius, w, 0.0)])
+
+
+class Lemniscate(Harmonic):
+    """Figure eight (lemniscate of Gerono): ``x = a sin ωt``, ``y = (a/2) sin 2ωt``."""
+
+    def __init__(self, center: ArrayLike = (0.0, 0.0, 1.0), amplitude: float = 1.0,
+                 period: float = 8.0, yaw: float = 0.0) -> None:
+        as_finite(amplitude, "Lemniscate.amplitude", 0.0, strictly=True)
+        w = 2 * math.pi / as_finite(period, "Lemniscate.period", 0.0, strictly=True)
+        super().__init__(offset=center, yaw=yaw,
+                         terms=[(0, amplitude, w, 0.0), (1, amplitude / 2, 2 * w, 0.0)])
+
+
+# s(τ) = 35τ⁴ - 84τ⁵ + 70τ⁶ - 20τ⁷: 0 -> 1 on [0, 1] with zero 1st..3rd derivatives at both ends
+_SMOOTHSTEP = np.array([0, 0, 0, 0, 35.0, -84.0, 70.0, -20.0])
+_SMOOTHSTEP_DERIVATIVES = [polynomial.polyder(_SMOOTHSTEP, k) for k in range(DERIVATIVE_ORDERS)]
+
+
+class TakeoffHoverLanding(Trajectory):
+    """Climb, hover, descend, then stay: a C³ vertical profile over a fixed ``(x, y)``.
+
+    Height goes ``start_height -> hover_height`` in ``climb_time``, holds for
+    ``hover_time``, then ``-> end_height`` in ``descent_time`` and holds. Each transition is
+    the septic smoothstep, so velocity, acceleration and jerk are continuous.
+    """
+
+    def __init__(self, xy: ArrayLike = (0.0, 0.0), start_height: float = 0.0,
+                 hover_height: float = 1.0, end_height: float = 0.0, climb_time: float = 2.0,
+                 hover_time: float = 4.0, descent_time: float = 2.0, yaw: float = 0.0) -> None:
+        xy = np.asarray(xy, dtype=float)
+        if xy.shape != (2,) or not np.all(np.isfinite(xy)):
+            raise ValueError(f"TakeoffHoverLanding.xy must be a finite 2-vector, got {xy!r}")
+        self.xy = xy
+        self.heights = [as_finite(v, f"TakeoffHoverLanding.{n}") for n, v in
+                        (("start_height", start_height), ("hover_height", hover_height),
+                         ("end_height", end_height))]
+        self.climb_time = as_finite(climb_time, "TakeoffHoverLanding.climb_time", 0.0)
+        self.hover_time = as_finite(hover_time, "TakeoffHoverLanding.hover_time", 0.0)
+        self.descent_time = as_finite(descent_time, "TakeoffHoverLanding.descent_time", 0.0)
+        self.yaw = as_finite(yaw, "TakeoffHoverLanding.yaw")
+
+    def position_derivatives(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        start, hover, end = self.heights
+        out = np.zeros((DERIVATIVE_ORDERS, times.shape[0], 3))
+        out[0, :, :2] = self.xy
+        descent_start = self.climb_time + self.hover_time
+        height = out[0, :, 2]
+        height[:] = np.where(times < self.climb_time, start, np.where(times < descent_start,
+                                                                      hover, end))
+        for t0, duration, z0, z1 in ((0.0, self.climb_time, start, hover),
+                                     (descent_start, self.descent_time, hover, end)):
+            if duration <= 0:
+                continue
+            inside = (times >= t0) & (times < t0 + duration)
+            tau = (times[inside] - t0) / duration
+            for order in range(DERIVATIVE_ORDERS):
+                value = polynomial.polyval(tau, _SMOOTHSTEP_DERIVATIVES[order])
+                offset = z0 if order == 0 else 0.0
+                out[order, inside, 2] = offset + (z1 - z0) * value / duration**order
+        return out
+
+    def yaw_derivatives(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        return _constant_yaw(times, self.yaw)
