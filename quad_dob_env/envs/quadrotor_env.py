@@ -1,0 +1,167 @@
+"""``QuadrotorEnv``: one quadrotor as a Gymnasium environment (the N = 1 view of the core)."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import NDArray
+
+from quad_dob_env.envs.core import (
+    OBSERVATION_BOUND,
+    EpisodeLimits,
+    QuadrotorBatch,
+    RewardWeights,
+)
+from quad_dob_env.scenarios import Scenario, make_scenario
+
+
+class QuadrotorEnv(gym.Env):
+    """A quadrotor tracking a reference on SE(3) under wind, ground effect and external forces.
+
+    ## Description
+    Rigid-body dynamics (z up, SI units) integrated with a fourth-order Lie-group
+    Runge–Kutta scheme; the reference, disturbances, initial state and duration come from a
+    scenario (``quad_dob_env.scenarios``). ``QuadDOB/Hover-v0`` uses ``hover-calm``,
+    ``QuadDOB/Track-v0`` the paper helix ``paper-none``; ``scenario=`` picks any other.
+
+    ## Action space
+    ``Box(-1, 1, (4,), float32)``; values outside are clipped, NaN or ±inf raise ValueError.
+    Each entry maps piecewise-linearly with 0 at hover: ``[-1, 0, 1] -> [0, hover, max]``.
+
+    | action_mode        | entries                       | range after mapping               |
+    |--------------------|-------------------------------|-----------------------------------|
+    | ``thrust_moments`` | collective thrust, Mx, My, Mz | [0, 4 f_max] N; ±moment limit N m |
+    | ``rotor_thrusts``  | thrust of rotors 1..4         | [0, f_max] N each                 |
+
+    ``f_max`` is the vehicle's ``max_rotor_thrust``.
+
+    The command then goes through the actuation (``rotors``: per-rotor clipping through the
+    allocation matrix; ``wrench``: thrust and moments clipped directly, as in the paper).
+
+    ## Observation space
+    ``Box(-F, F, (24,) or (21,), float32)`` with F the largest float32 (values are clamped
+    to it, so they are always finite); world frame unless stated:
+
+    | index        | observation                                   | unit   |
+    |--------------|-----------------------------------------------|--------|
+    | 0-2          | position error x - x_d                        | m      |
+    | 3-5          | velocity error v - v_d                        | m/s    |
+    | 6-14 (6-11)  | rotation R row-major (``6d``: R's first two columns) | -  |
+    | 15-17 (12-14)| body rates Ω (body frame)                     | rad/s  |
+    | 18-20 (15-17)| desired acceleration ẍ_d (feed-forward)       | m/s²   |
+    | 21-23 (18-20)| desired heading b1d                           | -      |
+
+    ## Reward
+    ``exp(-|x - x_d| / reward_position_scale) - reward_effort_weight * mean(action²)``,
+    in ``[-reward_effort_weight, 1]``: 1 on the reference, positive while it is near, so
+    ending early never pays.
+
+    ## Starting state
+    The scenario's initial position, velocity, rotation and body rates, with a uniform
+    position offset (``±initial_position_noise`` per axis) and attitude offset (rotation
+    vector ``±initial_attitude_noise`` per axis) drawn from ``reset(seed=...)``.
+
+    ## Episode end
+    ``terminated`` with ``info["termination_reason"]``:
+
+    | reason               | when                                                          |
+    |----------------------|---------------------------------------------------------------|
+    | ``crashed``          | below the floor (scenarios with a floor)                      |
+    | ``out_of_bounds``    | farther than ``max_position_error`` (5 m) from the reference  |
+    | ``attitude_lost``    | tilt > ``max_tilt`` (90°) or a rate > ``max_body_rate`` (35 rad/s) |
+    | ``non_finite_state`` | the step produced NaN/inf; the last finite state is kept      |
+
+    ``truncated`` with reason ``time_limit`` after the scenario's duration.
+
+    ## Info
+    A fresh dict each step: ``time``; ``position_error``, ``velocity_error``;
+    ``reference_position``, ``reference_velocity``, ``reference_acceleration``,
+    ``reference_heading``; the true ``disturbance_force`` (world, N; ground effect
+    included) and ``disturbance_torque`` (body, N m); what the rotors actually produced:
+    ``applied_thrust``, ``applied_moment``, ``rotor_thrusts``, ``actuator_saturated``.
+
+    ## Arguments
+    ``scenario`` (name or ``Scenario``), ``scenario_options`` (dict for ``make_scenario``),
+    ``action_mode``, ``rotation_representation`` (``matrix`` or ``6d``),
+    ``max_position_error``, ``max_tilt``, ``max_body_rate``, ``reward_position_scale``,
+    ``reward_effort_weight``, ``render_mode`` (none yet).
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "render_fps": 100}
+
+    def __init__(self, scenario: str | Scenario = "paper-none",
+                 scenario_options: dict[str, Any] | None = None,
+                 action_mode: str = "thrust_moments", rotation_representation: str = "matrix",
+                 max_position_error: float = 5.0, max_tilt: float = np.pi / 2,
+                 max_body_rate: float = 35.0, reward_position_scale: float = 0.25,
+                 reward_effort_weight: float = 0.01, render_mode: str | None = None) -> None:
+        if render_mode is not None:
+            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        self.render_mode = render_mode
+        self.scenario = make_scenario(scenario, **(scenario_options or {}))
+        self.core = QuadrotorBatch(
+            self.scenario, 1, action_mode, rotation_representation,
+            EpisodeLimits(max_position_error, max_tilt, max_body_rate),
+            RewardWeights(reward_position_scale, reward_effort_weight),
+        )
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.scenario.dt)}
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
+        self.observation_space = gym.spaces.Box(
+            -OBSERVATION_BOUND, OBSERVATION_BOUND, (self.core.observation_size,), np.float32
+        )
+
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:
+        super().reset(seed=seed)
+        self.core.reset(np.zeros(1, dtype=np.intp), [self.np_random])
+        return self.core.obs[0].copy(), self._info()
+
+    def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
+        core = self.core
+        core.step(validated_actions(action, (4,))[None])
+        terminated = bool(core.termination_code[0])
+        truncated = not terminated and int(core.step_count[0]) >= self.scenario.steps
+        return core.obs[0].copy(), float(core.rewards[0]), terminated, truncated, self._info()
+
+    def _info(self) -> dict[str, Any]:
+        core = self.core
+        position, velocity, acceleration, _, _, heading, _, _ = core.reference_row(0).copy()
+        applied = core.applied
+        info = {
+            "time": float(core.step_count[0] * self.scenario.dt),
+            "position_error": core.state.position[0] - position,
+            "velocity_error": core.state.velocity[0] - velocity,
+            "reference_position": position,
+            "reference_velocity": velocity,
+            "reference_acceleration": acceleration,
+            "reference_heading": heading,
+            "disturbance_force": core.disturbance_force[0].copy(),
+            "disturbance_torque": core.disturbance_torque[0].copy(),
+            "applied_thrust": float(applied.thrust[0]),
+            "applied_moment": applied.moment[0].copy(),
+            "rotor_thrusts": applied.rotor_thrusts[0].copy(),
+            "actuator_saturated": bool(applied.saturated[0]),
+        }
+        reason = core.termination_reason(0)
+        if reason:
+            info["termination_reason"] = reason
+        return info
+
+
+def validated_actions(action: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """Actions as float64 of ``shape``; NaN, inf or a wrong shape raise ValueError.
+
+    Values outside [-1, 1] pass through: the core clips them.
+    """
+    try:
+        actions = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"action must be numeric with shape {shape}, got {action!r}") from None
+    if actions.shape != shape:
+        raise ValueError(f"action must have shape {shape}, got {actions.shape}")
+    if not np.isfinite(actions).all():
+        raise ValueError(f"action must be finite; got {actions.tolist()} (allowed: [-1, 1], "
+                         "values outside are clipped)")
+    return actions

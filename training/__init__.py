@@ -1,0 +1,1 @@
+"""Training, evaluation, the paper reproduction and the ``quad-dob`` command line."""
