@@ -32,6 +32,16 @@ def _as_matrices(array: ArrayLike, name: str) -> NDArray[np.float64]:
     return matrices
 
 
+def cross(a: NDArray, b: NDArray) -> NDArray[np.float64]:
+    """``a × b`` over the last axis; numpy's ``np.cross`` spends ~50 µs on axis handling."""
+    shape = a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape)
+    out = np.empty(shape)
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
 def hat(vector: ArrayLike) -> NDArray[np.float64]:
     """Skew-symmetric matrix with ``hat(a) @ b == cross(a, b)``; (..., 3) -> (..., 3, 3)."""
     a = _as_vectors(vector, "hat's argument")

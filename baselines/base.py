@@ -1,0 +1,64 @@
+"""The controller interface: a template every baseline follows (DESIGN.md principle 2).
+
+A controller maps (time, state, reference) to collective thrust and body moments for the
+whole batch, and is then told what the actuators actually applied, so internal states
+(observer, integrators) advance with the truth rather than the request. ``reset`` starts
+fresh episodes for some or all vehicles.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from quad_dob_env.dynamics import VehicleState
+from quad_dob_env.params import VehicleParams
+from quad_dob_env.trajectories import Reference
+from quad_dob_env.validation import as_finite
+
+E3 = np.array([0.0, 0.0, 1.0])
+
+
+def validated_gains(owner: str, defaults: dict[str, float], given: dict[str, float],
+                    strictly_positive: bool) -> dict[str, float]:
+    """``defaults`` updated with ``given``; an unknown name or a bad value raises ValueError."""
+    unknown = sorted(set(given) - set(defaults))
+    if unknown:
+        raise ValueError(f"unknown {owner} gain {unknown[0]!r}; valid: " + ", ".join(defaults))
+    return {key: as_finite(given.get(key, value), f"{owner}.{key}", 0.0,
+                           strictly=strictly_positive) for key, value in defaults.items()}
+
+
+class Controller:
+    """Batched controller template. Subclasses implement ``compute``; stateful ones extend
+    ``reset`` and ``applied``. ``diagnostics`` holds (N, ...) arrays of the last step, such
+    as ``desired_rotation``, ``attitude_error`` and disturbance estimates."""
+
+    name = "controller"
+
+    def __init__(self) -> None:
+        self.vehicle: VehicleParams | None = None
+        self.dt = 0.01
+        self.n = 0
+        self.diagnostics: dict[str, NDArray] = {}
+
+    def reset(self, num_vehicles: int, vehicle: VehicleParams, dt: float,
+              indices: NDArray[np.intp] | None = None) -> None:
+        """Start episodes: all vehicles when ``indices`` is None (re-sizing the batch)."""
+        if indices is None:
+            self.n, self.vehicle, self.dt = int(num_vehicles), vehicle, float(dt)
+
+    def compute(self, time: NDArray, state: VehicleState,
+                reference: Reference) -> tuple[NDArray, NDArray]:
+        """Thrust (N,) and body moment (N, 3) for the batch."""
+        raise NotImplementedError
+
+    def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
+        """What the actuators produced for the last ``compute`` (after saturation), with the
+        state that command was computed from."""
+
+    def describe(self) -> dict[str, Any]:
+        """Name and gains, for reports."""
+        return {"name": self.name}

@@ -1,0 +1,43 @@
+"""``ReferencePolicy``: run any controller in a ``QuadrotorEnv`` loop like an SB3 model."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import NDArray
+
+from baselines import make_controller
+from baselines.base import Controller
+
+
+class ReferencePolicy:
+    """``predict(obs) -> (action, None)`` in the env's normalised action space.
+
+    The controller reads the env's true state and reference (not the observation), is
+    reset when the env's episode restarts, and is told what the actuators applied after
+    each step, as the observer needs.
+    """
+
+    def __init__(self, controller: Controller | str, env: gym.Env) -> None:
+        self.core = env.unwrapped.core
+        if self.core.n != 1:
+            raise ValueError(f"ReferencePolicy drives a single env, got {self.core.n} vehicles")
+        self.controller = (make_controller(controller, self.core.vehicle)
+                           if isinstance(controller, str) else controller)
+        self._last_step: int | None = None
+        self._last_state = None
+
+    def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
+                deterministic: bool = True) -> tuple[NDArray[np.float32], None]:
+        core, controller = self.core, self.controller
+        step = int(core.step_count[0])
+        if self._last_step is None or step != self._last_step + 1:
+            controller.reset(1, core.vehicle, core.scenario.dt)
+        else:
+            controller.applied(self._last_state, core.applied.thrust.copy(),
+                               core.applied.moment.copy())
+        thrust, moment = controller.compute(core.time, core.state, core.reference)
+        self._last_step, self._last_state = step, core.state.copy()
+        return core.action_from_command(thrust, moment)[0].astype(np.float32), None
