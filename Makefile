@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/quad-dob demo
+	$(BIN)/quad-dob paper --out results
 
 test: $(STAMP)
 	$(BIN)/ruff check .

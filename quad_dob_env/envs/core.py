@@ -287,6 +287,17 @@ class QuadrotorBatch:
             self._scale_up = np.full(4, v.max_rotor_thrust - per_rotor)
             self._scale_down = np.full(4, per_rotor)
 
+    def action_from_command(self, thrust: NDArray, moment: NDArray) -> NDArray[np.float64]:
+        """The normalised actions (N, 4) that command ``thrust`` and ``moment``: the inverse
+        of the action map, clipped to [-1, 1] (so beyond the limits it saturates)."""
+        wrench = np.concatenate([np.asarray(thrust, float).reshape(-1, 1),
+                                 np.asarray(moment, float).reshape(-1, 3)], axis=1)
+        if self.action_mode == "rotor_thrusts":
+            wrench = wrench @ self.vehicle.mixer_matrix.T
+        offset = wrench - self._centre
+        actions = offset / np.where(offset >= 0, self._scale_up, self._scale_down)
+        return np.clip(actions, -1.0, 1.0)
+
     # --- time and reference ---------------------------------------------------------------
     @property
     def time(self) -> NDArray[np.float64]:

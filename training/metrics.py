@@ -1,0 +1,59 @@
+"""Scores of a flight, in the form of the paper's Table I and beyond.
+
+One implementation for every report (``quad-dob paper`` now, evaluation later).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from training.rollout import Flight
+
+SETTLED_AFTER = 2.0  # [s] the "t >= 2 s" columns skip the initial transient
+
+
+def error_euler_angles(rotation: NDArray, desired_rotation: NDArray) -> NDArray:
+    """Roll, pitch, yaw (ZYX) of the error rotation ``Rdᵀ R``, (T, 3) in radians."""
+    error = np.swapaxes(desired_rotation, 1, 2) @ rotation
+    roll = np.arctan2(error[:, 2, 1], error[:, 2, 2])
+    pitch = -np.arcsin(np.clip(error[:, 2, 0], -1.0, 1.0))
+    yaw = np.arctan2(error[:, 1, 0], error[:, 0, 0])
+    return np.stack([roll, pitch, yaw], axis=1)
+
+
+def _rms(values: NDArray, axis: int = 0) -> NDArray:
+    return np.sqrt(np.mean(np.square(values), axis=axis))
+
+
+def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
+    """RMS position error (norm and per axis), RMS attitude error (roll, pitch, yaw), the same
+    after t >= 2 s, final errors, peak thrust against the limit, and how the flight ended."""
+    position_error = flight.position - flight.reference_position
+    norm = np.linalg.norm(position_error, axis=1)
+    angles = error_euler_angles(flight.rotation, flight.desired_rotation)
+    settled = flight.time >= SETTLED_AFTER
+    if not settled.any():
+        settled = np.zeros_like(settled)
+        settled[-1] = True
+    has_observer = bool(flight.force_estimate.any() or flight.torque_estimate.any())
+    estimate_error = np.linalg.norm(flight.force_estimate - flight.disturbance_force, axis=1)
+    axis_rms = _rms(position_error)
+    angle_rms = _rms(angles)
+    return {
+        "scenario": flight.scenario,
+        "controller": flight.controller,
+        "rms_position": float(_rms(norm)),
+        "rms_x": float(axis_rms[0]), "rms_y": float(axis_rms[1]), "rms_z": float(axis_rms[2]),
+        "rms_roll": float(angle_rms[0]), "rms_pitch": float(angle_rms[1]),
+        "rms_yaw": float(angle_rms[2]),
+        "rms_position_settled": float(_rms(norm[settled])),
+        "rms_attitude_settled": float(_rms(np.linalg.norm(angles[settled], axis=1))),
+        "final_position_error": float(norm[-1]),
+        # None (shown as "—") for controllers that estimate nothing
+        "final_estimate_error": float(estimate_error[-1]) if has_observer else None,
+        "peak_thrust": float(flight.requested_thrust.max()),
+        "thrust_limit": float(flight.thrust_limit),
+        "flown": float(flight.time[-1] + flight.dt),
+        "ended": flight.termination_reason,
+    }

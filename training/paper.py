@@ -1,0 +1,111 @@
+"""``quad-dob paper``: the paper's scenarios with every controller, as tables and figures.
+
+Scenarios paper-none, paper-I, paper-II, paper-IIA and ground-effect-landing; controllers
+geometric, geometric-ndob (the paper's observer gains), geometric-ndob:tuned, pid, smc.
+Writes ``table.md``, ``table.csv`` and (unless ``figures=False``) six PNGs per scenario.
+"""
+
+from __future__ import annotations
+
+import csv
+import multiprocessing
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from baselines import make_controller
+from quad_dob_env.scenarios import make_scenario
+from training.metrics import flight_metrics
+from training.rollout import fly
+
+PAPER_SCENARIOS = ("paper-none", "paper-I", "paper-II", "paper-IIA", "ground-effect-landing")
+PAPER_CONTROLLERS = ("geometric", "geometric-ndob", "geometric-ndob:tuned", "pid", "smc")
+# the figures compare no observer with the observer, as the paper's do
+FIGURE_CONTROLLERS = ("geometric", "geometric-ndob", "geometric-ndob:tuned")
+
+COLUMNS = [
+    ("rms_position", "RMS ‖e_x‖ [m]"), ("rms_x", "x"), ("rms_y", "y"), ("rms_z", "z"),
+    ("rms_roll", "RMS roll [rad]"), ("rms_pitch", "pitch"), ("rms_yaw", "yaw"),
+    ("rms_position_settled", "RMS ‖e_x‖, t≥2 s [m]"),
+    ("rms_attitude_settled", "RMS attitude, t≥2 s [rad]"),
+    ("final_position_error", "final ‖e_x‖ [m]"),
+    ("final_estimate_error", "final ‖d̂x − d_x‖ [N]"), ("peak_thrust", "peak thrust [N]"),
+]
+
+
+def build_scenarios(names: list[str], torque_reading: str, dt: float | None,
+                    substeps: int | None) -> list:
+    options = {k: v for k, v in (("dt", dt), ("substeps", substeps)) if v is not None}
+    return [make_scenario(name, **options,
+                          **({"torque_reading": torque_reading}
+                             if name.startswith("paper-") else {}))
+            for name in names]
+
+
+def run_paper(scenarios: list[str] = list(PAPER_SCENARIOS),  # noqa: B006
+              controllers: list[str] = list(PAPER_CONTROLLERS),  # noqa: B006
+              torque_reading: str = "0.6*dx", dt: float | None = None,
+              substeps: int | None = None, out_dir: Path | None = None,
+              figures: bool = True) -> list[dict]:
+    """Fly every controller in every scenario; return one metrics row per pair."""
+    built = build_scenarios(scenarios, torque_reading, dt, substeps)
+    vehicle = built[0].vehicle
+    flights = {name: fly(make_controller(name, vehicle), built) for name in controllers}
+    rows = [flight_metrics(flights[c][i]) for i in range(len(built)) for c in controllers]
+    if out_dir is not None:
+        out_dir = Path(out_dir)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        (out_dir / "table.md").write_text(markdown_table(rows) + "\n")
+        with open(out_dir / "table.csv", "w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+        if figures:
+            compared = [c for c in controllers if c in FIGURE_CONTROLLERS] or controllers
+            draw_figures([[flights[c][i] for c in compared] for i in range(len(built))],
+                         out_dir / "figures")
+    return rows
+
+
+def draw_figures(per_scenario: list[list], out_dir: Path) -> None:
+    """Each scenario's figures; on two or more cores, in a pool (matplotlib is the slow part)."""
+    from training.plots import scenario_figures
+
+    workers = min(len(per_scenario), os.cpu_count() or 1)
+    if workers < 2:
+        for flights in per_scenario:
+            scenario_figures(flights, out_dir)
+        return
+    context = multiprocessing.get_context("fork" if sys.platform == "linux" else "spawn")
+    with ProcessPoolExecutor(workers, mp_context=context) as pool:
+        list(pool.map(scenario_figures, per_scenario, [out_dir] * len(per_scenario)))
+
+
+def markdown_table(rows: list[dict]) -> str:
+    header = "| scenario | controller | " + " | ".join(t for _, t in COLUMNS) + " | ended |"
+    lines = [header, "|" + "---|" * (len(COLUMNS) + 3)]
+    for row in rows:
+        cells = ["—" if row[key] is None else f"{row[key]:.1f}" if key == "peak_thrust"
+                 else f"{row[key]:.4f}" for key, _ in COLUMNS]
+        lines.append(f"| {row['scenario']} | {row['controller']} | " + " | ".join(cells)
+                     + f" | {row['ended']} |")
+    return "\n".join(lines)
+
+
+def main(scenarios: list[str], controllers: list[str], torque_reading: str,
+         dt: float | None, substeps: int | None, out_dir: Path, as_json: bool,
+         figures: bool) -> int:
+    start = time.perf_counter()
+    rows = run_paper(scenarios, controllers, torque_reading, dt, substeps, out_dir, figures)
+    if as_json:
+        import json
+
+        print(json.dumps(rows, indent=1))
+        return 0
+    print(markdown_table(rows))
+    print(f"\nThrust limit {rows[0]['thrust_limit']:.0f} N. Written to {out_dir}/ "
+          f"(table.md, table.csv{', figures/' if figures else ''}) in "
+          f"{time.perf_counter() - start:.1f} s.")
+    return 0
