@@ -100,7 +100,7 @@ class ThrustLaw(NamedTuple):
 NO_GROUND_EFFECT = ThrustLaw()
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def thrust_multiplier_scalar(z: float, law: tuple) -> float:
     coefficient, exponent, radius, floor, min_height, cutoff_height = law
     height = z - floor
@@ -125,7 +125,7 @@ def thrust_multiplier(z: ArrayLike, law: ThrustLaw) -> NDArray[np.float64]:
     return out.reshape(heights.shape)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _accelerations(z, rotation, omega, thrust, moment, force, torque, mass, gravity,
                    inertia, inertia_inverse, law):
     """Linear acceleration (world) and angular acceleration (body) of one vehicle."""
@@ -355,7 +355,7 @@ def _mat4_vec(matrix, a, b, c, d):
             matrix[3, 0] * a + matrix[3, 1] * b + matrix[3, 2] * c + matrix[3, 3] * d)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def actuate_vehicle(thrust, moment, actuation_code, allocation, mixer, max_rotor_thrust,
                     max_total_thrust, moment_limit):
     """Commanded (f, M) -> applied (f, M), rotor thrusts, and whether a limit was hit."""

@@ -15,7 +15,10 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+import numpy as np
+
 from baselines import make_controller
+from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.scenarios import make_scenario
 from training.metrics import flight_metrics
 from training.rollout import fly
@@ -51,8 +54,9 @@ def run_paper(scenarios: list[str] = list(PAPER_SCENARIOS),  # noqa: B006
               figures: bool = True) -> list[dict]:
     """Fly every controller in every scenario; return one metrics row per pair."""
     built = build_scenarios(scenarios, torque_reading, dt, substeps)
-    vehicle = built[0].vehicle
-    flights = {name: fly(make_controller(name, vehicle), built) for name in controllers}
+    warm_up(built[0])  # compile once here, before the pool forks
+    flown = parallel_map(_fly_named, controllers, [built] * len(controllers))
+    flights = dict(zip(controllers, flown, strict=True))
     rows = [flight_metrics(flights[c][i]) for i in range(len(built)) for c in controllers]
     if out_dir is not None:
         out_dir = Path(out_dir)
@@ -69,18 +73,32 @@ def run_paper(scenarios: list[str] = list(PAPER_SCENARIOS),  # noqa: B006
     return rows
 
 
+def _fly_named(name: str, scenarios: list) -> list:
+    return fly(make_controller(name, scenarios[0].vehicle), scenarios)
+
+
+def warm_up(scenario) -> None:
+    """Compile the step kernels (numba) in this process, so forked workers inherit them."""
+    core = QuadrotorBatch(scenario, 1)
+    core.reset(np.zeros(1, dtype=np.intp), [np.random.default_rng(0)])
+    core.step(np.zeros((1, 4)))
+
+
+def parallel_map(function, *iterables) -> list:
+    """``list(map(function, *iterables))``, over two or more cores in forked processes."""
+    items = list(zip(*iterables, strict=True))
+    workers = min(len(items), os.cpu_count() or 1)
+    if workers < 2 or sys.platform != "linux":
+        return [function(*item) for item in items]
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        return list(pool.map(function, *zip(*items, strict=True)))
+
+
 def draw_figures(per_scenario: list[list], out_dir: Path) -> None:
-    """Each scenario's figures; on two or more cores, in a pool (matplotlib is the slow part)."""
+    """Each scenario's figures (matplotlib is the slow part, so in parallel)."""
     from training.plots import scenario_figures
 
-    workers = min(len(per_scenario), os.cpu_count() or 1)
-    if workers < 2:
-        for flights in per_scenario:
-            scenario_figures(flights, out_dir)
-        return
-    context = multiprocessing.get_context("fork" if sys.platform == "linux" else "spawn")
-    with ProcessPoolExecutor(workers, mp_context=context) as pool:
-        list(pool.map(scenario_figures, per_scenario, [out_dir] * len(per_scenario)))
+    parallel_map(scenario_figures, per_scenario, [out_dir] * len(per_scenario))
 
 
 def markdown_table(rows: list[dict]) -> str:

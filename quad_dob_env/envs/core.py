@@ -101,7 +101,7 @@ def _bounded(value):
     return min(max(value, -OBSERVATION_BOUND), OBSERVATION_BOUND)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
     """Write vehicle i's observation; return its termination code and position error."""
     max_error, cos_max_tilt, max_rate, has_floor, floor = limits
