@@ -8,11 +8,14 @@ STAMP := $(VENV)/.installed
 
 # The CPU build of torch goes in first, so the `torch>=2.3` requirement is already met
 # and pip never pulls the multi-GB CUDA build; elsewhere the plain requirement still works.
+# --no-compile: byte-compiling all of torch at install costs ~15 s; Python compiles the
+# modules it imports on first use instead.
+PIP := $(BIN)/python -m pip install -q --no-compile
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q torch==2.13.0 || $(BIN)/python -m pip install -q 'torch>=2.3'
-	$(BIN)/python -m pip install -q -e '.[dev]'
+	$(PIP) --upgrade pip
+	$(PIP) torch==2.13.0 || $(PIP) 'torch>=2.3'
+	$(PIP) -e '.[dev]'
 	touch $(STAMP)
 
 demo: $(STAMP)

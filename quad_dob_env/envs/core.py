@@ -31,6 +31,7 @@ from quad_dob_env.dynamics import (
     all_finite,
     load_vehicle,
     matrix_tuple,
+    store_applied,
     store_vehicle,
     thrust_multiplier_scalar,
 )
@@ -149,12 +150,8 @@ def _step_kernel(actions, rotor_mode, centre, scale_up, scale_down, actuation_co
         f_cmd, m_cmd = _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation)
         f, m, rotors, hit = actuate_vehicle(f_cmd, m_cmd, actuation_code, allocation, mixer,
                                             max_rotor_thrust, max_total_thrust, moment_limit)
-        applied_thrust[i] = f
-        saturated[i] = hit
-        for k in range(3):
-            applied_moment[i, k] = m[k]
-        for k in range(4):
-            rotor_thrusts[i, k] = rotors[k]
+        store_applied(i, f, m, rotors, hit, applied_thrust, applied_moment, rotor_thrusts,
+                      saturated)
         row = step_count[i]
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
         xn, vn, Rn, wn = advance_vehicle(x, v, R, w, f, m, force_table, torque_table, row,

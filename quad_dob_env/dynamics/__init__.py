@@ -1,0 +1,52 @@
+"""Batched rigid-body quadrotor dynamics.
+
+- ``state``: ``VehicleState``, the batched (x, v, R, Ω).
+- ``integrator``: the equations of motion (DESIGN.md) and the CF4 Lie-group Runge–Kutta
+  integrator, compiled per vehicle; the in-ground-effect thrust law it evaluates.
+- ``actuation``: rotor allocation and saturation (``rotors``) or direct wrench limits
+  (``wrench``), reporting what was actually applied.
+"""
+
+from quad_dob_env.dynamics.actuation import (
+    ACTUATION_CODES,
+    Actuator,
+    AppliedCommand,
+    actuate_vehicle,
+    store_applied,
+)
+from quad_dob_env.dynamics.integrator import (
+    NO_GROUND_EFFECT,
+    PARALLEL_MIN_BATCH,
+    ThrustLaw,
+    accelerations,
+    advance_vehicle,
+    all_finite,
+    integrate,
+    load_vehicle,
+    matrix_tuple,
+    store_vehicle,
+    thrust_multiplier,
+    thrust_multiplier_scalar,
+)
+from quad_dob_env.dynamics.state import VehicleState
+
+__all__ = [
+    "ACTUATION_CODES",
+    "NO_GROUND_EFFECT",
+    "PARALLEL_MIN_BATCH",
+    "Actuator",
+    "AppliedCommand",
+    "ThrustLaw",
+    "VehicleState",
+    "accelerations",
+    "actuate_vehicle",
+    "advance_vehicle",
+    "all_finite",
+    "integrate",
+    "load_vehicle",
+    "matrix_tuple",
+    "store_applied",
+    "store_vehicle",
+    "thrust_multiplier",
+    "thrust_multiplier_scalar",
+]
