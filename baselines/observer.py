@@ -26,25 +26,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from baselines.base import E3
 from quad_dob_env.dynamics import VehicleState
+from quad_dob_env.linalg import expm
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.so3 import cross
 from quad_dob_env.validation import as_finite
 
 PAPER_GAINS = {"translational_gain": 0.02, "rotational_gain": (0.02, 0.2, 0.05)}
-
-
-def _expm(matrix: NDArray) -> NDArray:
-    """Matrix exponential of a small matrix: scaling and squaring of a Taylor series."""
-    norm = np.abs(matrix).sum(axis=1).max()
-    squarings = max(0, int(np.ceil(np.log2(norm))) + 1) if norm > 0.5 else 0
-    scaled = matrix / 2**squarings
-    result, term = np.eye(len(matrix)), np.eye(len(matrix))
-    for k in range(1, 18):
-        term = term @ scaled / k
-        result = result + term
-    for _ in range(squarings):
-        result = result @ result
-    return result
 
 
 def _as_gain_matrix(gain: ArrayLike, name: str) -> NDArray:
@@ -95,7 +82,7 @@ class NonlinearDisturbanceObserver:
             rate = self.translational_gain / vehicle.mass
             self._alpha = 1.0 - np.exp(-rate * dt)
             self._ks = self._alpha * vehicle.mass / dt
-            alpha_rotation = np.eye(3) - _expm(
+            alpha_rotation = np.eye(3) - expm(
                 -self.rotational_gain @ vehicle.inertia_inverse * dt)
             self._alpha_rotation_t = alpha_rotation.T.copy()
             self._km_t = (alpha_rotation @ vehicle.inertia_matrix / dt).T.copy()

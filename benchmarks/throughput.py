@@ -19,10 +19,12 @@ import quad_dob_env  # noqa: F401  (registers the ids)
 from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.scenarios import make_scenario
 
+CALM, WINDY = "paper-none", "dryden-helix-gusts"
 
-def single_env_steps_per_second(steps: int, env_id: str = "QuadDOB/Track-v0") -> float:
+
+def single_env_steps_per_second(steps: int, scenario: str = CALM) -> float:
     """Random actions through ``gym.make`` (its checker wrappers included), resets counted."""
-    env = gym.make(env_id)
+    env = gym.make("QuadDOB/Track-v0", scenario=scenario)
     env.reset(seed=0)
     actions = np.random.default_rng(0).uniform(-1, 1, (steps, 4)).astype(np.float32)
     for action in actions[:200]:  # compile and warm up
@@ -36,7 +38,7 @@ def single_env_steps_per_second(steps: int, env_id: str = "QuadDOB/Track-v0") ->
     return steps / (time.perf_counter() - start)
 
 
-def batch_steps_per_second(n: int, steps: int, scenario: str = "paper-none") -> float:
+def batch_steps_per_second(n: int, steps: int, scenario: str = CALM) -> float:
     """Vehicle-steps per second of ``QuadrotorBatch.step`` with N vehicles."""
     core = QuadrotorBatch(make_scenario(scenario), n)
     core.reset(np.arange(n), [seeding.np_random(i)[0] for i in range(n)])
@@ -58,15 +60,18 @@ def main() -> None:
     args = parser.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, numpy {np.__version__}")
-    rate = single_env_steps_per_second(args.single_steps)
-    print(f"\nsingle env (gym.make QuadDOB/Track-v0, random actions, 100 Hz): "
-          f"{rate:,.0f} steps/s\n")
-    print("| N | vehicle-steps/s | per vehicle-step |")
-    print("|---|---|---|")
+    print(f"\ncalm: {CALM} (no wind, no drag, instant motors); windy: {WINDY} (Dryden "
+          "moderate + gusts, drag, motor lag)\n")
+    calm, windy = (single_env_steps_per_second(args.single_steps, s) for s in (CALM, WINDY))
+    print("| measurement | calm | windy | windy / calm |")
+    print("|---|---|---|---|")
+    print(f"| single env (gym.make QuadDOB/Track-v0, random actions, 100 Hz), steps/s | "
+          f"{calm:,.0f} | {windy:,.0f} | {windy / calm:.2f} |")
     for n in args.batch_sizes:
         steps = max(10, min(1000, args.batch_vehicle_steps // n))
-        rate = batch_steps_per_second(n, steps)
-        print(f"| {n} | {rate:,.0f} | {1e6 / rate:.3f} µs |")
+        calm, windy = (batch_steps_per_second(n, steps, s) for s in (CALM, WINDY))
+        print(f"| batched core N = {n}, vehicle-steps/s | {calm:,.0f} | {windy:,.0f} | "
+              f"{windy / calm:.2f} |")
 
 
 if __name__ == "__main__":

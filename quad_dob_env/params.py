@@ -44,12 +44,27 @@ class VehicleParams:
     rotor_radius: float  # [m], sets the ground effect's reach
     configuration: str = "plus"
     gravity: float = 9.81
+    # Body-frame aerodynamic drag on the air-relative velocity u = Rᵀ(v - w):
+    # F_body = -(drag_linear ⊙ u + drag_quadratic ⊙ |u| ⊙ u); used where a scenario has drag.
+    drag_linear: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [N/(m/s)]
+    drag_quadratic: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [N/(m/s)²]
+    # First-order lag of each rotor's thrust; used where a scenario turns motor lag on.
+    motor_time_constant: float = 0.0  # [s]
     _matrices: dict = field(default=None, init=False, repr=False, compare=False, hash=False)
 
     def __post_init__(self) -> None:
         for name in ("mass", "arm_length", "torque_coefficient", "max_rotor_thrust",
                      "rotor_radius", "gravity"):
             _require_positive(name, getattr(self, name))
+        for name in ("drag_linear", "drag_quadratic"):
+            values = np.asarray(getattr(self, name), dtype=float)
+            if values.shape != (3,) or not np.all(np.isfinite(values)) or np.any(values < 0):
+                raise ValueError(f"VehicleParams.{name} must be three finite numbers >= 0, "
+                                 f"got {getattr(self, name)!r}")
+            object.__setattr__(self, name, tuple(float(v) for v in values))
+        if not (np.isfinite(self.motor_time_constant) and self.motor_time_constant >= 0):
+            raise ValueError("VehicleParams.motor_time_constant must be a finite number >= 0, "
+                             f"got {self.motor_time_constant!r}")
         if self.configuration not in CONFIGURATIONS:
             raise unknown_name_error("rotor configuration", self.configuration, CONFIGURATIONS)
         inertia = np.asarray(self.inertia, dtype=float)
@@ -162,6 +177,9 @@ VEHICLES: dict[str, VehicleParams] = {
         name="paper", mass=4.34, inertia=_diagonal(0.0820, 0.0845, 0.1377), arm_length=0.315,
         torque_coefficient=8.004e-4, max_rotor_thrust=25.0, rotor_radius=0.127,
         configuration="plus",
+        # Our estimates for a 4 kg, 0.1 m² frontal-area frame (Cd ≈ 1): ½ ρ Cd A ≈ 0.06, plus
+        # rotor-induced linear drag; 10-inch motors settle in about 40 ms.
+        drag_linear=(0.3, 0.3, 0.4), drag_quadratic=(0.06, 0.06, 0.1), motor_time_constant=0.04,
     ),
     # Bitcraze Crazyflie 2.x: 27 g, 46 mm arms in X, thrust/weight 2.25, 23 mm rotors,
     # drag/thrust ratio 7.94e-12 / 3.16e-10 (as in gym-pybullet-drones).
@@ -169,6 +187,9 @@ VEHICLES: dict[str, VehicleParams] = {
         name="crazyflie", mass=0.027, inertia=_diagonal(1.4e-5, 1.4e-5, 2.17e-5),
         arm_length=0.046, torque_coefficient=7.94e-12 / 3.16e-10,
         max_rotor_thrust=2.25 * 0.027 * 9.81 / 4, rotor_radius=0.0231, configuration="x",
+        # rotorpy's Crazyflie drag (c_Dx = c_Dy = 0.5e-2, c_Dz = 1e-2) and rotor drag
+        drag_linear=(0.01, 0.01, 0.015), drag_quadratic=(0.005, 0.005, 0.01),
+        motor_time_constant=0.015,
     ),
 }
 

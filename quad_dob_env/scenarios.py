@@ -17,7 +17,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.disturbances import AtanRamp, Constant, Disturbance, GroundEffect
+from quad_dob_env.disturbances import (
+    AtanRamp,
+    Constant,
+    Disturbance,
+    Dryden,
+    GroundEffect,
+    Gust,
+)
 from quad_dob_env.params import ACTUATIONS, VehicleParams, get_vehicle
 from quad_dob_env.so3 import project_to_so3
 from quad_dob_env.trajectories import Hover, PaperHelix, TakeoffHoverLanding, Trajectory
@@ -56,6 +63,8 @@ class Scenario:
     dt: float = 0.01
     substeps: int = 1
     actuation: str = "rotors"
+    drag: bool = False  # the vehicle's drag acts on the air-relative velocity (needed for wind)
+    motor_lag: bool = False  # actuators follow commands with the vehicle's motor time constant
     description: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
@@ -167,6 +176,50 @@ def _hover(*, vehicle: str | VehicleParams = "paper", height: float = 1.0,
     )
 
 
+def _dryden_helix(*, vehicle: str | VehicleParams = "paper", intensity: str = "moderate",
+                  gusts: bool = False) -> Scenario:
+    disturbance: Disturbance = Dryden(intensity, altitude=2.0, direction=None)
+    if gusts:
+        disturbance = disturbance + _gust_pair()
+    return Scenario(
+        name="dryden-helix-gusts" if gusts else "dryden-helix", vehicle=get_vehicle(vehicle),
+        trajectory=PaperHelix(), duration=10.0, disturbance=disturbance, drag=True,
+        motor_lag=True,
+        description=f"Paper helix in {intensity} Dryden turbulence with its mean wind, from a "
+                    "random direction" + (", plus two 1-cosine gusts" if gusts else "")
+                    + "; drag, motor lag, physical rotors",
+    )
+
+
+def _gust_pair() -> Disturbance:
+    return (Gust(4.0, direction=(1.0, 0.0, 0.0), start=2.0, length=10.0, speed=10.0, hold=1.0)
+            + Gust(4.0, direction=(0.0, 1.0, 0.3), start=6.0, length=5.0, speed=10.0))
+
+
+def _gusty_hover(*, vehicle: str | VehicleParams = "paper") -> Scenario:
+    return Scenario(
+        name="gusty-hover", vehicle=get_vehicle(vehicle), trajectory=Hover((0.0, 0.0, 1.0)),
+        duration=10.0, disturbance=Dryden("light", altitude=1.0, direction=None) + _gust_pair(),
+        floor_height=0.0, initial_position=(0.0, 0.0, 1.0), drag=True, motor_lag=True,
+        description="Hover at 1 m in light Dryden turbulence and two 4 m/s 1-cosine gusts; "
+                    "drag, motor lag, physical rotors",
+    )
+
+
+def _takeoff_landing_wind(*, vehicle: str | VehicleParams = "paper") -> Scenario:
+    return Scenario(
+        name="takeoff-landing-wind", vehicle=get_vehicle(vehicle),
+        trajectory=TakeoffHoverLanding(start_height=0.05, hover_height=1.0, end_height=0.05,
+                                       climb_time=3.0, hover_time=3.0, descent_time=3.0),
+        duration=10.0, disturbance=Dryden("light", altitude=1.0, direction=None) + Gust(
+            3.0, direction=(1.0, 1.0, 0.0), start=4.0, length=10.0, speed=10.0),
+        ground_effect=GroundEffect("paper"), floor_height=0.0,
+        initial_position=(0.0, 0.0, 0.05), drag=True, motor_lag=True,
+        description="Take off from 5 cm, hover at 1 m, land to 5 cm through ground effect in "
+                    "light turbulence and a 3 m/s gust; drag, motor lag, physical rotors",
+    )
+
+
 SCENARIOS: dict[str, Callable[..., Scenario]] = {
     "paper-none": lambda **kw: _paper("none", **kw),
     "paper-I": lambda **kw: _paper("I", **kw),
@@ -175,6 +228,10 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
     "ground-effect-landing": _ground_effect_landing,
     "hover-calm": _hover,
     "hover-step-force": lambda **kw: _hover(step_force=0.2, **kw),
+    "dryden-helix": _dryden_helix,
+    "dryden-helix-gusts": lambda **kw: _dryden_helix(gusts=True, **kw),
+    "gusty-hover": _gusty_hover,
+    "takeoff-landing-wind": _takeoff_landing_wind,
 }
 _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "paper-none": ("vehicle", "torque_reading"), "paper-I": ("vehicle", "torque_reading"),
@@ -182,6 +239,10 @@ _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "ground-effect-landing": tuple(inspect.signature(_ground_effect_landing).parameters),
     "hover-calm": tuple(inspect.signature(_hover).parameters),
     "hover-step-force": ("vehicle", "height"),
+    "dryden-helix": ("vehicle", "intensity"),
+    "dryden-helix-gusts": ("vehicle", "intensity"),
+    "gusty-hover": ("vehicle",),
+    "takeoff-landing-wind": ("vehicle",),
 }
 
 

@@ -18,26 +18,26 @@ FORCE, TORQUE = np.array([1.3, 2.0, 2.6]), np.array([0.78, 1.2, 1.56])
 
 
 def test_constant():
-    force, torque = Constant(FORCE, TORQUE).evaluate(TIMES)
+    force, torque, _ = Constant(FORCE, TORQUE).evaluate(TIMES)
     np.testing.assert_array_equal(force[0], np.tile(FORCE, (1001, 1)))
     np.testing.assert_array_equal(torque[0], np.tile(TORQUE, (1001, 1)))
 
 
 def test_atan_ramp_is_the_papers_scenario_one():
-    force, torque = AtanRamp(FORCE, TORQUE, time_scale=2.0).evaluate(TIMES)
+    force, torque, _ = AtanRamp(FORCE, TORQUE, time_scale=2.0).evaluate(TIMES)
     expected = np.arctan(TIMES[0] / 2)[:, None]
     np.testing.assert_allclose(force[0], expected * FORCE, rtol=1e-15)
     np.testing.assert_allclose(torque[0], expected * TORQUE, rtol=1e-15)
 
 
 def test_sinusoid():
-    force, _ = Sinusoid(FORCE, frequency=0.5, phase=0.3).evaluate(TIMES)
+    force, _, _ = Sinusoid(FORCE, frequency=0.5, phase=0.3).evaluate(TIMES)
     np.testing.assert_allclose(force[0], np.sin(np.pi * TIMES[0] + 0.3)[:, None] * FORCE,
                                atol=1e-15)
 
 
 def test_window_is_on_only_inside_its_interval():
-    force, torque = Constant(FORCE, TORQUE).during(5.0, 7.0).evaluate(TIMES)
+    force, torque, _ = Constant(FORCE, TORQUE).during(5.0, 7.0).evaluate(TIMES)
     inside = (TIMES[0] >= 5.0) & (TIMES[0] < 7.0)
     np.testing.assert_array_equal(force[0][inside], np.tile(FORCE, (inside.sum(), 1)))
     assert not force[0][~inside].any() and not torque[0][~inside].any()
@@ -46,7 +46,7 @@ def test_window_is_on_only_inside_its_interval():
 def test_impulse_delivers_its_impulse():
     impulse = Impulse(force_impulse=(0.5, 0.0, -0.2), start=2.0, duration=0.05)
     fine = np.arange(0, 4, 1e-4)[None, :]
-    force, _ = impulse.evaluate(fine)
+    force, _, _ = impulse.evaluate(fine)
     np.testing.assert_allclose(force[0].sum(axis=0) * 1e-4, [0.5, 0.0, -0.2], rtol=1e-2)
     assert not force[0][fine[0] < 2.0].any()
 
@@ -54,7 +54,7 @@ def test_impulse_delivers_its_impulse():
 def test_random_impulse_start_is_seeded_per_vehicle():
     impulse = Impulse(force_impulse=(1.0, 0, 0), start=(1.0, 3.0))
     assert impulse.is_random
-    impulse.bind(3)
+    impulse.bind(3, 0.01)
     impulse.resample(np.arange(3), [np.random.default_rng(s) for s in (1, 2, 1)])
     assert impulse.starts[0] == impulse.starts[2] != impulse.starts[1]
     assert np.all((impulse.starts >= 1.0) & (impulse.starts <= 3.0))
@@ -63,7 +63,7 @@ def test_random_impulse_start_is_seeded_per_vehicle():
 def test_sum_adds_parts_and_flattens():
     total = Constant(FORCE) + AtanRamp(TORQUE) + Constant(torque=TORQUE)
     assert isinstance(total, Sum) and len(total.parts) == 3
-    force, torque = total.evaluate(TIMES)
+    force, torque, _ = total.evaluate(TIMES)
     np.testing.assert_allclose(force[0], FORCE + np.arctan(TIMES[0] / 2)[:, None] * TORQUE)
     np.testing.assert_allclose(torque[0], np.tile(TORQUE, (1001, 1)))
 

@@ -43,9 +43,10 @@ def test_same_seed_gives_bit_identical_rollouts():
     assert not np.array_equal(first[0], other[0])
 
 
-def test_a_batch_of_64_equals_64_single_runs():
+@pytest.mark.parametrize("name", ["hover-step-force", "dryden-helix-gusts"])
+def test_a_batch_of_64_equals_64_single_runs(name):
     n, steps = 64, 150
-    scenario = make_scenario("hover-step-force", duration=1.0)
+    scenario = make_scenario(name, duration=1.0)
     batch = QuadrotorBatch(scenario, n)
     batch.reset(np.arange(n), [seeding.np_random(1000 + i)[0] for i in range(n)])
     actions = np.random.default_rng(5).uniform(-0.2, 0.2, (steps, n, 4))

@@ -24,14 +24,14 @@ def test_paper_setup():
     assert (scenario.dt, scenario.duration, scenario.steps) == (0.01, 10.0, 1000)
     assert scenario.initial_position == (0.0, 0.0, 0.0)
     np.testing.assert_array_equal(scenario.initial_rotation_matrix(), np.eye(3))
-    force, torque = scenario.disturbance.evaluate(np.zeros((1, 1)))
+    force, torque, _ = scenario.disturbance.evaluate(np.zeros((1, 1)))
     np.testing.assert_array_equal(force[0, 0], PAPER_FORCE)
     np.testing.assert_allclose(torque[0, 0], 0.6 * np.array(PAPER_FORCE))
 
 
 def test_both_torque_readings():
     literal = make_scenario("paper-II", torque_reading="dx/0.6")
-    _, torque = literal.disturbance.evaluate(np.zeros((1, 1)))
+    _, torque, _ = literal.disturbance.evaluate(np.zeros((1, 1)))
     np.testing.assert_allclose(torque[0, 0], np.array(PAPER_FORCE) / 0.6)
     with pytest.raises(ValueError, match=r"valid: 0\.6\*dx, dx/0\.6"):
         make_scenario("paper-II", torque_reading="0.6")
@@ -40,7 +40,7 @@ def test_both_torque_readings():
 def test_paper_iia_is_on_from_five_to_seven_seconds():
     scenario = make_scenario("paper-IIA")
     t = np.array([[4.99, 5.0, 6.99, 7.0]])
-    force, _ = scenario.disturbance.evaluate(t)
+    force, _, _ = scenario.disturbance.evaluate(t)
     assert np.linalg.norm(force[0], axis=1).astype(bool).tolist() == [False, True, True, False]
 
 
@@ -53,7 +53,7 @@ def test_ground_effect_landing_goes_from_015_to_005_m():
 
 def test_step_force_scales_with_the_vehicle():
     small = make_scenario("hover-step-force", vehicle="crazyflie")
-    force, _ = small.disturbance.evaluate(np.array([[4.0]]))
+    force, _, _ = small.disturbance.evaluate(np.array([[4.0]]))
     assert force[0, 0, 0] == pytest.approx(0.2 * small.vehicle.hover_thrust)
 
 

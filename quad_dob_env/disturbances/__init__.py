@@ -5,20 +5,29 @@
   (body frame): ``Constant``, ``Window`` (step on/off), ``AtanRamp`` (the paper's
   Scenario I), ``Sinusoid``, ``Impulse``. Compose them with ``+``; ``model.during(a, b)``
   switches one on for ``a <= t < b``.
+- ``wind``: ``Gust`` (MIL-F-8785C 1-cosine) and ``Dryden`` turbulence; constant wind,
+  steps and sinusoids are ``Constant(wind=...)``, ``.during`` and ``Sinusoid(wind=...)``.
 - ``ground_effect``: the in-ground-effect thrust multiplier (the paper's law and
   Cheeseman–Bennett's).
+
+Every model has three channels: force d_x (world, N), torque d_Ω (body, N m) and wind
+velocity (world, m/s), which acts through the vehicle's drag.
 """
 
 from quad_dob_env.disturbances.base import Disturbance, Sum
 from quad_dob_env.disturbances.forces import AtanRamp, Constant, Impulse, Sinusoid, Window
 from quad_dob_env.disturbances.ground_effect import GROUND_EFFECT_MODELS, GroundEffect
+from quad_dob_env.disturbances.wind import DRYDEN_INTENSITIES, Dryden, Gust
 
 __all__ = [
+    "DRYDEN_INTENSITIES",
     "GROUND_EFFECT_MODELS",
     "AtanRamp",
     "Constant",
     "Disturbance",
+    "Dryden",
     "GroundEffect",
+    "Gust",
     "Impulse",
     "Sinusoid",
     "Sum",

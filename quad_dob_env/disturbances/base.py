@@ -1,9 +1,10 @@
-"""The disturbance interface: a template for every force/torque model.
+"""The disturbance interface: a template for every model of what pushes the vehicle.
 
-A model gives, for each of N vehicles and K sample times, the external force d_x (world
-frame, N) and torque d_Ω (body frame, N m). Models with random parameters draw them in
-``resample`` from each vehicle's own generator, so every vehicle's disturbance follows from
-its seed alone.
+A model gives, for each of N vehicles and K sample times, three channels: the external
+force d_x (world frame, N), the torque d_Ω (body frame, N m) and the wind velocity w (world
+frame, m/s; it acts through the vehicle's drag on v - w). Models with random parameters draw
+them in ``resample`` from each vehicle's own generator, so every vehicle's disturbance
+follows from its seed alone.
 """
 
 from __future__ import annotations
@@ -25,15 +26,24 @@ class Disturbance:
     #: step. Models that are a function of time alone are tabulated once per episode grid.
     is_random: bool = False
 
-    def bind(self, num_vehicles: int) -> None:
-        """Prepare per-vehicle storage for a batch of this size."""
+    def bind(self, num_vehicles: int, dt: float) -> None:
+        """Prepare per-vehicle storage for a batch of this size stepped every ``dt`` s."""
 
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         """Draw fresh random parameters for vehicles ``indices``, ``rngs[j]`` for the j-th."""
 
-    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        """Force (N, K, 3) and torque (N, K, 3) at ``times`` (N, K)."""
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
+        """Force, torque and wind velocity, each (N, K, 3), at ``times`` (N, K).
+
+        Random models are evaluated once per control step, in order, at that step's grid."""
         raise NotImplementedError
+
+    def add_to(self, times: NDArray[np.float64], force: NDArray, torque: NDArray,
+               wind: NDArray) -> None:
+        """Add this model's channels at ``times`` into the (N, K, 3) arrays, in place. The env
+        calls this for random models each step; override it to skip the temporaries."""
+        for total, channel in zip((force, torque, wind), self.evaluate(times), strict=True):
+            total += channel
 
     def __add__(self, other: Disturbance) -> Sum:
         if not isinstance(other, Disturbance):
@@ -59,22 +69,25 @@ class Sum(Disturbance):
         self.parts = flat
         self.is_random = any(part.is_random for part in flat)
 
-    def bind(self, num_vehicles: int) -> None:
+    def bind(self, num_vehicles: int, dt: float) -> None:
         for part in self.parts:
-            part.bind(num_vehicles)
+            part.bind(num_vehicles, dt)
 
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         for part in self.parts:
             part.resample(indices, rngs)
 
-    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        force, torque = self.parts[0].evaluate(times)
-        force, torque = force.copy(), torque.copy()
+    def add_to(self, times: NDArray[np.float64], force: NDArray, torque: NDArray,
+               wind: NDArray) -> None:
+        for part in self.parts:
+            part.add_to(times, force, torque, wind)
+
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
+        channels = [channel.copy() for channel in self.parts[0].evaluate(times)]
         for part in self.parts[1:]:
-            part_force, part_torque = part.evaluate(times)
-            force += part_force
-            torque += part_torque
-        return force, torque
+            for total, channel in zip(channels, part.evaluate(times), strict=True):
+                total += channel
+        return tuple(channels)
 
     def __repr__(self) -> str:
         return " + ".join(repr(part) for part in self.parts)

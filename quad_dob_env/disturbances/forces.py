@@ -1,7 +1,8 @@
-"""Time-profile force and torque models: constant, window, atan ramp, sinusoid, impulse.
+"""Time-profile models: constant, window (steps), atan ramp, sinusoid, impulse.
 
-Each carries a force vector (world frame, N) and a torque vector (body frame, N m) that
-its profile ``p(t)`` scales: ``d_x = force p(t)``, ``d_Ω = torque p(t)``.
+Each carries a force vector (world frame, N), a torque vector (body frame, N m) and a wind
+velocity (world frame, m/s) that its profile ``p(t)`` scales: ``d_x = force p(t)``,
+``d_Ω = torque p(t)``, ``w = wind p(t)``.
 """
 
 from __future__ import annotations
@@ -14,25 +15,29 @@ from numpy.typing import ArrayLike, NDArray
 from quad_dob_env.disturbances.base import Disturbance
 from quad_dob_env.validation import as_finite, as_vector3
 
+ZERO = (0.0, 0.0, 0.0)
+
 
 class _Profile(Disturbance):
-    """A force and a torque vector scaled by one scalar profile of time."""
+    """A force, a torque and a wind vector scaled by one scalar profile of time."""
 
-    def __init__(self, force: ArrayLike = (0.0, 0.0, 0.0),
-                 torque: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+    def __init__(self, force: ArrayLike = ZERO, torque: ArrayLike = ZERO,
+                 wind: ArrayLike = ZERO) -> None:
         name = type(self).__name__
         self.force = as_vector3(force, f"{name}.force")
         self.torque = as_vector3(torque, f"{name}.torque")
+        self.wind = as_vector3(wind, f"{name}.wind")
 
     def profile(self, times: NDArray) -> NDArray:
         raise NotImplementedError
 
-    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         scale = self.profile(times)[..., None]
-        return scale * self.force, scale * self.torque
+        return scale * self.force, scale * self.torque, scale * self.wind
 
     def __repr__(self) -> str:
-        return f"{type(self).__name__}(force={self.force.tolist()}, torque={self.torque.tolist()})"
+        return (f"{type(self).__name__}(force={self.force.tolist()}, "
+                f"torque={self.torque.tolist()}, wind={self.wind.tolist()})")
 
 
 class Constant(_Profile):
@@ -45,9 +50,9 @@ class Constant(_Profile):
 class AtanRamp(_Profile):
     """``d = value * atan(t / time_scale)``: bounded with a finite slope (paper's Scenario I)."""
 
-    def __init__(self, force: ArrayLike = (0.0, 0.0, 0.0), torque: ArrayLike = (0.0, 0.0, 0.0),
-                 time_scale: float = 2.0) -> None:
-        super().__init__(force, torque)
+    def __init__(self, force: ArrayLike = ZERO, torque: ArrayLike = ZERO,
+                 wind: ArrayLike = ZERO, time_scale: float = 2.0) -> None:
+        super().__init__(force, torque, wind)
         self.time_scale = as_finite(time_scale, "AtanRamp.time_scale", 0.0, strictly=True)
 
     def profile(self, times: NDArray) -> NDArray:
@@ -57,9 +62,9 @@ class AtanRamp(_Profile):
 class Sinusoid(_Profile):
     """``d = value * sin(2 pi frequency t + phase)``."""
 
-    def __init__(self, force: ArrayLike = (0.0, 0.0, 0.0), torque: ArrayLike = (0.0, 0.0, 0.0),
-                 frequency: float = 1.0, phase: float = 0.0) -> None:
-        super().__init__(force, torque)
+    def __init__(self, force: ArrayLike = ZERO, torque: ArrayLike = ZERO,
+                 wind: ArrayLike = ZERO, frequency: float = 1.0, phase: float = 0.0) -> None:
+        super().__init__(force, torque, wind)
         self.frequency = as_finite(frequency, "Sinusoid.frequency", 0.0, strictly=True)
         self.phase = as_finite(phase, "Sinusoid.phase")
 
@@ -80,16 +85,15 @@ class Window(Disturbance):
         if self.end <= self.start:
             raise ValueError(f"Window.end must be > start, got start={start}, end={end}")
 
-    def bind(self, num_vehicles: int) -> None:
-        self.inner.bind(num_vehicles)
+    def bind(self, num_vehicles: int, dt: float) -> None:
+        self.inner.bind(num_vehicles, dt)
 
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         self.inner.resample(indices, rngs)
 
-    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        force, torque = self.inner.evaluate(times)
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         active = ((times >= self.start) & (times < self.end))[..., None]
-        return force * active, torque * active
+        return tuple(channel * active for channel in self.inner.evaluate(times))
 
     def __repr__(self) -> str:
         return f"{self.inner!r}.during({self.start}, {self.end})"
@@ -121,7 +125,7 @@ class Impulse(Disturbance):
         self.is_random = self.start_range[1] > self.start_range[0]
         self.starts = np.full(1, self.start_range[0])
 
-    def bind(self, num_vehicles: int) -> None:
+    def bind(self, num_vehicles: int, dt: float) -> None:
         self.starts = np.full(num_vehicles, self.start_range[0])
 
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
@@ -130,10 +134,11 @@ class Impulse(Disturbance):
             for index, rng in zip(indices, rngs, strict=True):
                 self.starts[index] = rng.uniform(low, high)
 
-    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         start = self.starts[:, None] if self.is_random else self.start_range[0]
         active = ((times >= start) & (times < start + self.duration))[..., None] / self.duration
-        return active * self.force_impulse, active * self.torque_impulse
+        return (active * self.force_impulse, active * self.torque_impulse,
+                np.zeros((*times.shape, 3)))
 
     def __repr__(self) -> str:
         return (f"Impulse(force_impulse={self.force_impulse.tolist()}, "

@@ -33,57 +33,72 @@ def _mat4_vec(matrix, a, b, c, d):
 
 
 @njit(cache=True)
-def actuate_vehicle(thrust, moment, actuation_code, allocation, mixer, max_rotor_thrust,
-                    max_total_thrust, moment_limit):
-    """Commanded (f, M) -> applied (f, M), rotor thrusts, and whether a limit was hit."""
+def actuate_vehicle(thrust, moment, actuation_code, mixer, max_rotor_thrust, max_total_thrust,
+                    moment_limit):
+    """Commanded (f, M) -> the actuator command the vehicle can follow, and whether a limit
+    was hit.
+
+    ``rotors`` (code 0): four rotor thrusts in [0, max], mixed with yaw at the lowest
+    priority, as flight controllers do: thrust, roll and pitch are mixed and clipped first,
+    then the yaw moment is scaled down to the headroom left, because yaw comes from rotor
+    drag and asking for more than that would starve the others.
+    ``wrench`` (code 1): thrust and each moment clipped to their limits.
+    """
     if actuation_code == 0:
-        requested = _mat4_vec(mixer, thrust, moment[0], moment[1], moment[2])
-        saturated = False
-        clipped = [0.0, 0.0, 0.0, 0.0]
+        base = _mat4_vec(mixer, thrust, moment[0], moment[1], 0.0)
+        yaw = (mixer[0, 3] * moment[2], mixer[1, 3] * moment[2], mixer[2, 3] * moment[2],
+               mixer[3, 3] * moment[2])
+        clipped_base = (min(max(base[0], 0.0), max_rotor_thrust),
+                        min(max(base[1], 0.0), max_rotor_thrust),
+                        min(max(base[2], 0.0), max_rotor_thrust),
+                        min(max(base[3], 0.0), max_rotor_thrust))
+        share = 1.0  # of the yaw request that fits
         for k in range(4):
-            clipped[k] = min(max(requested[k], 0.0), max_rotor_thrust)
-            saturated = saturated or clipped[k] != requested[k]
-        rotors = (clipped[0], clipped[1], clipped[2], clipped[3])
-        applied = _mat4_vec(allocation, rotors[0], rotors[1], rotors[2], rotors[3])
-        return applied[0], (applied[1], applied[2], applied[3]), rotors, saturated
-    f = min(max(thrust, 0.0), max_total_thrust)
-    m = (min(max(moment[0], -moment_limit[0]), moment_limit[0]),
-         min(max(moment[1], -moment_limit[1]), moment_limit[1]),
-         min(max(moment[2], -moment_limit[2]), moment_limit[2]))
-    saturated = f != thrust or m[0] != moment[0] or m[1] != moment[1] or m[2] != moment[2]
-    return f, m, _mat4_vec(mixer, f, m[0], m[1], m[2]), saturated
+            if yaw[k] > 0.0:
+                share = min(share, (max_rotor_thrust - clipped_base[k]) / yaw[k])
+            elif yaw[k] < 0.0:
+                share = min(share, -clipped_base[k] / yaw[k])
+        share = max(share, 0.0)
+        rotors = (clipped_base[0] + share * yaw[0], clipped_base[1] + share * yaw[1],
+                  clipped_base[2] + share * yaw[2], clipped_base[3] + share * yaw[3])
+        return rotors, share < 1.0 or clipped_base != base
+    command = (min(max(thrust, 0.0), max_total_thrust),
+               min(max(moment[0], -moment_limit[0]), moment_limit[0]),
+               min(max(moment[1], -moment_limit[1]), moment_limit[1]),
+               min(max(moment[2], -moment_limit[2]), moment_limit[2]))
+    return command, command != (thrust, moment[0], moment[1], moment[2])
 
 
 @njit(cache=True, inline="always")
-def store_applied(i, thrust, moment, rotors, saturated, out_thrust, out_moment, out_rotors,
-                  out_saturated):
-    """Write vehicle i's applied command into the batch arrays."""
-    out_thrust[i] = thrust
-    out_saturated[i] = saturated
+def store_applied(i, output, to_wrench, to_rotors, out_thrust, out_moment, out_rotors):
+    """Write the wrench and rotor thrusts of actuator output ``output`` for vehicle i."""
+    wrench = _mat4_vec(to_wrench, output[0], output[1], output[2], output[3])
+    rotors = _mat4_vec(to_rotors, output[0], output[1], output[2], output[3])
+    out_thrust[i] = wrench[0]
     for k in range(3):
-        out_moment[i, k] = moment[k]
+        out_moment[i, k] = wrench[k + 1]
     for k in range(4):
         out_rotors[i, k] = rotors[k]
 
 
 @njit(cache=True)
-def _actuate_batch(thrust, moment, actuation_code, allocation, mixer, max_rotor_thrust,
-                   max_total_thrust, moment_limit, out_thrust, out_moment, out_rotors,
+def _actuate_batch(thrust, moment, actuation_code, mixer, max_rotor_thrust, max_total_thrust,
+                   moment_limit, to_wrench, to_rotors, out_thrust, out_moment, out_rotors,
                    out_saturated):
     for i in range(thrust.shape[0]):
-        f, m, rotors, saturated = actuate_vehicle(
-            thrust[i], (moment[i, 0], moment[i, 1], moment[i, 2]), actuation_code, allocation,
-            mixer, max_rotor_thrust, max_total_thrust, moment_limit)
-        store_applied(i, f, m, rotors, saturated, out_thrust, out_moment, out_rotors,
-                      out_saturated)
+        output, out_saturated[i] = actuate_vehicle(
+            thrust[i], (moment[i, 0], moment[i, 1], moment[i, 2]), actuation_code, mixer,
+            max_rotor_thrust, max_total_thrust, moment_limit)
+        store_applied(i, output, to_wrench, to_rotors, out_thrust, out_moment, out_rotors)
 
 
 class Actuator:
     """Turns a commanded thrust and moment into what the vehicle can produce.
 
-    ``rotors``: the command is mixed to four rotor thrusts, each clipped to
-    ``[0, max_rotor_thrust]``, and mapped back through the allocation matrix, so the
-    saturation is the physical one (yaw authority is the rotors' drag torque).
+    ``rotors``: the command is mixed to four rotor thrusts in ``[0, max_rotor_thrust]``,
+    yaw at the lowest priority (thrust, roll and pitch first, then the yaw that still
+    fits), and mapped back through the allocation matrix, so the saturation is the physical
+    one (yaw authority is the rotors' drag torque).
     ``wrench``: thrust is clipped to ``[0, 4 max_rotor_thrust]`` and each moment to
     ``moment_limit("wrench")``, as in the paper's model where moments are applied directly.
     """
@@ -96,17 +111,33 @@ class Actuator:
         self.code = ACTUATION_CODES[actuation]
         self.moment_limit = params.moment_limit(actuation)
 
+    @property
+    def to_wrench(self) -> NDArray[np.float64]:
+        """Maps the actuator output (rotor thrusts, or the wrench) to [f, Mx, My, Mz]."""
+        return self.params.allocation_matrix if self.code == 0 else np.eye(4)
+
+    @property
+    def to_rotors(self) -> NDArray[np.float64]:
+        """Maps the actuator output to the four rotor thrusts."""
+        return np.eye(4) if self.code == 0 else self.params.mixer_matrix
+
+    def hover_output(self) -> NDArray[np.float64]:
+        """The actuator output that holds the vehicle's weight, level."""
+        return np.linalg.solve(self.to_wrench, [self.params.hover_thrust, 0.0, 0.0, 0.0])
+
     def kernel_arguments(self) -> tuple:
         """The arguments ``actuate_vehicle`` takes after the command."""
         p = self.params
-        return (self.code, p.allocation_matrix, p.mixer_matrix, float(p.max_rotor_thrust),
-                float(p.max_total_thrust), self.moment_limit)
+        return (self.code, p.mixer_matrix, float(p.max_rotor_thrust), float(p.max_total_thrust),
+                self.moment_limit)
 
     def apply(self, thrust: ArrayLike, moment: ArrayLike) -> AppliedCommand:
+        """What an instantaneous actuator produces for the commanded thrust and moment."""
         thrust = np.ascontiguousarray(thrust, dtype=float).reshape(-1)
         n = thrust.shape[0]
         moment = np.ascontiguousarray(np.broadcast_to(np.asarray(moment, float), (n, 3)))
         out = AppliedCommand(np.empty(n), np.empty((n, 3)), np.empty((n, 4)),
                              np.empty(n, dtype=np.bool_))
-        _actuate_batch(thrust, moment, *self.kernel_arguments(), *out)
+        _actuate_batch(thrust, moment, *self.kernel_arguments(), self.to_wrench,
+                       self.to_rotors, *out)
         return out

@@ -71,15 +71,29 @@ def thrust_multiplier(z: ArrayLike, law: ThrustLaw) -> NDArray[np.float64]:
     return out.reshape(heights.shape)
 
 
-@njit(cache=True)
-def _accelerations(z, rotation, omega, thrust, moment, force, torque, mass, gravity,
-                   inertia, inertia_inverse, law):
+@njit(cache=True, inline="always")
+def body_drag(v, rotation, wind, drag_linear, drag_quadratic):
+    """Body-frame drag ``-(c1 ⊙ u + c2 ⊙ |u| ⊙ u)`` on the air-relative velocity
+    ``u = Rᵀ(v - w)``."""
+    r = rotation
+    a = (v[0] - wind[0], v[1] - wind[1], v[2] - wind[2])
+    u = (r[0] * a[0] + r[3] * a[1] + r[6] * a[2], r[1] * a[0] + r[4] * a[1] + r[7] * a[2],
+         r[2] * a[0] + r[5] * a[1] + r[8] * a[2])
+    return (-(drag_linear[0] + drag_quadratic[0] * abs(u[0])) * u[0],
+            -(drag_linear[1] + drag_quadratic[1] * abs(u[1])) * u[1],
+            -(drag_linear[2] + drag_quadratic[2] * abs(u[2])) * u[2])
+
+
+@njit(cache=True, inline="always")
+def _accelerations(x, v, rotation, omega, thrust, moment, force, torque, wind, mass, gravity,
+                   inertia, inertia_inverse, drag_linear, drag_quadratic, law):
     """Linear acceleration (world) and angular acceleration (body) of one vehicle."""
-    lift = thrust * thrust_multiplier_scalar(z, law) / mass
-    # m v' = -m g e3 + k f R e3 + d_x  (DESIGN.md); R e3 is R's third column
-    linear = (lift * rotation[2] + force[0] / mass,
-              lift * rotation[5] + force[1] / mass,
-              lift * rotation[8] + force[2] / mass - gravity)
+    lift = thrust * thrust_multiplier_scalar(x[2], law)
+    drag = body_drag(v, rotation, wind, drag_linear, drag_quadratic)
+    # m v' = -m g e3 + k f R e3 + R F_drag + d_x  (DESIGN.md, with drag as issue 4 adds it)
+    body_force = mat_vec_tuple(rotation, (drag[0], drag[1], drag[2] + lift))
+    linear = ((body_force[0] + force[0]) / mass, (body_force[1] + force[1]) / mass,
+              (body_force[2] + force[2]) / mass - gravity)
     # J Ω' = -Ω × JΩ + M + d_Ω  (DESIGN.md)
     gyroscopic = cross_tuple(omega, mat_vec_tuple(inertia, omega))
     angular = mat_vec_tuple(inertia_inverse, (moment[0] + torque[0] - gyroscopic[0],
@@ -128,47 +142,86 @@ def store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
 
 
 @njit(cache=True, inline="always")
-def _sample(table, row, per_vehicle, i, k):
-    """Disturbance sample k: the shared table's row plus vehicle i's own part."""
+def sample(table, row, per_vehicle, i, k):
+    """Sample k of a time-gridded input: the shared table's row plus vehicle i's own part."""
     return (table[row, k, 0] + per_vehicle[i, k, 0], table[row, k, 1] + per_vehicle[i, k, 1],
             table[row, k, 2] + per_vehicle[i, k, 2])
 
 
+@njit(cache=True, inline="always")
+def matrix_tuple(a):
+    """A 3x3 array as a row-major 9-tuple."""
+    return (a[0, 0], a[0, 1], a[0, 2], a[1, 0], a[1, 1], a[1, 2], a[2, 0], a[2, 1], a[2, 2])
+
+
+@njit(cache=True, inline="always")
+def lag_factor(elapsed, time_constant):
+    """Share of the old actuator output left after ``elapsed`` s (0: no lag)."""
+    return math.exp(-elapsed / time_constant) if time_constant > 0.0 else 0.0
+
+
 @njit(cache=True)
-def advance_vehicle(x, v, R, w, f, m, force_table, torque_table, row, force_own, torque_own,
-                    i, mass, gravity, inertia, inertia_inverse, dt, substeps, law):
+def actuator_wrench(start, command, factor, to_wrench):
+    """(f, M) from the actuator output ``command + (start - command) factor``."""
+    u0 = command[0] + (start[0] - command[0]) * factor
+    u1 = command[1] + (start[1] - command[1]) * factor
+    u2 = command[2] + (start[2] - command[2]) * factor
+    u3 = command[3] + (start[3] - command[3]) * factor
+    w = to_wrench
+    return (w[0, 0] * u0 + w[0, 1] * u1 + w[0, 2] * u2 + w[0, 3] * u3,
+            (w[1, 0] * u0 + w[1, 1] * u1 + w[1, 2] * u2 + w[1, 3] * u3,
+             w[2, 0] * u0 + w[2, 1] * u1 + w[2, 2] * u2 + w[2, 3] * u3,
+             w[3, 0] * u0 + w[3, 1] * u1 + w[3, 2] * u2 + w[3, 3] * u3))
+
+
+@njit(cache=True, inline="always")
+def _stage_inputs(start, command, time_constant, to_wrench, tables, own, row, i, grid, elapsed):
+    """Thrust, moment, force, torque and wind at grid sample ``grid``, ``elapsed`` s in."""
+    f, m = actuator_wrench(start, command, lag_factor(elapsed, time_constant), to_wrench)
+    return (f, m, sample(tables[0], row, own[0], i, grid), sample(tables[1], row, own[1], i, grid),
+            sample(tables[2], row, own[2], i, grid))
+
+
+@njit(cache=True)
+def advance_vehicle(x, v, R, w, start, command, time_constant, to_wrench, tables, row, own, i,
+                    physics, dt, substeps, law):
     """One vehicle over ``dt`` in ``substeps`` CF4 steps; returns the new (x, v, R, Ω).
 
-    The disturbance at the substep grid ``t0 + k h / 2`` (k = 0 .. 2 substeps) is
-    ``force_table[row, k] + force_own[i, k]`` (and likewise for torque): a table shared by
-    all vehicles plus each vehicle's own part.
+    Actuators: their output (rotor thrusts, or the wrench itself) moves from ``start`` to
+    ``command`` as ``command + (start - command) e^{-t/τ}`` (exact first-order lag; τ = 0
+    is instantaneous); ``to_wrench`` maps it to (f, M).
+    ``tables`` / ``own``: force, torque and wind velocity on the substep grid
+    ``t0 + k h / 2`` (k = 0 .. 2 substeps), shared rows plus each vehicle's own part.
+    ``physics``: mass, gravity, inertia, inverse inertia, linear and quadratic drag.
     """
+    mass, gravity, inertia, inertia_inverse, drag_linear, drag_quadratic = physics
     h = dt / substeps
     for s in range(substeps):
-        f_start = _sample(force_table, row, force_own, i, 2 * s)
-        f_mid = _sample(force_table, row, force_own, i, 2 * s + 1)
-        f_end = _sample(force_table, row, force_own, i, 2 * s + 2)
-        t_start = _sample(torque_table, row, torque_own, i, 2 * s)
-        t_mid = _sample(torque_table, row, torque_own, i, 2 * s + 1)
-        t_end = _sample(torque_table, row, torque_own, i, 2 * s + 2)
-        a1, al1 = _accelerations(x[2], R, w, f, m, f_start, t_start, mass, gravity,
-                                 inertia, inertia_inverse, law)
-        x2, v2, w2 = _axpy(h / 2, v, x), _axpy(h / 2, a1, v), _axpy(h / 2, al1, w)
+        t0 = s * h
+        f1, m1, d1, t1, w1 = _stage_inputs(start, command, time_constant, to_wrench, tables,
+                                           own, row, i, 2 * s, t0)
+        f2, m2, d2, t2, w2 = _stage_inputs(start, command, time_constant, to_wrench, tables,
+                                           own, row, i, 2 * s + 1, t0 + 0.5 * h)
+        f4, m4, d4, t4, w4 = _stage_inputs(start, command, time_constant, to_wrench, tables,
+                                           own, row, i, 2 * s + 2, t0 + h)
+        a1, al1 = _accelerations(x, v, R, w, f1, m1, d1, t1, w1, mass, gravity, inertia,
+                                 inertia_inverse, drag_linear, drag_quadratic, law)
+        x2, v2, om2 = _axpy(h / 2, v, x), _axpy(h / 2, a1, v), _axpy(h / 2, al1, w)
         R2 = mat_mul_tuple(R, exp_tuple((h / 2 * w[0], h / 2 * w[1], h / 2 * w[2])))
-        a2, al2 = _accelerations(x2[2], R2, w2, f, m, f_mid, t_mid, mass, gravity,
-                                 inertia, inertia_inverse, law)
-        x3, v3, w3 = _axpy(h / 2, v2, x), _axpy(h / 2, a2, v), _axpy(h / 2, al2, w)
-        R3 = mat_mul_tuple(R, exp_tuple((h / 2 * w2[0], h / 2 * w2[1], h / 2 * w2[2])))
-        a3, al3 = _accelerations(x3[2], R3, w3, f, m, f_mid, t_mid, mass, gravity,
-                                 inertia, inertia_inverse, law)
-        x4, v4, w4 = _axpy(h, v3, x), _axpy(h, a3, v), _axpy(h, al3, w)
+        a2, al2 = _accelerations(x2, v2, R2, om2, f2, m2, d2, t2, w2, mass, gravity, inertia,
+                                 inertia_inverse, drag_linear, drag_quadratic, law)
+        x3, v3, om3 = _axpy(h / 2, v2, x), _axpy(h / 2, a2, v), _axpy(h / 2, al2, w)
+        R3 = mat_mul_tuple(R, exp_tuple((h / 2 * om2[0], h / 2 * om2[1], h / 2 * om2[2])))
+        a3, al3 = _accelerations(x3, v3, R3, om3, f2, m2, d2, t2, w2, mass, gravity, inertia,
+                                 inertia_inverse, drag_linear, drag_quadratic, law)
+        x4, v4, om4 = _axpy(h, v3, x), _axpy(h, a3, v), _axpy(h, al3, w)
         # CF4 stage 4: Y4 = Y2 exp(h (Ω3 - Ω1 / 2))
-        R4 = mat_mul_tuple(R2, exp_tuple(_weighted(h, -0.5, 0.0, 1.0, 0.0, w, w2, w3, w)))
-        a4, al4 = _accelerations(x4[2], R4, w4, f, m, f_end, t_end, mass, gravity,
-                                 inertia, inertia_inverse, law)
+        R4 = mat_mul_tuple(R2, exp_tuple(_weighted(h, -0.5, 0.0, 1.0, 0.0, w, om2, om3, w)))
+        a4, al4 = _accelerations(x4, v4, R4, om4, f4, m4, d4, t4, w4, mass, gravity, inertia,
+                                 inertia_inverse, drag_linear, drag_quadratic, law)
         # CF4 update: R1 = R0 exp(h(Ω1/4 + Ω2/6 + Ω3/6 - Ω4/12)) exp(h(-Ω1/12 + Ω2/6 + Ω3/6 + Ω4/4))
-        first = exp_tuple(_weighted(h, 0.25, 1 / 6, 1 / 6, -1 / 12, w, w2, w3, w4))
-        second = exp_tuple(_weighted(h, -1 / 12, 1 / 6, 1 / 6, 0.25, w, w2, w3, w4))
+        first = exp_tuple(_weighted(h, 0.25, 1 / 6, 1 / 6, -1 / 12, w, om2, om3, om4))
+        second = exp_tuple(_weighted(h, -1 / 12, 1 / 6, 1 / 6, 0.25, w, om2, om3, om4))
         R = mat_mul_tuple(mat_mul_tuple(R, first), second)
         x = _rk4_sum(x, h, v, v2, v3, v4)
         v = _rk4_sum(v, h, a1, a2, a3, a4)
@@ -185,23 +238,25 @@ def all_finite(x, v, R, w) -> bool:
 
 
 @njit(cache=True, inline="always")
-def matrix_tuple(a):
-    """A 3x3 array as a row-major 9-tuple."""
-    return (a[0, 0], a[0, 1], a[0, 2], a[1, 0], a[1, 1], a[1, 2], a[2, 0], a[2, 1], a[2, 2])
+def vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag):
+    """Vehicle i's (mass, g, J, J⁻¹, linear drag, quadratic drag) as scalars and tuples."""
+    return (mass[i], gravity, matrix_tuple(inertia[i]), matrix_tuple(inertia_inverse[i]),
+            (drag[i, 0], drag[i, 1], drag[i, 2]), (drag[i, 3], drag[i, 4], drag[i, 5]))
 
 
 def _integrate_kernel(position, velocity, rotation, angular_velocity, thrust, moment,
-                      force_table, torque_table, force_own, torque_own, mass, gravity,
-                      inertia_array, inertia_inverse_array, dt, substeps, law, diverged):
-    """Advance every vehicle in place; a vehicle whose new state is not finite keeps its
-    old state and is flagged in ``diverged``."""
-    inertia, inertia_inverse = matrix_tuple(inertia_array), matrix_tuple(inertia_inverse_array)
+                      tables, own, mass, gravity, inertia, inertia_inverse, drag, dt, substeps,
+                      law, diverged):
+    """Advance every vehicle in place with the wrench held; a vehicle whose new state is not
+    finite keeps its old state and is flagged in ``diverged``."""
+    identity = np.eye(4)
     for i in prange(position.shape[0]):
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        m = (moment[i, 0], moment[i, 1], moment[i, 2])
-        x, v, R, w = advance_vehicle(x, v, R, w, thrust[i], m, force_table, torque_table, 0,
-                                     force_own, torque_own, i, mass, gravity, inertia,
-                                     inertia_inverse, dt, substeps, law)
+        command = (thrust[i], moment[i, 0], moment[i, 1], moment[i, 2])
+        x, v, R, w = advance_vehicle(x, v, R, w, command, command, 0.0, identity, tables, 0,
+                                     own, i, vehicle_physics(i, mass, gravity, inertia,
+                                                             inertia_inverse, drag),
+                                     dt, substeps, law)
         diverged[i] = not all_finite(x, v, R, w)
         if not diverged[i]:
             store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
@@ -213,71 +268,85 @@ _integrate_parallel = njit(cache=True, parallel=True)(_integrate_kernel)
 
 
 @njit(cache=True)
-def _derivative_batch(state_z, rotation, omega, thrust, moment, force, torque, mass, gravity,
-                      inertia_array, inertia_inverse_array, law, linear_out, angular_out):
-    inertia, inertia_inverse = matrix_tuple(inertia_array), matrix_tuple(inertia_inverse_array)
-    for i in range(state_z.shape[0]):
+def _derivative_batch(position, velocity, rotation, omega, thrust, moment, force, torque, wind,
+                      mass, gravity, inertia, inertia_inverse, drag, law, linear_out,
+                      angular_out):
+    for i in range(position.shape[0]):
+        x, v, R, w = load_vehicle(i, position, velocity, rotation, omega)
+        m, g, J, J_inverse, drag_linear, drag_quadratic = vehicle_physics(
+            i, mass, gravity, inertia, inertia_inverse, drag)
         linear, angular = _accelerations(
-            state_z[i], matrix_tuple(rotation[i]),
-            (omega[i, 0], omega[i, 1], omega[i, 2]), thrust[i],
-            (moment[i, 0], moment[i, 1], moment[i, 2]),
+            x, v, R, w, thrust[i], (moment[i, 0], moment[i, 1], moment[i, 2]),
             (force[i, 0], force[i, 1], force[i, 2]), (torque[i, 0], torque[i, 1], torque[i, 2]),
-            mass, gravity, inertia, inertia_inverse, law)
+            (wind[i, 0], wind[i, 1], wind[i, 2]), m, g, J, J_inverse, drag_linear,
+            drag_quadratic, law)
         for k in range(3):
             linear_out[i, k] = linear[k]
             angular_out[i, k] = angular[k]
 
 
+def physics_arrays(params: VehicleParams, n: int, drag: bool = False) -> tuple:
+    """Per-vehicle (mass, inertia, inverse inertia, drag) arrays of ``params`` for N vehicles;
+    the drag columns are zero unless ``drag``."""
+    coefficients = (np.concatenate([params.drag_linear, params.drag_quadratic]) if drag
+                    else np.zeros(6))
+    return (np.full(n, params.mass), np.broadcast_to(params.inertia_matrix, (n, 3, 3)).copy(),
+            np.broadcast_to(params.inertia_inverse, (n, 3, 3)).copy(),
+            np.broadcast_to(coefficients, (n, 6)).copy())
+
+
+def _batch(value: ArrayLike | None, n: int, shape: tuple[int, ...]) -> NDArray:
+    if value is None:
+        return np.zeros((n, *shape))
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(value, float), (n, *shape)))
+
+
 def accelerations(state: VehicleState, thrust: ArrayLike, moment: ArrayLike,
                   params: VehicleParams, force: ArrayLike | None = None,
                   torque: ArrayLike | None = None, law: ThrustLaw = NO_GROUND_EFFECT,
+                  wind: ArrayLike | None = None, drag: bool = False,
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(v', Ω')`` for the batch: linear acceleration (world) and angular (body)."""
     n = state.n
-    zeros = np.zeros((n, 3))
     linear, angular = np.empty((n, 3)), np.empty((n, 3))
-    _derivative_batch(
-        np.ascontiguousarray(state.position[:, 2]), state.rotation, state.angular_velocity,
-        np.broadcast_to(np.asarray(thrust, float), (n,)).copy(),
-        np.broadcast_to(np.asarray(moment, float), (n, 3)).copy(),
-        zeros if force is None else np.broadcast_to(np.asarray(force, float), (n, 3)).copy(),
-        zeros if torque is None else np.broadcast_to(np.asarray(torque, float), (n, 3)).copy(),
-        params.mass, params.gravity, params.inertia_matrix, params.inertia_inverse,
-        tuple(float(v) for v in law), linear, angular)
+    mass, inertia, inertia_inverse, coefficients = physics_arrays(params, n, drag)
+    _derivative_batch(state.position, state.velocity, state.rotation, state.angular_velocity,
+                      _batch(thrust, n, ()), _batch(moment, n, (3,)), _batch(force, n, (3,)),
+                      _batch(torque, n, (3,)), _batch(wind, n, (3,)), mass, params.gravity,
+                      inertia, inertia_inverse, coefficients, tuple(float(v) for v in law),
+                      linear, angular)
     return linear, angular
 
 
 def integrate(state: VehicleState, thrust: NDArray, moment: NDArray, params: VehicleParams,
               dt: float, substeps: int = 1, force_samples: NDArray | None = None,
               torque_samples: NDArray | None = None, law: ThrustLaw = NO_GROUND_EFFECT,
-              ) -> NDArray[np.bool_]:
+              wind_samples: NDArray | None = None, drag: bool = False) -> NDArray[np.bool_]:
     """Advance ``state`` in place by ``dt`` with thrust and moment held constant.
 
-    ``force_samples`` / ``torque_samples`` (N, 2*substeps+1, 3) give the external force
-    (world) and torque (body) at the times ``t0 + k dt / (2 substeps)``; None means zero.
-    Returns the mask of vehicles whose step diverged (they keep their old state).
+    ``force_samples`` / ``torque_samples`` / ``wind_samples`` (N, 2*substeps+1, 3) give the
+    external force (world), torque (body) and wind velocity (world) at the times
+    ``t0 + k dt / (2 substeps)``; None means zero. ``drag`` applies the vehicle's drag
+    coefficients to the air-relative velocity. Returns the mask of vehicles whose step
+    diverged (they keep their old state).
     """
     n = state.n
     samples = 2 * substeps + 1
-    zeros = None
-    if force_samples is None or torque_samples is None:
-        zeros = np.zeros((n, samples, 3))
-    force_samples = zeros if force_samples is None else force_samples
-    torque_samples = zeros if torque_samples is None else torque_samples
-    if force_samples.shape != (n, samples, 3) or torque_samples.shape != (n, samples, 3):
-        raise ValueError(
-            f"disturbance samples must have shape (N={n}, 2*substeps+1={samples}, 3), got "
-            f"{force_samples.shape} and {torque_samples.shape}"
-        )
+    inputs = []
+    for name, value in (("force", force_samples), ("torque", torque_samples),
+                        ("wind", wind_samples)):
+        value = np.zeros((n, samples, 3)) if value is None else np.ascontiguousarray(value)
+        if value.shape != (n, samples, 3):
+            raise ValueError(f"{name} samples must have shape (N={n}, 2*substeps+1={samples}, "
+                             f"3), got {value.shape}")
+        inputs.append(value)
+    no_table = np.zeros((1, samples, 3))
+    mass, inertia, inertia_inverse, coefficients = physics_arrays(params, n, drag)
     diverged = np.zeros(n, dtype=np.bool_)
     kernel = _integrate_parallel if n >= PARALLEL_MIN_BATCH else _integrate_serial
-    no_table = np.zeros((1, samples, 3))
     kernel(state.position, state.velocity, state.rotation, state.angular_velocity,
            np.ascontiguousarray(thrust, dtype=float), np.ascontiguousarray(moment, dtype=float),
-           no_table, no_table, np.ascontiguousarray(force_samples),
-           np.ascontiguousarray(torque_samples), params.mass, params.gravity, params.inertia_matrix,
-           params.inertia_inverse, float(dt), int(substeps), tuple(float(v) for v in law),
-           diverged)
+           (no_table, no_table, no_table), tuple(inputs), mass, params.gravity, inertia,
+           inertia_inverse, coefficients, float(dt), int(substeps),
+           tuple(float(v) for v in law), diverged)
     return diverged
-
-

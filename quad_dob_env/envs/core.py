@@ -27,16 +27,22 @@ from quad_dob_env.dynamics import (
     AppliedCommand,
     VehicleState,
     actuate_vehicle,
+    actuator_wrench,
     advance_vehicle,
     all_finite,
+    body_drag,
+    lag_factor,
     load_vehicle,
-    matrix_tuple,
+    physics_arrays,
+    sample,
     store_applied,
     store_vehicle,
     thrust_multiplier_scalar,
+    vehicle_physics,
 )
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.so3 import exp as so3_exp
+from quad_dob_env.so3 import mat_vec_tuple
 from quad_dob_env.trajectories import Reference
 from quad_dob_env.validation import as_finite, unknown_name_error
 
@@ -136,27 +142,40 @@ def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
     return code, error
 
 
-def _step_kernel(actions, rotor_mode, centre, scale_up, scale_down, actuation_code, allocation,
-                 mixer, max_rotor_thrust, max_total_thrust, moment_limit, position, velocity,
-                 rotation, angular_velocity, step_count, force_table, torque_table, force_own,
-                 torque_own, reference, mass, gravity, inertia_array, inertia_inverse_array, dt,
-                 substeps, law, limits, reward_weights, rotation_mode, obs, reward, code,
-                 applied_thrust, applied_moment, rotor_thrusts, saturated, disturbance_force,
+def _step_kernel(actions, action_map, actuation, actuator, position, velocity, rotation,
+                 angular_velocity, step_count, tables, own, reference, physics, dt, substeps,
+                 law, limits, reward_weights, rotation_mode, obs, reward, code, applied_thrust,
+                 applied_moment, rotor_thrusts, saturated, disturbance_force,
                  disturbance_torque):
-    inertia, inertia_inverse = matrix_tuple(inertia_array), matrix_tuple(inertia_inverse_array)
+    rotor_mode, centre, scale_up, scale_down, allocation = action_map
+    to_wrench, to_rotors, time_constant, actuator_state = actuator
+    mass, gravity, inertia, inertia_inverse, drag = physics
+    force_table, torque_table, wind_table = tables
+    force_own, torque_own, wind_own = own
     position_scale, effort_weight = reward_weights
     last = force_table.shape[1] - 1
+    # share of the old actuator output in the step's mean, and left at its end
+    if time_constant > 0.0:
+        mean_factor = time_constant / dt * (1.0 - np.exp(-dt / time_constant))
+    else:
+        mean_factor = 0.0
+    end_factor = lag_factor(dt, time_constant)
     for i in prange(actions.shape[0]):
         f_cmd, m_cmd = _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation)
-        f, m, rotors, hit = actuate_vehicle(f_cmd, m_cmd, actuation_code, allocation, mixer,
-                                            max_rotor_thrust, max_total_thrust, moment_limit)
-        store_applied(i, f, m, rotors, hit, applied_thrust, applied_moment, rotor_thrusts,
-                      saturated)
+        command, saturated[i] = actuate_vehicle(f_cmd, m_cmd, *actuation)
+        start = (actuator_state[i, 0], actuator_state[i, 1], actuator_state[i, 2],
+                 actuator_state[i, 3])
+        mean = _blend(start, command, mean_factor)
+        store_applied(i, mean, to_wrench, to_rotors, applied_thrust, applied_moment,
+                      rotor_thrusts)
+        end = _blend(start, command, end_factor)
+        for k in range(4):
+            actuator_state[i, k] = end[k]
         row = step_count[i]
+        vehicle = vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag)
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        xn, vn, Rn, wn = advance_vehicle(x, v, R, w, f, m, force_table, torque_table, row,
-                                         force_own, torque_own, i, mass, gravity, inertia,
-                                         inertia_inverse, dt, substeps, law)
+        xn, vn, Rn, wn = advance_vehicle(x, v, R, w, start, command, time_constant, to_wrench,
+                                         tables, row, own, i, vehicle, dt, substeps, law)
         diverged = not all_finite(xn, vn, Rn, wn)
         if not diverged:
             x, v, R, w = xn, vn, Rn, wn
@@ -169,12 +188,26 @@ def _step_kernel(actions, rotor_mode, centre, scale_up, scale_down, actuation_co
         for k in range(4):
             effort += min(actions[i, k] * actions[i, k], 1.0)
         reward[i] = np.exp(-error / position_scale) - effort_weight * effort / 4.0
-        # the true disturbance now: external force and torque, plus the ground effect's push
-        extra_lift = (thrust_multiplier_scalar(x[2], law) - 1.0) * f
+        # the true disturbance now: external force and torque, the ground effect's extra
+        # lift and the aerodynamic drag
+        thrust_now = actuator_wrench(end, end, 0.0, to_wrench)[0]
+        extra_lift = (thrust_multiplier_scalar(x[2], law) - 1.0) * thrust_now
+        wind = sample(wind_table, row, wind_own, i, last)
+        drag_body = body_drag(v, R, wind, vehicle[4], vehicle[5])
+        drag_world = mat_vec_tuple(R, (drag_body[0], drag_body[1], drag_body[2] + extra_lift))
+        external = sample(force_table, row, force_own, i, last)
+        torque = sample(torque_table, row, torque_own, i, last)
         for k in range(3):
-            disturbance_force[i, k] = (force_table[row, last, k] + force_own[i, last, k]
-                                       + extra_lift * R[3 * k + 2])
-            disturbance_torque[i, k] = torque_table[row, last, k] + torque_own[i, last, k]
+            disturbance_force[i, k] = external[k] + drag_world[k]
+            disturbance_torque[i, k] = torque[k]
+
+
+@njit(cache=True, inline="always")
+def _blend(start, command, factor):
+    return (command[0] + (start[0] - command[0]) * factor,
+            command[1] + (start[1] - command[1]) * factor,
+            command[2] + (start[2] - command[2]) * factor,
+            command[3] + (start[3] - command[3]) * factor)
 
 
 _step_serial = njit(cache=True)(_step_kernel)
@@ -229,10 +262,16 @@ class QuadrotorBatch:
                                       np.zeros(n, dtype=np.bool_))
         self.disturbance_force = np.zeros((n, 3))
         self.disturbance_torque = np.zeros((n, 3))
-        self._force_own = np.zeros((n, samples, 3))
-        self._torque_own = np.zeros((n, samples, 3))
+        self._own = tuple(np.zeros((n, samples, 3)) for _ in range(3))  # force, torque, wind
+        # per-vehicle physics (mass, inertia, inverse, drag), so vehicles can differ
+        self.mass, self.inertia, self.inertia_inverse, self.drag = physics_arrays(
+            self.vehicle, n, scenario.drag)
+        self.actuator_state = np.zeros((n, 4))
         self._action_scales()
         self._actuation = self.actuator.kernel_arguments()
+        time_constant = self.vehicle.motor_time_constant if scenario.motor_lag else 0.0
+        self._actuator = (self.actuator.to_wrench, self.actuator.to_rotors, float(time_constant),
+                          self.actuator_state)
         limits_ = self.limits
         floor = scenario.floor_height
         self._limits = (float(limits_.max_position_error), float(np.cos(limits_.max_tilt)),
@@ -252,7 +291,7 @@ class QuadrotorBatch:
         self.random_disturbance = None if not random else (
             random[0] if len(random) == 1 else Sum(random))
         if self.random_disturbance is not None:
-            self.random_disturbance.bind(self.n)
+            self.random_disturbance.bind(self.n, self.scenario.dt)
 
     def _tabulate(self, rows: int) -> None:
         """Reference and time-only disturbances on the grid ``t = step * dt``, ``rows`` steps."""
@@ -262,13 +301,11 @@ class QuadrotorBatch:
         self._reference_table = np.ascontiguousarray(
             np.stack([getattr(ref, name) for name in _REFERENCE_FIELDS], axis=1))
         grid = times[:, None] + self._sample_offsets
-        force = np.zeros((*grid.shape, 3))
-        torque = np.zeros((*grid.shape, 3))
+        channels = [np.zeros((*grid.shape, 3)) for _ in range(3)]  # force, torque, wind
         for part in self._timed_parts:
-            part_force, part_torque = part.evaluate(grid)
-            force += part_force
-            torque += part_torque
-        self._force_table, self._torque_table = force, torque
+            for total, channel in zip(channels, part.evaluate(grid), strict=True):
+                total += channel
+        self._tables = tuple(channels)
 
     def _action_scales(self) -> None:
         """Piecewise-linear maps with action 0 at hover: [-1, 0, 1] -> [0, hover, max]."""
@@ -283,6 +320,8 @@ class QuadrotorBatch:
             self._centre = np.full(4, per_rotor)
             self._scale_up = np.full(4, v.max_rotor_thrust - per_rotor)
             self._scale_down = np.full(4, per_rotor)
+        self._action_map = (self.action_mode == "rotor_thrusts", self._centre, self._scale_up,
+                            self._scale_down, v.allocation_matrix)
 
     def action_from_command(self, thrust: NDArray, moment: NDArray) -> NDArray[np.float64]:
         """The normalised actions (N, 4) that command ``thrust`` and ``moment``: the inverse
@@ -338,6 +377,7 @@ class QuadrotorBatch:
         for array in (*self.applied, self.disturbance_force, self.disturbance_torque,
                       self.rewards):
             array[indices] = 0
+        self.actuator_state[indices] = self.actuator.hover_output()
         s = self.state
         _sense_kernel(indices, s.position, s.velocity, s.rotation, s.angular_velocity,
                       self.step_count, self._reference_table, self._rotation_mode, self._limits,
@@ -355,20 +395,20 @@ class QuadrotorBatch:
         if self.step_count.max() + 1 >= rows:  # flown past the scenario's end: extend
             self._tabulate(2 * rows)
         if self.random_disturbance is not None:
-            times = self.time[:, None] + self._sample_offsets
-            force, torque = self.random_disturbance.evaluate(times)
-            self._force_own[...] = force
-            self._torque_own[...] = torque
+            for own in self._own:
+                own.fill(0.0)
+            self.random_disturbance.add_to(self.time[:, None] + self._sample_offsets,
+                                           *self._own)
         kernel = _step_parallel if self.n >= PARALLEL_MIN_BATCH else _step_serial
         s, sc = self.state, self.scenario
-        kernel(actions, self.action_mode == "rotor_thrusts", self._centre, self._scale_up,
-               self._scale_down, *self._actuation, s.position, s.velocity,
-               s.rotation, s.angular_velocity, self.step_count, self._force_table,
-               self._torque_table, self._force_own, self._torque_own, self._reference_table,
-               self.vehicle.mass, self.vehicle.gravity, self.vehicle.inertia_matrix,
-               self.vehicle.inertia_inverse, sc.dt, sc.substeps, self._law, self._limits,
-               self._reward, self._rotation_mode, self.obs, self.rewards, self.termination_code,
-               *self.applied, self.disturbance_force, self.disturbance_torque)
+        kernel(actions, self._action_map, self._actuation, self._actuator, s.position,
+               s.velocity, s.rotation, s.angular_velocity, self.step_count, self._tables,
+               self._own, self._reference_table,
+               (self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse, self.drag),
+               sc.dt, sc.substeps, self._law, self._limits, self._reward, self._rotation_mode,
+               self.obs, self.rewards, self.termination_code, self.applied.thrust,
+               self.applied.moment, self.applied.rotor_thrusts, self.applied.saturated,
+               self.disturbance_force, self.disturbance_torque)
 
     @property
     def terminated(self) -> NDArray[np.bool_]:
