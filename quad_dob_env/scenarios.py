@@ -38,6 +38,54 @@ TORQUE_READINGS: dict[str, float] = {"0.6*dx": 0.6, "dx/0.6": 1 / 0.6}
 
 
 @dataclass(frozen=True)
+class SensorNoise:
+    """What the agent observes, optional: Gaussian noise with these standard deviations on
+    the position (m), velocity (m/s), attitude (rad, a random rotation of that size per
+    axis) and body rates (rad/s) in the observation, which arrives ``delay_steps`` control
+    steps late. Reward, termination and ``info`` use the true state."""
+
+    position_std: float = 0.0
+    velocity_std: float = 0.0
+    attitude_std: float = 0.0
+    rate_std: float = 0.0
+    delay_steps: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("position_std", "velocity_std", "attitude_std", "rate_std"):
+            as_finite(getattr(self, name), f"SensorNoise.{name}", 0.0)
+        if not isinstance(self.delay_steps, (int, np.integer)) or self.delay_steps < 0:
+            raise ValueError(f"SensorNoise.delay_steps must be an integer >= 0, got "
+                             f"{self.delay_steps!r}")
+
+    @property
+    def is_noisy(self) -> bool:
+        return any((self.position_std, self.velocity_std, self.attitude_std, self.rate_std))
+
+
+@dataclass(frozen=True)
+class Randomization:
+    """Domain randomisation, optional: at each reset every vehicle's mass, inertia and drag
+    coefficients are the vehicle's times a factor drawn uniformly from these (low, high)
+    ranges (wind intensity and direction: ``Dryden(intensity_scale=..., direction=None)``).
+    The draws are in the reset ``info["sampled"]``."""
+
+    mass: tuple[float, float] = (1.0, 1.0)
+    inertia: tuple[float, float] = (1.0, 1.0)
+    drag: tuple[float, float] = (1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        for name in ("mass", "inertia", "drag"):
+            value = getattr(self, name)
+            if np.shape(value) != (2,):
+                raise ValueError(f"Randomization.{name} must be a (low, high) pair, got {value!r}")
+            low, high = (as_finite(v, f"Randomization.{name}", 0.0, strictly=True)
+                         for v in value)
+            if high < low:
+                raise ValueError(f"Randomization.{name} needs low <= high, got {value!r}")
+            object.__setattr__(self, name, (low, high))
+
+
+@dataclass(frozen=True)
 class Scenario:
     """Everything but the policy: what the vehicle must track, what disturbs it, for how long.
 
@@ -65,6 +113,8 @@ class Scenario:
     actuation: str = "rotors"
     drag: bool = False  # the vehicle's drag acts on the air-relative velocity (needed for wind)
     motor_lag: bool = False  # actuators follow commands with the vehicle's motor time constant
+    sensors: SensorNoise | None = None
+    randomization: Randomization | None = None
     description: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
@@ -85,6 +135,17 @@ class Scenario:
             self.ground_effect.law(self.vehicle, self.floor_height)  # validates its heights
         if self.floor_height is not None:
             as_finite(self.floor_height, "Scenario.floor_height")
+        for name, kind in (("sensors", SensorNoise), ("randomization", Randomization)):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, kind):
+                if not isinstance(value, dict):
+                    raise ValueError(f"Scenario.{name} must be a {kind.__name__}, a dict of its "
+                                     f"fields or None, got {value!r}")
+                fields_ = [f.name for f in dataclasses.fields(kind)]
+                for key in value:
+                    if key not in fields_:
+                        raise unknown_name_error(f"{kind.__name__} field", key, fields_)
+                object.__setattr__(self, name, kind(**value))
         dt = as_finite(self.dt, "Scenario.dt", 0.0, strictly=True)
         duration = as_finite(self.duration, "Scenario.duration", dt)
         if not isinstance(self.substeps, (int, np.integer)) or self.substeps < 1:

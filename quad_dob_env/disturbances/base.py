@@ -38,6 +38,10 @@ class Disturbance:
         Random models are evaluated once per control step, in order, at that step's grid."""
         raise NotImplementedError
 
+    def sampled_parameters(self, index: int) -> dict[str, float]:
+        """What ``resample`` drew for vehicle ``index`` (reported in the env's reset info)."""
+        return {}
+
     def add_to(self, times: NDArray[np.float64], force: NDArray, torque: NDArray,
                wind: NDArray) -> None:
         """Add this model's channels at ``times`` into the (N, K, 3) arrays, in place. The env
@@ -81,6 +85,12 @@ class Sum(Disturbance):
                wind: NDArray) -> None:
         for part in self.parts:
             part.add_to(times, force, torque, wind)
+
+    def sampled_parameters(self, index: int) -> dict[str, float]:
+        sampled: dict[str, float] = {}
+        for part in self.parts:
+            sampled.update(part.sampled_parameters(index))
+        return sampled
 
     def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         channels = [channel.copy() for channel in self.parts[0].evaluate(times)]

@@ -91,6 +91,9 @@ class Window(Disturbance):
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         self.inner.resample(indices, rngs)
 
+    def sampled_parameters(self, index: int) -> dict[str, float]:
+        return self.inner.sampled_parameters(index)
+
     def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         active = ((times >= self.start) & (times < self.end))[..., None]
         return tuple(channel * active for channel in self.inner.evaluate(times))
@@ -133,6 +136,9 @@ class Impulse(Disturbance):
         if self.is_random:
             for index, rng in zip(indices, rngs, strict=True):
                 self.starts[index] = rng.uniform(low, high)
+
+    def sampled_parameters(self, index: int) -> dict[str, float]:
+        return {"impulse_start": float(self.starts[index])} if self.is_random else {}
 
     def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         start = self.starts[:, None] if self.is_random else self.start_range[0]

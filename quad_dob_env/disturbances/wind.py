@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from quad_dob_env.disturbances.base import Disturbance
 from quad_dob_env.disturbances.forces import ZERO, _Profile
 from quad_dob_env.linalg import discretize_noise, stationary_covariance
+from quad_dob_env.rng import gaussian_pair
 from quad_dob_env.validation import as_finite, as_vector3, unknown_name_error
 
 KNOT = 0.514444  # m/s
@@ -50,35 +51,16 @@ class Gust(_Profile):
         return np.where(fall_tau > 0, fall, rise)
 
 
-@njit(cache=True, inline="always")
-def _splitmix64(x):
-    x = x + np.uint64(0x9E3779B97F4A7C15)
-    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return x ^ (x >> np.uint64(31))
-
-
-@njit(cache=True, inline="always")
-def _gaussian_pair(key, counter):
-    """Two independent standard normals from a vehicle's key and a counter (Box–Muller)."""
-    a = _splitmix64(key ^ _splitmix64(np.uint64(counter)))
-    b = _splitmix64(a)
-    u1 = (float(a >> np.uint64(11)) + 1.0) * 2.0**-53  # (0, 1]
-    u2 = float(b >> np.uint64(11)) * 2.0**-53
-    radius = math.sqrt(-2.0 * math.log(u1))
-    return radius * math.cos(2.0 * math.pi * u2), radius * math.sin(2.0 * math.pi * u2)
-
-
 @njit(cache=True)
 def _dryden_step(state, keys, counters, transitions, noise_factors, outputs, headings,
-                 mean_speed, wind):
+                 scales, mean_speed, wind):
     """Add each vehicle's wind now (mean + turbulence, rotated to its heading) to every
     sample of ``wind`` (N, K, 3), then advance its filters one step."""
     turbulence = [0.0, 0.0, 0.0]
     for i in range(state.shape[0]):
         g = [0.0] * 6
         for j in range(3):
-            g[2 * j], g[2 * j + 1] = _gaussian_pair(keys[i], 3 * counters[i] + j)
+            g[2 * j], g[2 * j + 1] = gaussian_pair(keys[i], 3 * counters[i] + j)
         counters[i] += 1
         for axis in range(3):
             x0, x1 = state[i, axis, 0], state[i, axis, 1]
@@ -87,14 +69,16 @@ def _dryden_step(state, keys, counters, transitions, noise_factors, outputs, hea
             n0, n1 = g[2 * axis], g[2 * axis + 1]
             state[i, axis, 0] = t[0, 0] * x0 + t[0, 1] * x1 + q[0, 0] * n0 + q[0, 1] * n1
             state[i, axis, 1] = t[1, 0] * x0 + t[1, 1] * x1 + q[1, 0] * n0 + q[1, 1] * n1
-        along = turbulence[0] + mean_speed
+        scale = scales[i]
+        along = scale * (turbulence[0] + mean_speed)
+        across = scale * turbulence[1]
         cos, sin = math.cos(headings[i]), math.sin(headings[i])
-        east = along * cos - turbulence[1] * sin
-        north = along * sin + turbulence[1] * cos
+        east = along * cos - across * sin
+        north = along * sin + across * cos
         for k in range(wind.shape[1]):
             wind[i, k, 0] += east
             wind[i, k, 1] += north
-            wind[i, k, 2] += turbulence[2]
+            wind[i, k, 2] += scale * turbulence[2]
 
 
 class Dryden(Disturbance):
@@ -108,7 +92,8 @@ class Dryden(Disturbance):
     altitude, ``W20 ln(h/0.15)/ln(20/0.15)`` (floored at 1 m/s), which carries the frozen
     turbulence past the vehicle. ``wind_speed_6m`` is W20, or named by ``intensity``.
     u blows along ``direction`` (radians from +x, or None: uniform per vehicle at reset),
-    v across it, w up.
+    v across it, w up. ``intensity_scale`` (low, high), for domain randomisation, scales
+    each vehicle's mean wind and turbulence by a factor drawn uniformly at reset.
 
     Discretisation: each filter is sampled exactly every control step (Van Loan), with the
     output scaled so its variance is exactly σ², and started from its stationary
@@ -121,7 +106,8 @@ class Dryden(Disturbance):
 
     def __init__(self, intensity: str = "moderate", wind_speed_6m: float | None = None,
                  altitude: float = 2.0, direction: float | None = 0.0,
-                 mean_wind: bool = True) -> None:
+                 mean_wind: bool = True,
+                 intensity_scale: tuple[float, float] | None = None) -> None:
         if wind_speed_6m is None:
             if intensity not in DRYDEN_INTENSITIES:
                 raise unknown_name_error("Dryden intensity", intensity, DRYDEN_INTENSITIES)
@@ -130,6 +116,13 @@ class Dryden(Disturbance):
         self.altitude = as_finite(altitude, "Dryden.altitude", 0.0, strictly=True)
         self.direction = None if direction is None else as_finite(direction, "Dryden.direction")
         self.mean_wind = bool(mean_wind)
+        self.intensity_scale = None
+        if intensity_scale is not None:
+            low, high = (as_finite(v, "Dryden.intensity_scale", 0.0) for v in intensity_scale)
+            if high < low:
+                raise ValueError(f"Dryden.intensity_scale needs low <= high, got "
+                                 f"{intensity_scale!r}")
+            self.intensity_scale = (low, high)
         h = max(self.altitude / FOOT, 10.0)
         scale = 0.177 + 0.000823 * h
         sigma_w = 0.1 * self.w20
@@ -169,6 +162,7 @@ class Dryden(Disturbance):
         self._keys = np.zeros(num_vehicles, dtype=np.uint64)
         self._counters = np.zeros(num_vehicles, dtype=np.int64)
         self._headings = np.full(num_vehicles, self.direction or 0.0)
+        self._scales = np.ones(num_vehicles)
 
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         for index, rng in zip(indices, rngs, strict=True):
@@ -178,11 +172,17 @@ class Dryden(Disturbance):
             self._counters[index] = 0
             if self.direction is None:
                 self._headings[index] = rng.uniform(0.0, 2 * math.pi)
+            if self.intensity_scale is not None:
+                self._scales[index] = rng.uniform(*self.intensity_scale)
+
+    def sampled_parameters(self, index: int) -> dict[str, float]:
+        return {"wind_direction": float(self._headings[index]),
+                "wind_intensity_scale": float(self._scales[index])}
 
     def add_to(self, times: NDArray[np.float64], force: NDArray, torque: NDArray,
                wind: NDArray) -> None:
         _dryden_step(self._state, self._keys, self._counters, self._transitions,
-                     self._noise_factors, self._outputs, self._headings,
+                     self._noise_factors, self._outputs, self._headings, self._scales,
                      self.mean_speed if self.mean_wind else 0.0, wind)
 
     def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:

@@ -16,7 +16,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, fields
 
 import numpy as np
-from numba import njit, prange
 from numpy.typing import NDArray
 
 from quad_dob_env.disturbances import Disturbance, Sum
@@ -26,23 +25,16 @@ from quad_dob_env.dynamics import (
     Actuator,
     AppliedCommand,
     VehicleState,
-    actuate_vehicle,
-    actuator_wrench,
-    advance_vehicle,
-    all_finite,
-    body_drag,
-    lag_factor,
-    load_vehicle,
     physics_arrays,
-    sample,
-    store_applied,
-    store_vehicle,
-    thrust_multiplier_scalar,
-    vehicle_physics,
+)
+from quad_dob_env.envs.kernels import (
+    sense_kernel,
+    sensor_kernel,
+    step_parallel,
+    step_serial,
 )
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.so3 import exp as so3_exp
-from quad_dob_env.so3 import mat_vec_tuple
 from quad_dob_env.trajectories import Reference
 from quad_dob_env.validation import as_finite, unknown_name_error
 
@@ -51,8 +43,6 @@ ROTATION_REPRESENTATIONS = {"matrix": 9, "6d": 6}
 # Index 0 means "still flying"; the rest are info["termination_reason"] values.
 TERMINATION_REASONS = ("", "crashed", "out_of_bounds", "attitude_lost", "non_finite_state")
 TIME_LIMIT = "time_limit"
-# Observations are clamped to float32's range, so a huge but finite state never becomes inf.
-OBSERVATION_BOUND = float(np.finfo(np.float32).max)
 _REFERENCE_FIELDS = [f.name for f in fields(Reference)]
 
 
@@ -82,144 +72,6 @@ class RewardWeights:
     def __post_init__(self) -> None:
         as_finite(self.position_scale, "reward position_scale", 0.0, strictly=True)
         as_finite(self.effort_weight, "reward effort_weight", 0.0)
-
-
-# --- compiled per-vehicle pieces ---------------------------------------------------------
-
-@njit(cache=True, inline="always")
-def _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation):
-    """Normalised action -> commanded thrust and moment; 0 maps to hover."""
-    s = [0.0, 0.0, 0.0, 0.0]
-    for k in range(4):
-        a = min(max(actions[i, k], -1.0), 1.0)  # out-of-range actions are clipped
-        s[k] = centre[k] + a * (scale_up[k] if a >= 0.0 else scale_down[k])
-    if rotor_mode:
-        f = s[0] + s[1] + s[2] + s[3]
-        m = [0.0, 0.0, 0.0]
-        for row in range(3):
-            for k in range(4):
-                m[row] += allocation[row + 1, k] * s[k]
-        return f, (m[0], m[1], m[2])
-    return s[0], (s[1], s[2], s[3])
-
-
-@njit(cache=True, inline="always")
-def _bounded(value):
-    return min(max(value, -OBSERVATION_BOUND), OBSERVATION_BOUND)
-
-
-@njit(cache=True)
-def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
-    """Write vehicle i's observation; return its termination code and position error."""
-    max_error, cos_max_tilt, max_rate, has_floor, floor = limits
-    error_sq = 0.0
-    for k in range(3):
-        e_x = x[k] - reference[row, 0, k]
-        error_sq += e_x * e_x
-        obs[i, k] = _bounded(e_x)
-        obs[i, 3 + k] = _bounded(v[k] - reference[row, 1, k])
-    if rotation_mode == 0:  # R row-major
-        for k in range(9):
-            obs[i, 6 + k] = R[k]
-        j = 15
-    else:  # R's first two columns, one after the other
-        for c in range(2):
-            for r in range(3):
-                obs[i, 6 + 3 * c + r] = R[3 * r + c]
-        j = 12
-    for k in range(3):
-        obs[i, j + k] = _bounded(w[k])
-        obs[i, j + 3 + k] = reference[row, 2, k]  # desired acceleration
-        obs[i, j + 6 + k] = reference[row, 5, k]  # desired heading b1d
-    error = np.sqrt(error_sq)
-    code = 0
-    if error > max_error:
-        code = 2
-    if R[8] < cos_max_tilt or max(abs(w[0]), abs(w[1]), abs(w[2])) > max_rate:
-        code = 3
-    if has_floor and x[2] < floor:
-        code = 1
-    return code, error
-
-
-def _step_kernel(actions, action_map, actuation, actuator, position, velocity, rotation,
-                 angular_velocity, step_count, tables, own, reference, physics, dt, substeps,
-                 law, limits, reward_weights, rotation_mode, obs, reward, code, applied_thrust,
-                 applied_moment, rotor_thrusts, saturated, disturbance_force,
-                 disturbance_torque):
-    rotor_mode, centre, scale_up, scale_down, allocation = action_map
-    to_wrench, to_rotors, time_constant, actuator_state = actuator
-    mass, gravity, inertia, inertia_inverse, drag = physics
-    force_table, torque_table, wind_table = tables
-    force_own, torque_own, wind_own = own
-    position_scale, effort_weight = reward_weights
-    last = force_table.shape[1] - 1
-    # share of the old actuator output in the step's mean, and left at its end
-    if time_constant > 0.0:
-        mean_factor = time_constant / dt * (1.0 - np.exp(-dt / time_constant))
-    else:
-        mean_factor = 0.0
-    end_factor = lag_factor(dt, time_constant)
-    for i in prange(actions.shape[0]):
-        f_cmd, m_cmd = _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation)
-        command, saturated[i] = actuate_vehicle(f_cmd, m_cmd, *actuation)
-        start = (actuator_state[i, 0], actuator_state[i, 1], actuator_state[i, 2],
-                 actuator_state[i, 3])
-        mean = _blend(start, command, mean_factor)
-        store_applied(i, mean, to_wrench, to_rotors, applied_thrust, applied_moment,
-                      rotor_thrusts)
-        end = _blend(start, command, end_factor)
-        for k in range(4):
-            actuator_state[i, k] = end[k]
-        row = step_count[i]
-        vehicle = vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag)
-        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        xn, vn, Rn, wn = advance_vehicle(x, v, R, w, start, command, time_constant, to_wrench,
-                                         tables, row, own, i, vehicle, dt, substeps, law)
-        diverged = not all_finite(xn, vn, Rn, wn)
-        if not diverged:
-            x, v, R, w = xn, vn, Rn, wn
-            store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
-        step_count[i] = row + 1
-        code[i], error = _sense(i, x, v, R, w, reference, row + 1, rotation_mode, limits, obs)
-        if diverged:
-            code[i] = 4
-        effort = 0.0
-        for k in range(4):
-            effort += min(actions[i, k] * actions[i, k], 1.0)
-        reward[i] = np.exp(-error / position_scale) - effort_weight * effort / 4.0
-        # the true disturbance now: external force and torque, the ground effect's extra
-        # lift and the aerodynamic drag
-        thrust_now = actuator_wrench(end, end, 0.0, to_wrench)[0]
-        extra_lift = (thrust_multiplier_scalar(x[2], law) - 1.0) * thrust_now
-        wind = sample(wind_table, row, wind_own, i, last)
-        drag_body = body_drag(v, R, wind, vehicle[4], vehicle[5])
-        drag_world = mat_vec_tuple(R, (drag_body[0], drag_body[1], drag_body[2] + extra_lift))
-        external = sample(force_table, row, force_own, i, last)
-        torque = sample(torque_table, row, torque_own, i, last)
-        for k in range(3):
-            disturbance_force[i, k] = external[k] + drag_world[k]
-            disturbance_torque[i, k] = torque[k]
-
-
-@njit(cache=True, inline="always")
-def _blend(start, command, factor):
-    return (command[0] + (start[0] - command[0]) * factor,
-            command[1] + (start[1] - command[1]) * factor,
-            command[2] + (start[2] - command[2]) * factor,
-            command[3] + (start[3] - command[3]) * factor)
-
-
-_step_serial = njit(cache=True)(_step_kernel)
-_step_parallel = njit(cache=True, parallel=True)(_step_kernel)
-
-
-@njit(cache=True)
-def _sense_kernel(indices, position, velocity, rotation, angular_velocity, step_count,
-                  reference, rotation_mode, limits, obs, code):
-    for i in indices:
-        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        code[i], _ = _sense(i, x, v, R, w, reference, step_count[i], rotation_mode, limits, obs)
 
 
 # --- the core ----------------------------------------------------------------------------
@@ -264,8 +116,11 @@ class QuadrotorBatch:
         self.disturbance_torque = np.zeros((n, 3))
         self._own = tuple(np.zeros((n, samples, 3)) for _ in range(3))  # force, torque, wind
         # per-vehicle physics (mass, inertia, inverse, drag), so vehicles can differ
+        self._nominal = physics_arrays(self.vehicle, 1, scenario.drag)
         self.mass, self.inertia, self.inertia_inverse, self.drag = physics_arrays(
             self.vehicle, n, scenario.drag)
+        self.sampled: list[dict[str, float]] = [{} for _ in range(n)]
+        self._setup_sensors(scenario.sensors)
         self.actuator_state = np.zeros((n, 4))
         self._action_scales()
         self._actuation = self.actuator.kernel_arguments()
@@ -280,6 +135,41 @@ class QuadrotorBatch:
         self._reward = (float(self.reward_weights.position_scale),
                         float(self.reward_weights.effort_weight))
         self._rotation_mode = 0 if rotation_representation == "matrix" else 1
+
+    def _setup_sensors(self, sensors) -> None:
+        """Without sensor noise or delay the kernel writes the observation itself; with them
+        it writes the clean one here, and the sensor stage makes what the agent sees."""
+        n = self.n
+        self.sensors = sensors
+        self._all = np.arange(n)
+        self._clean_obs = self.obs if sensors is None else np.zeros_like(self.obs)
+        if sensors is None:
+            return
+        self._sensor_stds = (float(sensors.position_std), float(sensors.velocity_std),
+                             float(sensors.attitude_std), float(sensors.rate_std))
+        self._sensor_keys = np.zeros(n, dtype=np.uint64)
+        self._sensor_counters = np.zeros(n, dtype=np.int64)
+        self._history = np.zeros((sensors.delay_steps + 1, n, self.observation_size),
+                                 dtype=np.float32)
+        self._history_slot = 0
+
+    def _measure(self, indices: NDArray[np.intp], reset: bool) -> None:
+        """Apply the sensor model to vehicles ``indices`` (all of them after a step)."""
+        if self.sensors is None:
+            return
+        history, slot = self._history, self._history_slot
+        if reset:
+            sensor_kernel(indices, self._clean_obs, self.state.rotation, self._sensor_keys,
+                           self._sensor_counters, self._sensor_stds, self._rotation_mode,
+                           history[slot])
+            history[:, indices] = history[slot, indices]  # no older readings yet
+        else:
+            slot = self._history_slot = (slot + 1) % len(history)
+            sensor_kernel(indices, self._clean_obs, self.state.rotation, self._sensor_keys,
+                           self._sensor_counters, self._sensor_stds, self._rotation_mode,
+                           history[slot])
+        # the reading taken delay_steps ago, the oldest in the ring
+        self.obs[indices] = history[(slot + 1) % len(history), indices]
 
     def _split_disturbance(self, disturbance: Disturbance | None) -> None:
         """Tabulate what depends on time alone; keep random parts to evaluate each step."""
@@ -361,27 +251,49 @@ class QuadrotorBatch:
         count = len(indices)
         position_offset = np.zeros((count, 3))
         attitude_offset = np.zeros((count, 3))
+        scales = np.ones((count, 3))  # mass, inertia, drag
         for j, rng in enumerate(rngs):
-            # fixed draw order per vehicle: position, then attitude, then the disturbance
+            # fixed draw order per vehicle: position, attitude, randomisation, sensor key,
+            # then the disturbance
             position_offset[j] = rng.uniform(-1.0, 1.0, 3) * sc.initial_position_noise
             attitude_offset[j] = rng.uniform(-1.0, 1.0, 3) * sc.initial_attitude_noise
+            if sc.randomization is not None:
+                r = sc.randomization
+                scales[j] = [rng.uniform(*r.mass), rng.uniform(*r.inertia), rng.uniform(*r.drag)]
+            if self.sensors is not None:
+                self._sensor_keys[indices[j]] = rng.integers(0, 2**63, dtype=np.uint64)
+                self._sensor_counters[indices[j]] = 0
         self.state.assign(VehicleState(
             position=np.asarray(sc.initial_position) + position_offset,
             velocity=np.broadcast_to(np.asarray(sc.initial_velocity), (count, 3)),
             rotation=sc.initial_rotation_matrix() @ so3_exp(attitude_offset),
             angular_velocity=np.broadcast_to(np.asarray(sc.initial_angular_velocity), (count, 3)),
         ), indices)
+        mass, inertia, inertia_inverse, drag = self._nominal
+        self.mass[indices] = mass[0] * scales[:, 0]
+        self.inertia[indices] = inertia[0] * scales[:, 1, None, None]
+        self.inertia_inverse[indices] = inertia_inverse[0] / scales[:, 1, None, None]
+        self.drag[indices] = drag[0] * scales[:, 2, None]
         if self.random_disturbance is not None:
             self.random_disturbance.resample(indices, rngs)
+        for j, index in enumerate(indices):
+            self.sampled[index] = {
+                **({} if sc.randomization is None else {
+                    "mass": float(self.mass[index]), "inertia_scale": float(scales[j, 1]),
+                    "drag_scale": float(scales[j, 2])}),
+                **({} if self.random_disturbance is None
+                   else self.random_disturbance.sampled_parameters(index)),
+            }
         self.step_count[indices] = 0
         for array in (*self.applied, self.disturbance_force, self.disturbance_torque,
                       self.rewards):
             array[indices] = 0
         self.actuator_state[indices] = self.actuator.hover_output()
         s = self.state
-        _sense_kernel(indices, s.position, s.velocity, s.rotation, s.angular_velocity,
+        sense_kernel(indices, s.position, s.velocity, s.rotation, s.angular_velocity,
                       self.step_count, self._reference_table, self._rotation_mode, self._limits,
-                      self.obs, self.termination_code)
+                      self._clean_obs, self.termination_code)
+        self._measure(indices, reset=True)
 
     # --- step -----------------------------------------------------------------------------
     def step(self, actions: NDArray[np.float64]) -> None:
@@ -399,16 +311,17 @@ class QuadrotorBatch:
                 own.fill(0.0)
             self.random_disturbance.add_to(self.time[:, None] + self._sample_offsets,
                                            *self._own)
-        kernel = _step_parallel if self.n >= PARALLEL_MIN_BATCH else _step_serial
+        kernel = step_parallel if self.n >= PARALLEL_MIN_BATCH else step_serial
         s, sc = self.state, self.scenario
         kernel(actions, self._action_map, self._actuation, self._actuator, s.position,
                s.velocity, s.rotation, s.angular_velocity, self.step_count, self._tables,
                self._own, self._reference_table,
                (self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse, self.drag),
                sc.dt, sc.substeps, self._law, self._limits, self._reward, self._rotation_mode,
-               self.obs, self.rewards, self.termination_code, self.applied.thrust,
+               self._clean_obs, self.rewards, self.termination_code, self.applied.thrust,
                self.applied.moment, self.applied.rotor_thrusts, self.applied.saturated,
                self.disturbance_force, self.disturbance_torque)
+        self._measure(self._all, reset=False)
 
     @property
     def terminated(self) -> NDArray[np.bool_]:

@@ -8,12 +8,8 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.envs.core import (
-    OBSERVATION_BOUND,
-    EpisodeLimits,
-    QuadrotorBatch,
-    RewardWeights,
-)
+from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
+from quad_dob_env.envs.kernels import OBSERVATION_BOUND
 from quad_dob_env.scenarios import Scenario, make_scenario
 
 
@@ -80,7 +76,15 @@ class QuadrotorEnv(gym.Env):
     ``reference_position``, ``reference_velocity``, ``reference_acceleration``,
     ``reference_heading``; the true ``disturbance_force`` (world, N; ground effect
     included) and ``disturbance_torque`` (body, N m); what the rotors actually produced:
-    ``applied_thrust``, ``applied_moment``, ``rotor_thrusts``, ``actuator_saturated``.
+    ``applied_thrust``, ``applied_moment``, ``rotor_thrusts``, ``actuator_saturated`` (with
+    motor lag: the mean over the step). ``reset`` adds ``sampled``: what domain
+    randomisation and random disturbances drew for this episode (mass, inertia and drag
+    scales, wind direction and intensity, impulse start).
+
+    ## Sensors
+    With ``Scenario.sensors`` (``SensorNoise``), the observation carries Gaussian noise on
+    position, velocity, attitude and rates and arrives ``delay_steps`` steps late; reward,
+    termination and ``info`` use the true state.
 
     ## Arguments
     ``scenario`` (name or ``Scenario``), ``scenario_options`` (dict for ``make_scenario``),
@@ -116,7 +120,9 @@ class QuadrotorEnv(gym.Env):
               options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:
         super().reset(seed=seed)
         self.core.reset(np.zeros(1, dtype=np.intp), [self.np_random])
-        return self.core.obs[0].copy(), self._info()
+        info = self._info()
+        info["sampled"] = dict(self.core.sampled[0])
+        return self.core.obs[0].copy(), info
 
     def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
         core = self.core

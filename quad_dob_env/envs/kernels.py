@@ -1,0 +1,194 @@
+"""The environments' compiled per-vehicle step: command, actuation, integration, sensing.
+
+``QuadrotorBatch`` calls these once per step for the whole batch; they are written once
+and compiled serial (small batches) and threaded (large ones).
+"""
+
+import numpy as np
+from numba import njit, prange
+
+from quad_dob_env.dynamics import (
+    actuate_vehicle,
+    actuator_wrench,
+    advance_vehicle,
+    all_finite,
+    body_drag,
+    lag_factor,
+    load_vehicle,
+    matrix_tuple,
+    sample,
+    store_applied,
+    store_vehicle,
+    thrust_multiplier_scalar,
+    vehicle_physics,
+)
+from quad_dob_env.rng import gaussian_pair
+from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, mat_vec_tuple
+
+# Observations are clamped to float32's range, so a huge but finite state never becomes inf.
+OBSERVATION_BOUND = float(np.finfo(np.float32).max)
+
+
+@njit(cache=True, inline="always")
+def _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation):
+    """Normalised action -> commanded thrust and moment; 0 maps to hover."""
+    s = [0.0, 0.0, 0.0, 0.0]
+    for k in range(4):
+        a = min(max(actions[i, k], -1.0), 1.0)  # out-of-range actions are clipped
+        s[k] = centre[k] + a * (scale_up[k] if a >= 0.0 else scale_down[k])
+    if rotor_mode:
+        f = s[0] + s[1] + s[2] + s[3]
+        m = [0.0, 0.0, 0.0]
+        for row in range(3):
+            for k in range(4):
+                m[row] += allocation[row + 1, k] * s[k]
+        return f, (m[0], m[1], m[2])
+    return s[0], (s[1], s[2], s[3])
+
+
+@njit(cache=True, inline="always")
+def _bounded(value):
+    return min(max(value, -OBSERVATION_BOUND), OBSERVATION_BOUND)
+
+
+@njit(cache=True)
+def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
+    """Write vehicle i's observation; return its termination code and position error."""
+    max_error, cos_max_tilt, max_rate, has_floor, floor = limits
+    error_sq = 0.0
+    for k in range(3):
+        e_x = x[k] - reference[row, 0, k]
+        error_sq += e_x * e_x
+        obs[i, k] = _bounded(e_x)
+        obs[i, 3 + k] = _bounded(v[k] - reference[row, 1, k])
+    if rotation_mode == 0:  # R row-major
+        for k in range(9):
+            obs[i, 6 + k] = R[k]
+        j = 15
+    else:  # R's first two columns, one after the other
+        for c in range(2):
+            for r in range(3):
+                obs[i, 6 + 3 * c + r] = R[3 * r + c]
+        j = 12
+    for k in range(3):
+        obs[i, j + k] = _bounded(w[k])
+        obs[i, j + 3 + k] = reference[row, 2, k]  # desired acceleration
+        obs[i, j + 6 + k] = reference[row, 5, k]  # desired heading b1d
+    error = np.sqrt(error_sq)
+    code = 0
+    if error > max_error:
+        code = 2
+    if R[8] < cos_max_tilt or max(abs(w[0]), abs(w[1]), abs(w[2])) > max_rate:
+        code = 3
+    if has_floor and x[2] < floor:
+        code = 1
+    return code, error
+
+
+def step_kernel(actions, action_map, actuation, actuator, position, velocity, rotation,
+                 angular_velocity, step_count, tables, own, reference, physics, dt, substeps,
+                 law, limits, reward_weights, rotation_mode, obs, reward, code, applied_thrust,
+                 applied_moment, rotor_thrusts, saturated, disturbance_force,
+                 disturbance_torque):
+    rotor_mode, centre, scale_up, scale_down, allocation = action_map
+    to_wrench, to_rotors, time_constant, actuator_state = actuator
+    mass, gravity, inertia, inertia_inverse, drag = physics
+    force_table, torque_table, wind_table = tables
+    force_own, torque_own, wind_own = own
+    position_scale, effort_weight = reward_weights
+    last = force_table.shape[1] - 1
+    # share of the old actuator output in the step's mean, and left at its end
+    if time_constant > 0.0:
+        mean_factor = time_constant / dt * (1.0 - np.exp(-dt / time_constant))
+    else:
+        mean_factor = 0.0
+    end_factor = lag_factor(dt, time_constant)
+    for i in prange(actions.shape[0]):
+        f_cmd, m_cmd = _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation)
+        command, saturated[i] = actuate_vehicle(f_cmd, m_cmd, *actuation)
+        start = (actuator_state[i, 0], actuator_state[i, 1], actuator_state[i, 2],
+                 actuator_state[i, 3])
+        mean = _blend(start, command, mean_factor)
+        store_applied(i, mean, to_wrench, to_rotors, applied_thrust, applied_moment,
+                      rotor_thrusts)
+        end = _blend(start, command, end_factor)
+        for k in range(4):
+            actuator_state[i, k] = end[k]
+        row = step_count[i]
+        vehicle = vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag)
+        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
+        xn, vn, Rn, wn = advance_vehicle(x, v, R, w, start, command, time_constant, to_wrench,
+                                         tables, row, own, i, vehicle, dt, substeps, law)
+        diverged = not all_finite(xn, vn, Rn, wn)
+        if not diverged:
+            x, v, R, w = xn, vn, Rn, wn
+            store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
+        step_count[i] = row + 1
+        code[i], error = _sense(i, x, v, R, w, reference, row + 1, rotation_mode, limits, obs)
+        if diverged:
+            code[i] = 4
+        effort = 0.0
+        for k in range(4):
+            effort += min(actions[i, k] * actions[i, k], 1.0)
+        reward[i] = np.exp(-error / position_scale) - effort_weight * effort / 4.0
+        # the true disturbance now: external force and torque, the ground effect's extra
+        # lift and the aerodynamic drag
+        thrust_now = actuator_wrench(end, end, 0.0, to_wrench)[0]
+        extra_lift = (thrust_multiplier_scalar(x[2], law) - 1.0) * thrust_now
+        wind = sample(wind_table, row, wind_own, i, last)
+        drag_body = body_drag(v, R, wind, vehicle[4], vehicle[5])
+        drag_world = mat_vec_tuple(R, (drag_body[0], drag_body[1], drag_body[2] + extra_lift))
+        external = sample(force_table, row, force_own, i, last)
+        torque = sample(torque_table, row, torque_own, i, last)
+        for k in range(3):
+            disturbance_force[i, k] = external[k] + drag_world[k]
+            disturbance_torque[i, k] = torque[k]
+
+
+@njit(cache=True, inline="always")
+def _blend(start, command, factor):
+    return (command[0] + (start[0] - command[0]) * factor,
+            command[1] + (start[1] - command[1]) * factor,
+            command[2] + (start[2] - command[2]) * factor,
+            command[3] + (start[3] - command[3]) * factor)
+
+
+@njit(cache=True)
+def sensor_kernel(indices, clean, rotation, keys, counters, stds, rotation_mode, out):
+    """Noisy observations for vehicles ``indices``: ``clean`` plus Gaussian noise on the
+    position and velocity errors and body rates, and the rotation turned by a random
+    ``exp(hat(σ n))``; the noise of vehicle i is drawn from its key (counter-based)."""
+    position_std, velocity_std, attitude_std, rate_std = stds
+    rates = 15 if rotation_mode == 0 else 12
+    for i in indices:
+        g = [0.0] * 12
+        for j in range(6):
+            g[2 * j], g[2 * j + 1] = gaussian_pair(keys[i], 6 * counters[i] + j)
+        counters[i] += 1
+        for k in range(out.shape[1]):
+            out[i, k] = clean[i, k]
+        for k in range(3):
+            out[i, k] += position_std * g[k]
+            out[i, 3 + k] += velocity_std * g[3 + k]
+            out[i, rates + k] += rate_std * g[9 + k]
+        turned = mat_mul_tuple(matrix_tuple(rotation[i]), exp_tuple(
+            (attitude_std * g[6], attitude_std * g[7], attitude_std * g[8])))
+        if rotation_mode == 0:
+            for k in range(9):
+                out[i, 6 + k] = turned[k]
+        else:
+            for c in range(2):
+                for r in range(3):
+                    out[i, 6 + 3 * c + r] = turned[3 * r + c]
+
+
+step_serial = njit(cache=True)(step_kernel)
+step_parallel = njit(cache=True, parallel=True)(step_kernel)
+
+
+@njit(cache=True)
+def sense_kernel(indices, position, velocity, rotation, angular_velocity, step_count,
+                  reference, rotation_mode, limits, obs, code):
+    for i in indices:
+        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
+        code[i], _ = _sense(i, x, v, R, w, reference, step_count[i], rotation_mode, limits, obs)
