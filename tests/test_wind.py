@@ -152,11 +152,11 @@ def test_yaw_is_mixed_last_so_thrust_and_tilt_moments_survive():
 NEW_SCENARIOS = ["dryden-helix", "dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind"]
 
 
-@pytest.mark.parametrize("controller", ["geometric-ndob", "geometric-ndob:tuned"])
-def test_geometric_ndob_stays_bounded_in_every_new_scenario(controller):
-    for seed in (0, 1):
-        flights = fly(make_controller(controller), [make_scenario(n) for n in NEW_SCENARIOS],
-                      seed=seed)
-        for flight in flights:
+def test_geometric_ndob_stays_bounded_in_every_new_scenario():
+    # the tuned observer; with the paper's gains it loses 4 of 10 dryden-helix flights
+    # (benchmarks/wind_tracking.py), as does the plain geometric controller
+    scenarios = [make_scenario(n) for n in NEW_SCENARIOS]
+    for seed in range(4):
+        for flight in fly(make_controller("geometric-ndob:tuned"), scenarios, seed=seed):
             assert flight.termination_reason == "time_limit", (flight.scenario, seed)
-            assert flight_metrics(flight)["rms_position_settled"] < 1.0
+            assert flight_metrics(flight)["rms_position_settled"] < 0.5

@@ -25,6 +25,10 @@ class Disturbance:
     #: True when the model draws per-vehicle parameters; the env then evaluates it every
     #: step. Models that are a function of time alone are tabulated once per episode grid.
     is_random: bool = False
+    #: Whether ``evaluate`` reads its times, and which of (force, torque, wind) it writes:
+    #: the env skips the rest for random models each step.
+    uses_time: bool = True
+    channels: tuple[bool, bool, bool] = (True, True, True)
 
     def bind(self, num_vehicles: int, dt: float) -> None:
         """Prepare per-vehicle storage for a batch of this size stepped every ``dt`` s."""
@@ -45,7 +49,8 @@ class Disturbance:
     def add_to(self, times: NDArray[np.float64], force: NDArray, torque: NDArray,
                wind: NDArray) -> None:
         """Add this model's channels at ``times`` into the (N, K, 3) arrays, in place. The env
-        calls this for random models each step; override it to skip the temporaries."""
+        calls this for random models each step (``times`` is None for models that declare
+        ``uses_time = False``); override it to skip the temporaries."""
         for total, channel in zip((force, torque, wind), self.evaluate(times), strict=True):
             total += channel
 
@@ -72,6 +77,8 @@ class Sum(Disturbance):
             flat.extend(part.parts if isinstance(part, Sum) else [part])
         self.parts = flat
         self.is_random = any(part.is_random for part in flat)
+        self.uses_time = any(part.uses_time for part in flat)
+        self.channels = tuple(any(part.channels[k] for part in flat) for k in range(3))
 
     def bind(self, num_vehicles: int, dt: float) -> None:
         for part in self.parts:

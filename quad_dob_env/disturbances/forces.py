@@ -80,6 +80,7 @@ class Window(Disturbance):
             raise ValueError(f"Window wraps a Disturbance, got {type(inner).__name__}")
         self.inner = inner
         self.is_random = inner.is_random
+        self.channels = inner.channels
         self.start = as_finite(start, "Window.start")
         self.end = as_finite(end, "Window.end")
         if self.end <= self.start:
@@ -126,6 +127,7 @@ class Impulse(Disturbance):
                 raise ValueError(f"Impulse.start range needs low <= high, got {start!r}")
             self.start_range = (low, high)
         self.is_random = self.start_range[1] > self.start_range[0]
+        self.channels = (True, True, False)
         self.starts = np.full(1, self.start_range[0])
 
     def bind(self, num_vehicles: int, dt: float) -> None:

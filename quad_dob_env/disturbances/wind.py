@@ -103,6 +103,8 @@ class Dryden(Disturbance):
     """
 
     is_random = True
+    uses_time = False  # one draw per control step, held over it
+    channels = (False, False, True)
 
     def __init__(self, intensity: str = "moderate", wind_speed_6m: float | None = None,
                  altitude: float = 2.0, direction: float | None = 0.0,

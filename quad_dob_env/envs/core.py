@@ -306,11 +306,13 @@ class QuadrotorBatch:
         rows = self._reference_table.shape[0]
         if self.step_count.max() + 1 >= rows:  # flown past the scenario's end: extend
             self._tabulate(2 * rows)
-        if self.random_disturbance is not None:
-            for own in self._own:
-                own.fill(0.0)
-            self.random_disturbance.add_to(self.time[:, None] + self._sample_offsets,
-                                           *self._own)
+        random = self.random_disturbance
+        if random is not None:
+            for own, written in zip(self._own, random.channels, strict=True):
+                if written:
+                    own.fill(0.0)
+            times = self.time[:, None] + self._sample_offsets if random.uses_time else None
+            random.add_to(times, *self._own)
         kernel = step_parallel if self.n >= PARALLEL_MIN_BATCH else step_serial
         s, sc = self.state, self.scenario
         kernel(actions, self._action_map, self._actuation, self._actuator, s.position,
