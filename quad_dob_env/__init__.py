@@ -1,9 +1,10 @@
 """quad_dob_env: quadrotor environments for disturbance-rejection research.
 
 Layers, each importing only from those above it (DESIGN.md):
-``validation`` (shared input checks), ``params`` (vehicle presets), ``so3`` (rotations),
-``dynamics`` (state, actuation, integrator), ``disturbances``, ``trajectories``,
-``scenarios``, ``envs``.
+``validation``, ``linalg``, ``rng`` (shared utilities: input checks, small matrix
+functions, counter-based per-vehicle noise), ``params`` (vehicle presets), ``so3``
+(rotations), ``dynamics`` (state, actuation, integrator), ``disturbances`` (forces,
+torques, wind, ground effect), ``trajectories``, ``scenarios``, ``envs``.
 
 Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v0`` and
 ``QuadDOB/Track-v0``.
