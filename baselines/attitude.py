@@ -1,9 +1,7 @@
-"""Desired attitude from a thrust vector and a heading, with analytic Ωd and Ω̇d.
+"""Desired attitude from a thrust vector and a heading, with analytic Ωd and Ω̇d, for batches.
 
-Lee, Leok, McClamroch 2010 (z up): ``b3d = F/|F|``, ``b2d = b3d × b1d / |b3d × b1d|``,
-``Rd = [b2d × b3d, b2d, b3d]``. Given F and b1d with their first two time derivatives, every
-column's derivatives follow by the product rule, and
-``Ωd = vee(Rdᵀ Ṙd)``, ``Ω̇d = vee(Rdᵀ R̈d - hat(Ωd)²)`` (from ``Ṙd = Rd hat(Ωd)``).
+The equations (Lee, Leok, McClamroch 2010, z up) live once, per vehicle, in
+``baselines.kernels``; these are their (N, 3) numpy faces for the baselines.
 """
 
 from __future__ import annotations
@@ -13,26 +11,11 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.so3 import cross, hat, vee
-
-_TINY = 1e-9  # norms below this are floored so a degenerate command never yields NaN
+from baselines import kernels
 
 
-def _dot(a: NDArray, b: NDArray) -> NDArray:
-    return np.einsum("ni,ni->n", a, b)[:, None]
-
-
-def unit_vector_derivatives(a: NDArray, a_dot: NDArray, a_ddot: NDArray
-                            ) -> tuple[NDArray, NDArray, NDArray]:
-    """``u = a/|a|`` and its first two time derivatives, for (N, 3) arrays."""
-    norm = np.maximum(np.linalg.norm(a, axis=1, keepdims=True), _TINY)
-    u = a / norm
-    a_adot = _dot(a, a_dot)
-    u_dot = a_dot / norm - a * a_adot / norm**3
-    u_ddot = (a_ddot / norm - 2 * a_dot * a_adot / norm**3
-              - a * (_dot(a_dot, a_dot) + _dot(a, a_ddot)) / norm**3
-              + 3 * a * a_adot**2 / norm**5)
-    return u, u_dot, u_ddot
+def _c(array: NDArray) -> NDArray[np.float64]:
+    return np.ascontiguousarray(array, dtype=np.float64)
 
 
 class DesiredAttitude(NamedTuple):
@@ -44,42 +27,24 @@ class DesiredAttitude(NamedTuple):
 def desired_attitude(force: NDArray, force_dot: NDArray, force_ddot: NDArray,
                      heading: NDArray, heading_rate: NDArray,
                      heading_acceleration: NDArray) -> DesiredAttitude:
-    """Rd, Ωd, Ω̇d from the desired thrust vector F and heading b1d (each (N, 3))."""
-    b3, b3_dot, b3_ddot = unit_vector_derivatives(force, force_dot, force_ddot)
-    c = cross(b3, heading)
-    c_dot = cross(b3_dot, heading) + cross(b3, heading_rate)
-    c_ddot = (cross(b3_ddot, heading) + 2 * cross(b3_dot, heading_rate)
-              + cross(b3, heading_acceleration))
-    b2, b2_dot, b2_ddot = unit_vector_derivatives(c, c_dot, c_ddot)
-    b1 = cross(b2, b3)
-    b1_dot = cross(b2_dot, b3) + cross(b2, b3_dot)
-    b1_ddot = cross(b2_ddot, b3) + 2 * cross(b2_dot, b3_dot) + cross(b2, b3_ddot)
-    rd = np.stack([b1, b2, b3], axis=-1)
-    rd_dot = np.stack([b1_dot, b2_dot, b3_dot], axis=-1)
-    rd_ddot = np.stack([b1_ddot, b2_ddot, b3_ddot], axis=-1)
-    rd_t = np.swapaxes(rd, 1, 2)
-    omega = vee(rd_t @ rd_dot)
-    omega_hat = hat(omega)
-    omega_dot = vee(rd_t @ rd_ddot - omega_hat @ omega_hat)
-    return DesiredAttitude(rd, omega, omega_dot)
+    """Rd, Ωd, Ω̇d from the desired thrust vector F and heading b1d (each (N, 3)) and their
+    first two time derivatives (``kernels.desired_attitude``)."""
+    n = len(force)
+    out = DesiredAttitude(np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3)))
+    kernels.desired_attitude_batch(_c(force), _c(force_dot), _c(force_ddot), _c(heading),
+                                   _c(heading_rate), _c(heading_acceleration), *out)
+    return out
 
 
 def attitude_errors(rotation: NDArray, angular_velocity: NDArray,
                     desired: DesiredAttitude) -> tuple[NDArray, NDArray, NDArray]:
     """``eR = ½ vee(RdᵀR - RᵀRd)``, ``eΩ = Ω - RᵀRd Ωd`` (Lee 2010), and ``RᵀRd``."""
-    rd = desired.rotation
-    rd_t_r = np.swapaxes(rd, 1, 2) @ rotation
-    attitude_error = 0.5 * vee(rd_t_r - np.swapaxes(rd_t_r, 1, 2))
-    r_t_rd = np.swapaxes(rd_t_r, 1, 2)
-    rate_error = angular_velocity - np.einsum("nij,nj->ni", r_t_rd, desired.angular_velocity)
+    n = len(rotation)
+    attitude_error, rate_error, r_t_rd = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3, 3))
+    kernels.attitude_errors_batch(_c(rotation), _c(angular_velocity), _c(desired.rotation),
+                                  _c(desired.angular_velocity), attitude_error, rate_error,
+                                  r_t_rd)
     return attitude_error, rate_error, r_t_rd
-
-
-def body_z_rate(rotation: NDArray, angular_velocity: NDArray) -> NDArray:
-    """d/dt (R e3) = R hat(Ω) e3 = R [Ω_y, -Ω_x, 0]."""
-    w = angular_velocity
-    return np.einsum("nij,nj->ni", rotation,
-                     np.stack([w[:, 1], -w[:, 0], np.zeros(len(w))], axis=1))
 
 
 def feedforward_attitude(reference, mass: float, gravity: float) -> DesiredAttitude:

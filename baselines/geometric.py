@@ -7,6 +7,7 @@ optional nonlinear disturbance observer.
 Ωd and Ω̇d come from differentiating Rd analytically: F's first two derivatives use the
 trajectory's jerk and snap and the model's prediction of the vehicle's acceleration and
 jerk, ``v̇ = -g e3 + (f R e3 + d̂x)/m`` (the estimate d̂x is held constant in them).
+The equations are written once, per vehicle, in ``baselines.kernels.geometric_law``.
 """
 
 from __future__ import annotations
@@ -16,21 +17,21 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from baselines.attitude import attitude_errors, body_z_rate, desired_attitude
-from baselines.base import E3, Controller
+from baselines.base import Controller
+from baselines.kernels import geometric_batch
 from baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.params import VehicleParams
-from quad_dob_env.so3 import cross, hat
+from quad_dob_env.threads import PARALLEL_MIN_BATCH, run_over_batch
 from quad_dob_env.trajectories import Reference
 from quad_dob_env.validation import as_finite
 
 # The paper's (and Lee 2010's) gains; kx and kv scale with the vehicle's mass.
 PAPER_GAINS = {"kx_per_mass": 16.0, "kv_per_mass": 5.6, "kR": 8.81, "kOmega": 2.54}
-
-
-def _dot(a: NDArray, b: NDArray) -> NDArray:
-    return np.einsum("ni,ni->n", a, b)
+_REFERENCE_ORDER = ("position", "velocity", "acceleration", "jerk", "snap", "heading",
+                    "heading_rate", "heading_acceleration")
+_DIAGNOSTICS = ("desired_force", "desired_rotation", "desired_angular_velocity",
+                "attitude_error", "rate_error")
 
 
 class GeometricController(Controller):
@@ -60,55 +61,39 @@ class GeometricController(Controller):
     def reset(self, num_vehicles: int, vehicle: VehicleParams, dt: float,
               indices: NDArray[np.intp] | None = None) -> None:
         super().reset(num_vehicles, vehicle, dt, indices)
+        if indices is None:
+            self._kx = self.gains["kx_per_mass"] * vehicle.mass
+            self._kv = self.gains["kv_per_mass"] * vehicle.mass
         if self.observer is not None:
             self.observer.reset(num_vehicles, vehicle, dt, indices)
 
     def compute(self, time: NDArray, state: VehicleState,
                 reference: Reference) -> tuple[NDArray, NDArray]:
+        """One compiled call for the batch (``kernels.geometric_law`` per vehicle)."""
         vehicle = self.vehicle
-        m, g, J = vehicle.mass, vehicle.gravity, vehicle.inertia_matrix
-        kx, kv = self.gains["kx_per_mass"] * m, self.gains["kv_per_mass"] * m
+        n = len(state.position)
         if self.observer is not None:
             force_estimate, torque_estimate = self.observer.estimate(state)
         else:
-            force_estimate = torque_estimate = np.zeros_like(state.position)
-        R, w = state.rotation, state.angular_velocity
-        position_error = state.position - reference.position
-        velocity_error = state.velocity - reference.velocity
-        force = (-kx * position_error - kv * velocity_error + m * g * E3
-                 + m * reference.acceleration - force_estimate)
-        body_z = R[:, :, 2]
-        thrust = _dot(force, body_z)
-        body_z_dot = body_z_rate(R, w)
-        # model-predicted acceleration and jerk errors: v̇ = -g e3 + (f R e3 + d̂x) / m
-        acceleration_error = (-g * E3 + (thrust[:, None] * body_z + force_estimate) / m
-                              - reference.acceleration)
-        force_dot = -kx * velocity_error - kv * acceleration_error + m * reference.jerk
-        thrust_dot = _dot(force_dot, body_z) + _dot(force, body_z_dot)
-        jerk_error = ((thrust_dot[:, None] * body_z + thrust[:, None] * body_z_dot) / m
-                      - reference.jerk)
-        force_ddot = -kx * acceleration_error - kv * jerk_error + m * reference.snap
-        desired = desired_attitude(force, force_dot, force_ddot, reference.heading,
-                                   reference.heading_rate, reference.heading_acceleration)
-        attitude_error, rate_error, r_t_rd = attitude_errors(R, w, desired)
-        desired_rate_body = np.einsum("nij,nj->ni", r_t_rd, desired.angular_velocity)
-        desired_acceleration_body = np.einsum("nij,nj->ni", r_t_rd,
-                                              desired.angular_acceleration)
-        # M = -kR eR - kΩ eΩ + Ω × JΩ - J(hat(Ω) RᵀRd Ωd - RᵀRd Ω̇d) - d̂Ω
-        moment = (-self.gains["kR"] * attitude_error - self.gains["kOmega"] * rate_error
-                  + cross(w, w @ J.T)
-                  - (np.einsum("nij,nj->ni", hat(w), desired_rate_body)
-                     - desired_acceleration_body) @ J.T
-                  - torque_estimate)
+            force_estimate = torque_estimate = np.zeros((n, 3))
+        thrust, moment = np.empty(n), np.empty((n, 3))
         self.diagnostics = {
-            "desired_rotation": desired.rotation,
-            "desired_angular_velocity": desired.angular_velocity,
-            "desired_force": force,
-            "attitude_error": attitude_error,
-            "rate_error": rate_error,
+            "desired_force": np.empty((n, 3)),
+            "desired_rotation": np.empty((n, 3, 3)),
+            "desired_angular_velocity": np.empty((n, 3)),
+            "attitude_error": np.empty((n, 3)),
+            "rate_error": np.empty((n, 3)),
             "force_estimate": force_estimate,
             "torque_estimate": torque_estimate,
         }
+        reference_arrays = tuple(np.asarray(getattr(reference, name), dtype=float)
+                                 for name in _REFERENCE_ORDER)
+        run_over_batch(geometric_batch, n, state.position, state.velocity, state.rotation,
+                       state.angular_velocity, reference_arrays, vehicle.mass, vehicle.gravity,
+                       vehicle.inertia_matrix, self._kx, self._kv, self.gains["kR"],
+                       self.gains["kOmega"], force_estimate, torque_estimate, thrust, moment,
+                       *(self.diagnostics[key] for key in _DIAGNOSTICS),
+                       min_batch=4 * PARALLEL_MIN_BATCH)  # ~1/4 of a physics step's work
         return thrust, moment
 
     def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:

@@ -16,7 +16,8 @@ Discrete time: z is advanced by forward Euler at the control rate with the gains
 the sampling, ``Ks' = m (1 - e^{-L dt}) / dt`` (and ``Km' = (I - e^{-L_Ω dt}) J / dt``), and
 with the thrust direction R e3 and the gyroscopic torque averaged over each step's two ends.
 A constant disturbance is then the fixed point, and the error decays as ``e^{-L t}`` at the
-samples. The observer is fed the thrust and moment actually applied.
+samples. The observer is fed the thrust and moment actually applied. The per-vehicle
+equations are compiled in ``baselines.kernels`` (``observer_*_batch``).
 """
 
 from __future__ import annotations
@@ -24,11 +25,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from baselines.base import E3
+from baselines.kernels import observer_advance_batch, observer_estimate_batch
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.linalg import expm
 from quad_dob_env.params import VehicleParams
-from quad_dob_env.so3 import cross
 from quad_dob_env.validation import as_finite
 
 PAPER_GAINS = {"translational_gain": 0.02, "rotational_gain": (0.02, 0.2, 0.05)}
@@ -84,8 +84,8 @@ class NonlinearDisturbanceObserver:
             self._ks = self._alpha * vehicle.mass / dt
             alpha_rotation = np.eye(3) - expm(
                 -self.rotational_gain @ vehicle.inertia_inverse * dt)
-            self._alpha_rotation_t = alpha_rotation.T.copy()
-            self._km_t = (alpha_rotation @ vehicle.inertia_matrix / dt).T.copy()
+            self._alpha_rotation = alpha_rotation
+            self._km = alpha_rotation @ vehicle.inertia_matrix / dt
             self._z_force = np.zeros((num_vehicles, 3))
             self._z_torque = np.zeros((num_vehicles, 3))
             self.force_estimate = np.zeros((num_vehicles, 3))
@@ -98,39 +98,24 @@ class NonlinearDisturbanceObserver:
     def estimate(self, state: VehicleState) -> tuple[NDArray, NDArray]:
         """``d̂x = zx + Ks' v``, ``d̂Ω = zΩ + Km' Ω`` for the current state, after finishing the
         update of the step that led here (it needs this step's end state)."""
+        vehicle = self.vehicle
         if self._pending is not None:
-            self._advance(state, *self._pending)
+            observer_advance_batch(*self._pending, state.rotation, state.angular_velocity,
+                                   vehicle.mass, vehicle.gravity, vehicle.inertia_matrix,
+                                   self._ks, self._alpha, self._km, self._alpha_rotation,
+                                   self._z_force, self._z_torque)
             self._pending = None
-        if self._fresh.any():  # a new episode's estimate starts at zero: z = -K' x
-            fresh = self._fresh
-            self._z_force[fresh] = -self._ks * state.velocity[fresh]
-            self._z_torque[fresh] = -state.angular_velocity[fresh] @ self._km_t
-            self._fresh[:] = False
-        self.force_estimate = self._z_force + self._ks * state.velocity
-        self.torque_estimate = self._z_torque + state.angular_velocity @ self._km_t
+        n = len(state.velocity)
+        self.force_estimate, self.torque_estimate = np.empty((n, 3)), np.empty((n, 3))
+        observer_estimate_batch(state.velocity, state.angular_velocity, self._ks, self._km,
+                                self._z_force, self._z_torque, self._fresh,
+                                self.force_estimate, self.torque_estimate)
         return self.force_estimate, self.torque_estimate
 
     def update(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
         """Record one control step flown from ``state`` with the applied thrust and moment;
         z advances at the next ``estimate``, when the step's end state is known."""
         self._pending = (state.velocity.copy(), state.rotation[:, :, 2].copy(),
-                         self._gyroscopic(state.angular_velocity), state.angular_velocity.copy(),
-                         np.asarray(thrust, float).copy(), np.asarray(moment, float).copy())
-
-    def _gyroscopic(self, w: NDArray) -> NDArray:
-        return cross(w, w @ self.vehicle.inertia_matrix.T)
-
-    def _advance(self, end: VehicleState, velocity: NDArray, body_z: NDArray,
-                 gyroscopic: NDArray, angular_velocity: NDArray, thrust: NDArray,
-                 moment: NDArray) -> None:
-        # The thrust direction and gyroscopic torque change within the step; their mean over
-        # its two ends keeps the discrete observer unbiased to second order in dt.
-        vehicle = self.vehicle
-        lift = thrust[:, None] * 0.5 * (body_z + end.rotation[:, :, 2])
-        # żx = -(Ks/m)(zx + Ks v - m g e3 + f R e3)
-        self._z_force -= self._alpha * (self._z_force + self._ks * velocity
-                                        - vehicle.mass * vehicle.gravity * E3 + lift)
-        mean_gyroscopic = 0.5 * (gyroscopic + self._gyroscopic(end.angular_velocity))
-        # żΩ = -Km J⁻¹(zΩ + Km Ω - Ω × JΩ + M)
-        self._z_torque -= (self._z_torque + angular_velocity @ self._km_t - mean_gyroscopic
-                           + moment) @ self._alpha_rotation_t
+                         state.angular_velocity.copy(),
+                         np.ascontiguousarray(thrust, dtype=float).copy(),
+                         np.ascontiguousarray(moment, dtype=float).copy())

@@ -1,18 +1,22 @@
 """quad_dob_env: quadrotor environments for disturbance-rejection research.
 
 Layers, each importing only from those above it (DESIGN.md):
-``validation``, ``linalg``, ``rng`` (shared utilities: input checks, small matrix
-functions, counter-based per-vehicle noise), ``params`` (vehicle presets), ``so3``
-(rotations), ``dynamics`` (state, actuation, integrator), ``disturbances`` (forces,
-torques, wind, ground effect), ``trajectories``, ``scenarios``, ``envs``.
+``validation``, ``linalg``, ``rng``, ``threads`` (shared utilities: input checks, small
+matrix functions, counter-based per-vehicle noise, compiled loops split across cores),
+``params`` (vehicle presets), ``so3`` (rotations), ``dynamics`` (state, actuation,
+integrator), ``disturbances`` (forces, torques, wind, ground effect), ``trajectories``,
+``scenarios``, ``envs``, ``wrappers`` (the residual wrapper).
 
 Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v0`` and
-``QuadDOB/Track-v0``.
+``QuadDOB/Track-v0`` (direct control), and ``QuadDOB/HoverResidual-v0`` and
+``QuadDOB/TrackResidual-v0`` (a residual on top of ``base_controller``, default
+``geometric-ndob``); ``gym.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")``
+gives the native ``QuadrotorVectorEnv`` for each. ``wrappers`` sits below ``envs``.
 """
 
 import gymnasium as gym
 
-from quad_dob_env.envs import QuadrotorEnv
+from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
 from quad_dob_env.params import VEHICLES, VehicleParams, get_vehicle
 from quad_dob_env.scenarios import Scenario, list_scenarios, make_scenario
 
@@ -21,14 +25,23 @@ __version__ = "0.1.0"
 ENV_IDS = {
     "QuadDOB/Hover-v0": "hover-calm",
     "QuadDOB/Track-v0": "paper-none",
+    "QuadDOB/HoverResidual-v0": "hover-calm",
+    "QuadDOB/TrackResidual-v0": "paper-none",
 }
+DEFAULT_BASE_CONTROLLER = "geometric-ndob"
 
 
 def _register() -> None:
     for env_id, scenario in ENV_IDS.items():
-        if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point="quad_dob_env.envs:QuadrotorEnv",
-                         kwargs={"scenario": scenario})
+        if env_id in gym.registry:
+            continue
+        residual = "Residual" in env_id
+        gym.register(id=env_id,
+                     entry_point=("quad_dob_env.wrappers:make_residual_env" if residual
+                                  else "quad_dob_env.envs:QuadrotorEnv"),
+                     vector_entry_point="quad_dob_env.envs:QuadrotorVectorEnv",
+                     kwargs={"scenario": scenario,
+                             **({"base_controller": DEFAULT_BASE_CONTROLLER} if residual else {})})
 
 
 _register()
@@ -37,6 +50,7 @@ __all__ = [
     "ENV_IDS",
     "VEHICLES",
     "QuadrotorEnv",
+    "QuadrotorVectorEnv",
     "Scenario",
     "VehicleParams",
     "get_vehicle",

@@ -2,7 +2,6 @@ import numpy as np
 import pytest
 
 from quad_dob_env.dynamics import (
-    PARALLEL_MIN_BATCH,
     Actuator,
     VehicleState,
     accelerations,
@@ -10,6 +9,7 @@ from quad_dob_env.dynamics import (
 )
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.so3 import exp
+from quad_dob_env.threads import PARALLEL_MIN_BATCH
 
 PAPER = get_vehicle("paper")
 G = PAPER.gravity
@@ -113,7 +113,7 @@ def test_accelerations_follow_the_equations_of_motion():
         np.testing.assert_allclose(angular[i], expected_angular, atol=1e-12)
 
 
-def test_parallel_kernel_equals_serial_kernel_bit_for_bit():
+def test_a_batch_split_across_threads_equals_single_vehicles_bit_for_bit():
     rng = np.random.default_rng(7)
     n = PARALLEL_MIN_BATCH + 5
     big = VehicleState.at_rest(n)

@@ -18,6 +18,7 @@ from quad_dob_env.disturbances.base import Disturbance
 from quad_dob_env.disturbances.forces import ZERO, _Profile
 from quad_dob_env.linalg import discretize_noise, stationary_covariance
 from quad_dob_env.rng import gaussian_pair
+from quad_dob_env.threads import run_over_batch
 from quad_dob_env.validation import as_finite, as_vector3, unknown_name_error
 
 KNOT = 0.514444  # m/s
@@ -51,13 +52,13 @@ class Gust(_Profile):
         return np.where(fall_tau > 0, fall, rise)
 
 
-@njit(cache=True)
-def _dryden_step(state, keys, counters, transitions, noise_factors, outputs, headings,
+@njit(cache=True, nogil=True)
+def _dryden_step(start, stop, state, keys, counters, transitions, noise_factors, outputs, headings,
                  scales, mean_speed, wind):
     """Add each vehicle's wind now (mean + turbulence, rotated to its heading) to every
     sample of ``wind`` (N, K, 3), then advance its filters one step."""
     turbulence = [0.0, 0.0, 0.0]
-    for i in range(state.shape[0]):
+    for i in range(start, stop):
         g = [0.0] * 6
         for j in range(3):
             g[2 * j], g[2 * j + 1] = gaussian_pair(keys[i], 3 * counters[i] + j)
@@ -183,9 +184,10 @@ class Dryden(Disturbance):
 
     def add_to(self, times: NDArray[np.float64], force: NDArray, torque: NDArray,
                wind: NDArray) -> None:
-        _dryden_step(self._state, self._keys, self._counters, self._transitions,
-                     self._noise_factors, self._outputs, self._headings, self._scales,
-                     self.mean_speed if self.mean_wind else 0.0, wind)
+        run_over_batch(_dryden_step, len(self._state), self._state, self._keys,
+                       self._counters, self._transitions, self._noise_factors, self._outputs,
+                       self._headings, self._scales, self.mean_speed if self.mean_wind else 0.0,
+                       wind)
 
     def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         channels = tuple(np.zeros((*times.shape, 3)) for _ in range(3))

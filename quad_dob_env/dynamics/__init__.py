@@ -16,7 +16,6 @@ from quad_dob_env.dynamics.actuation import (
 )
 from quad_dob_env.dynamics.integrator import (
     NO_GROUND_EFFECT,
-    PARALLEL_MIN_BATCH,
     ThrustLaw,
     accelerations,
     actuator_wrench,
@@ -39,7 +38,6 @@ from quad_dob_env.dynamics.state import VehicleState
 __all__ = [
     "ACTUATION_CODES",
     "NO_GROUND_EFFECT",
-    "PARALLEL_MIN_BATCH",
     "Actuator",
     "AppliedCommand",
     "ThrustLaw",

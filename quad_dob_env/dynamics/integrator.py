@@ -15,16 +15,13 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_env.dynamics.state import VehicleState
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.so3 import cross_tuple, exp_tuple, mat_mul_tuple, mat_vec_tuple
-
-# Above this batch size the kernel runs on every core (prange); below, thread start-up
-# costs more than it saves.
-PARALLEL_MIN_BATCH = 256
+from quad_dob_env.threads import run_over_batch
 
 
 class ThrustLaw(NamedTuple):
@@ -244,13 +241,14 @@ def vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag):
             (drag[i, 0], drag[i, 1], drag[i, 2]), (drag[i, 3], drag[i, 4], drag[i, 5]))
 
 
-def _integrate_kernel(position, velocity, rotation, angular_velocity, thrust, moment,
-                      tables, own, mass, gravity, inertia, inertia_inverse, drag, dt, substeps,
-                      law, diverged):
+@njit(cache=True, nogil=True)
+def _integrate_kernel(start, stop, position, velocity, rotation, angular_velocity, thrust,
+                      moment, tables, own, mass, gravity, inertia, inertia_inverse, drag, dt,
+                      substeps, law, diverged):
     """Advance every vehicle in place with the wrench held; a vehicle whose new state is not
     finite keeps its old state and is flagged in ``diverged``."""
     identity = np.eye(4)
-    for i in prange(position.shape[0]):
+    for i in range(start, stop):
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
         command = (thrust[i], moment[i, 0], moment[i, 1], moment[i, 2])
         x, v, R, w = advance_vehicle(x, v, R, w, command, command, 0.0, identity, tables, 0,
@@ -262,9 +260,6 @@ def _integrate_kernel(position, velocity, rotation, angular_velocity, thrust, mo
             store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
 
 
-# One equation source, compiled twice: serial for small batches, threaded for large ones.
-_integrate_serial = njit(cache=True)(_integrate_kernel)
-_integrate_parallel = njit(cache=True, parallel=True)(_integrate_kernel)
 
 
 @njit(cache=True)
@@ -343,10 +338,9 @@ def integrate(state: VehicleState, thrust: NDArray, moment: NDArray, params: Veh
     no_table = np.zeros((1, samples, 3))
     mass, inertia, inertia_inverse, coefficients = physics_arrays(params, n, drag)
     diverged = np.zeros(n, dtype=np.bool_)
-    kernel = _integrate_parallel if n >= PARALLEL_MIN_BATCH else _integrate_serial
-    kernel(state.position, state.velocity, state.rotation, state.angular_velocity,
-           np.ascontiguousarray(thrust, dtype=float), np.ascontiguousarray(moment, dtype=float),
-           (no_table, no_table, no_table), tuple(inputs), mass, params.gravity, inertia,
-           inertia_inverse, coefficients, float(dt), int(substeps),
-           tuple(float(v) for v in law), diverged)
+    run_over_batch(_integrate_kernel, n, state.position, state.velocity, state.rotation,
+                   state.angular_velocity, np.ascontiguousarray(thrust, dtype=float),
+                   np.ascontiguousarray(moment, dtype=float), (no_table, no_table, no_table),
+                   tuple(inputs), mass, params.gravity, inertia, inertia_inverse, coefficients,
+                   float(dt), int(substeps), tuple(float(v) for v in law), diverged)
     return diverged

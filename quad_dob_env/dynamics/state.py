@@ -50,8 +50,11 @@ class VehicleState:
         )
 
     def copy(self) -> VehicleState:
-        return VehicleState(self.position.copy(), self.velocity.copy(), self.rotation.copy(),
-                            self.angular_velocity.copy())
+        copied = object.__new__(VehicleState)  # already valid: skip __post_init__'s checks
+        copied.position, copied.velocity = self.position.copy(), self.velocity.copy()
+        copied.rotation = self.rotation.copy()
+        copied.angular_velocity = self.angular_velocity.copy()
+        return copied
 
     def assign(self, other: VehicleState, indices: NDArray | slice = slice(None)) -> None:
         """Overwrite the vehicles at ``indices`` with ``other`` (in place, no reallocation)."""

@@ -6,6 +6,11 @@
 - ``kernels``: its compiled per-vehicle step, sensing and sensor-noise loops.
 - ``quadrotor_env``: ``QuadrotorEnv(gym.Env)``, its N = 1 view, with the tables of spaces,
   reward, start and end in its docstring.
+- ``vector_env``: ``QuadrotorVectorEnv(gymnasium.vector.VectorEnv)``, its N-vehicle view
+  (next-step autoreset), the ``vector_entry_point`` of every id.
+- ``residual``: ``ResidualCommand``, a base controller's command plus a scaled residual for
+  the whole batch; the vector env's ``base_controller=`` mode and
+  ``quad_dob_env.wrappers.ResidualActionWrapper`` both run it.
 """
 
 from quad_dob_env.envs.core import (
@@ -16,6 +21,7 @@ from quad_dob_env.envs.core import (
     RewardWeights,
 )
 from quad_dob_env.envs.quadrotor_env import QuadrotorEnv
+from quad_dob_env.envs.vector_env import QuadrotorVectorEnv
 
 __all__ = [
     "ACTION_MODES",
@@ -23,5 +29,6 @@ __all__ = [
     "EpisodeLimits",
     "QuadrotorBatch",
     "QuadrotorEnv",
+    "QuadrotorVectorEnv",
     "RewardWeights",
 ]

@@ -21,20 +21,20 @@ from numpy.typing import NDArray
 from quad_dob_env.disturbances import Disturbance, Sum
 from quad_dob_env.dynamics import (
     NO_GROUND_EFFECT,
-    PARALLEL_MIN_BATCH,
     Actuator,
     AppliedCommand,
     VehicleState,
     physics_arrays,
 )
 from quad_dob_env.envs.kernels import (
+    action_from_command_batch,
     sense_kernel,
     sensor_kernel,
-    step_parallel,
-    step_serial,
+    step_kernel,
 )
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.so3 import exp as so3_exp
+from quad_dob_env.threads import run_over_batch
 from quad_dob_env.trajectories import Reference
 from quad_dob_env.validation import as_finite, unknown_name_error
 
@@ -107,6 +107,7 @@ class QuadrotorBatch:
         self._tabulate(scenario.steps + 1)
         self.state = VehicleState.at_rest(n)
         self.step_count = np.zeros(n, dtype=np.int64)
+        self._reference_now: Reference | None = None
         self.termination_code = np.zeros(n, dtype=np.int8)
         self.obs = np.zeros((n, self.observation_size), dtype=np.float32)
         self.rewards = np.zeros(n)
@@ -216,13 +217,13 @@ class QuadrotorBatch:
     def action_from_command(self, thrust: NDArray, moment: NDArray) -> NDArray[np.float64]:
         """The normalised actions (N, 4) that command ``thrust`` and ``moment``: the inverse
         of the action map, clipped to [-1, 1] (so beyond the limits it saturates)."""
-        wrench = np.concatenate([np.asarray(thrust, float).reshape(-1, 1),
-                                 np.asarray(moment, float).reshape(-1, 3)], axis=1)
-        if self.action_mode == "rotor_thrusts":
-            wrench = wrench @ self.vehicle.mixer_matrix.T
-        offset = wrench - self._centre
-        actions = offset / np.where(offset >= 0, self._scale_up, self._scale_down)
-        return np.clip(actions, -1.0, 1.0)
+        thrust = np.ascontiguousarray(thrust, dtype=np.float64).reshape(-1)
+        moment = np.ascontiguousarray(moment, dtype=np.float64).reshape(-1, 3)
+        actions = np.empty((len(thrust), 4))
+        rotor_mode, centre, scale_up, scale_down, _ = self._action_map
+        action_from_command_batch(thrust, moment, rotor_mode, centre, scale_up, scale_down,
+                                  self.vehicle.mixer_matrix, actions)
+        return actions
 
     # --- time and reference ---------------------------------------------------------------
     @property
@@ -232,9 +233,13 @@ class QuadrotorBatch:
 
     @property
     def reference(self) -> Reference:
-        """The reference at each vehicle's current time, (N, 3) per field."""
-        rows = self._reference_table[self.step_count]
-        return Reference(*(rows[:, j] for j in range(len(_REFERENCE_FIELDS))))
+        """The reference at each vehicle's current time, (N, 3) per field (read-only views,
+        gathered once per step)."""
+        if self._reference_now is None:
+            rows = self._reference_table[self.step_count]
+            rows.flags.writeable = False
+            self._reference_now = Reference(*(rows[:, j] for j in range(len(_REFERENCE_FIELDS))))
+        return self._reference_now
 
     def reference_row(self, index: int) -> NDArray[np.float64]:
         """(8, 3) reference of vehicle ``index`` now, rows in ``Reference`` field order."""
@@ -285,6 +290,7 @@ class QuadrotorBatch:
                    else self.random_disturbance.sampled_parameters(index)),
             }
         self.step_count[indices] = 0
+        self._reference_now = None
         for array in (*self.applied, self.disturbance_force, self.disturbance_torque,
                       self.rewards):
             array[indices] = 0
@@ -303,6 +309,7 @@ class QuadrotorBatch:
         Updates ``state``, ``obs``, ``rewards``, ``termination_code``, ``applied`` and the
         true ``disturbance_force`` / ``disturbance_torque``.
         """
+        self._reference_now = None
         rows = self._reference_table.shape[0]
         if self.step_count.max() + 1 >= rows:  # flown past the scenario's end: extend
             self._tabulate(2 * rows)
@@ -313,16 +320,16 @@ class QuadrotorBatch:
                     own.fill(0.0)
             times = self.time[:, None] + self._sample_offsets if random.uses_time else None
             random.add_to(times, *self._own)
-        kernel = step_parallel if self.n >= PARALLEL_MIN_BATCH else step_serial
         s, sc = self.state, self.scenario
-        kernel(actions, self._action_map, self._actuation, self._actuator, s.position,
-               s.velocity, s.rotation, s.angular_velocity, self.step_count, self._tables,
-               self._own, self._reference_table,
-               (self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse, self.drag),
-               sc.dt, sc.substeps, self._law, self._limits, self._reward, self._rotation_mode,
-               self._clean_obs, self.rewards, self.termination_code, self.applied.thrust,
-               self.applied.moment, self.applied.rotor_thrusts, self.applied.saturated,
-               self.disturbance_force, self.disturbance_torque)
+        run_over_batch(
+            step_kernel, self.n, actions, self._action_map, self._actuation, self._actuator,
+            s.position, s.velocity, s.rotation, s.angular_velocity, self.step_count,
+            self._tables, self._own, self._reference_table,
+            (self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse, self.drag),
+            sc.dt, sc.substeps, self._law, self._limits, self._reward, self._rotation_mode,
+            self._clean_obs, self.rewards, self.termination_code, self.applied.thrust,
+            self.applied.moment, self.applied.rotor_thrusts, self.applied.saturated,
+            self.disturbance_force, self.disturbance_torque)
         self._measure(self._all, reset=False)
 
     @property

@@ -5,7 +5,7 @@ and compiled serial (small batches) and threaded (large ones).
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from quad_dob_env.dynamics import (
     actuate_vehicle,
@@ -44,6 +44,24 @@ def _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation):
                 m[row] += allocation[row + 1, k] * s[k]
         return f, (m[0], m[1], m[2])
     return s[0], (s[1], s[2], s[3])
+
+
+@njit(cache=True)
+def action_from_command_batch(thrust, moment, rotor_mode, centre, scale_up, scale_down,
+                              mixer, out):
+    """The inverse of ``_command``: the normalised actions that command ``thrust`` (N,) and
+    ``moment`` (N, 3), clipped to [-1, 1] (beyond the limits they saturate)."""
+    for i in range(thrust.shape[0]):
+        wrench = (thrust[i], moment[i, 0], moment[i, 1], moment[i, 2])
+        for k in range(4):
+            if rotor_mode:
+                value = (mixer[k, 0] * wrench[0] + mixer[k, 1] * wrench[1]
+                         + mixer[k, 2] * wrench[2] + mixer[k, 3] * wrench[3])
+            else:
+                value = wrench[k]
+            offset = value - centre[k]
+            action = offset / (scale_up[k] if offset >= 0.0 else scale_down[k])
+            out[i, k] = min(max(action, -1.0), 1.0)
 
 
 @njit(cache=True, inline="always")
@@ -85,11 +103,15 @@ def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
     return code, error
 
 
-def step_kernel(actions, action_map, actuation, actuator, position, velocity, rotation,
-                 angular_velocity, step_count, tables, own, reference, physics, dt, substeps,
-                 law, limits, reward_weights, rotation_mode, obs, reward, code, applied_thrust,
-                 applied_moment, rotor_thrusts, saturated, disturbance_force,
-                 disturbance_torque):
+@njit(cache=True, nogil=True)
+def step_kernel(start, stop, actions, action_map, actuation, actuator, position, velocity,
+                rotation, angular_velocity, step_count, tables, own, reference, physics, dt,
+                substeps, law, limits, reward_weights, rotation_mode, obs, reward, code,
+                applied_thrust, applied_moment, rotor_thrusts, saturated, disturbance_force,
+                disturbance_torque):
+    """One control step of vehicles ``start..stop-1``: action -> command -> actuators ->
+    integration -> observation, reward, termination and the true disturbance
+    (``quad_dob_env.threads`` splits the batch across cores)."""
     rotor_mode, centre, scale_up, scale_down, allocation = action_map
     to_wrench, to_rotors, time_constant, actuator_state = actuator
     mass, gravity, inertia, inertia_inverse, drag = physics
@@ -103,7 +125,7 @@ def step_kernel(actions, action_map, actuation, actuator, position, velocity, ro
     else:
         mean_factor = 0.0
     end_factor = lag_factor(dt, time_constant)
-    for i in prange(actions.shape[0]):
+    for i in range(start, stop):
         f_cmd, m_cmd = _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation)
         command, saturated[i] = actuate_vehicle(f_cmd, m_cmd, *actuation)
         start = (actuator_state[i, 0], actuator_state[i, 1], actuator_state[i, 2],
@@ -182,8 +204,6 @@ def sensor_kernel(indices, clean, rotation, keys, counters, stds, rotation_mode,
                     out[i, 6 + 3 * c + r] = turned[3 * r + c]
 
 
-step_serial = njit(cache=True)(step_kernel)
-step_parallel = njit(cache=True, parallel=True)(step_kernel)
 
 
 @njit(cache=True)

@@ -1,0 +1,271 @@
+"""The geometric controller's and the observer's equations, once, per vehicle, compiled.
+
+These functions are the one source of truth for the equations: ``attitude``, ``geometric``
+and ``observer`` call the batch loops at the bottom, which numba compiles (the geometric
+loop is split across cores by ``quad_dob_env.threads``). Running the same source with
+``NUMBA_DISABLE_JIT=1`` is the plain-Python path; a test asserts both agree to 1e-12.
+Compiled because the numpy version spent ~200 small array operations per step and held a
+4096-vehicle vector env with the base in the loop to 430,000 env-steps/s.
+
+Vectors are 3-tuples and matrices row-major 9-tuples, as in ``quad_dob_env.so3``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from quad_dob_env.so3 import cross_tuple, mat_mul_tuple, mat_vec_tuple
+
+TINY = 1e-9  # norms below this are floored so a degenerate command never yields NaN
+
+
+@njit(cache=True, inline="always")
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(cache=True, inline="always")
+def combine(a, x, b, y):
+    """``a x + b y`` for scalars a, b and 3-tuples x, y."""
+    return (a * x[0] + b * y[0], a * x[1] + b * y[1], a * x[2] + b * y[2])
+
+
+@njit(cache=True, inline="always")
+def add(x, y):
+    return (x[0] + y[0], x[1] + y[1], x[2] + y[2])
+
+
+@njit(cache=True, inline="always")
+def transpose(m):
+    return (m[0], m[3], m[6], m[1], m[4], m[7], m[2], m[5], m[8])
+
+
+@njit(cache=True, inline="always")
+def row(array, i):
+    return (array[i, 0], array[i, 1], array[i, 2])
+
+
+@njit(cache=True, inline="always")
+def matrix(array, i):
+    r = array[i]
+    return (r[0, 0], r[0, 1], r[0, 2], r[1, 0], r[1, 1], r[1, 2], r[2, 0], r[2, 1], r[2, 2])
+
+
+@njit(cache=True, inline="always")
+def vector(array):
+    return (array[0], array[1], array[2])
+
+
+@njit(cache=True, inline="always")
+def square(a):
+    return (a[0, 0], a[0, 1], a[0, 2], a[1, 0], a[1, 1], a[1, 2], a[2, 0], a[2, 1], a[2, 2])
+
+
+@njit(cache=True, inline="always")
+def put(array, i, value):
+    for k in range(3):
+        array[i, k] = value[k]
+
+
+@njit(cache=True)
+def unit_vector_derivatives(a, a_dot, a_ddot):
+    """``u = a/|a|`` and its first two time derivatives (product rule)."""
+    norm = max(math.sqrt(dot(a, a)), TINY)
+    a_adot = dot(a, a_dot)
+    first = a_adot / norm**3
+    # d²/dt² (a/|a|) = ä/|a| - 2 ȧ (a·ȧ)/|a|³ - a ((ȧ·ȧ + a·ä)/|a|³ - 3 (a·ȧ)²/|a|⁵)
+    second = (dot(a_dot, a_dot) + dot(a, a_ddot)) / norm**3 - 3.0 * a_adot**2 / norm**5
+    u = (a[0] / norm, a[1] / norm, a[2] / norm)
+    u_dot = (a_dot[0] / norm - a[0] * first, a_dot[1] / norm - a[1] * first,
+             a_dot[2] / norm - a[2] * first)
+    u_ddot = (a_ddot[0] / norm - 2.0 * a_dot[0] * first - a[0] * second,
+              a_ddot[1] / norm - 2.0 * a_dot[1] * first - a[1] * second,
+              a_ddot[2] / norm - 2.0 * a_dot[2] * first - a[2] * second)
+    return u, u_dot, u_ddot
+
+
+@njit(cache=True)
+def desired_attitude(force, force_dot, force_ddot, heading, heading_rate, heading_acceleration):
+    """Rd, Ωd, Ω̇d from the thrust vector F and heading b1d with their derivatives.
+
+    Lee 2010 (z up): ``b3d = F/|F|``, ``b2d = b3d × b1d/|b3d × b1d|``, ``b1d' = b2d × b3d``;
+    ``Ωd = vee(RdᵀṘd)`` and ``Ω̇d = vee(RdᵀR̈d - hat(Ωd)²)``, where hat(Ωd)² is symmetric
+    and drops out, so ``(RdᵀṘd)_ij = b_i · ḃ_j`` gives both.
+    """
+    b3, b3_dot, b3_ddot = unit_vector_derivatives(force, force_dot, force_ddot)
+    c = cross_tuple(b3, heading)
+    c_dot = add(cross_tuple(b3_dot, heading), cross_tuple(b3, heading_rate))
+    c_ddot = add(combine(1.0, cross_tuple(b3_ddot, heading), 2.0,
+                         cross_tuple(b3_dot, heading_rate)),
+                 cross_tuple(b3, heading_acceleration))
+    b2, b2_dot, b2_ddot = unit_vector_derivatives(c, c_dot, c_ddot)
+    b1 = cross_tuple(b2, b3)
+    b1_dot = add(cross_tuple(b2_dot, b3), cross_tuple(b2, b3_dot))
+    b1_ddot = add(combine(1.0, cross_tuple(b2_ddot, b3), 2.0, cross_tuple(b2_dot, b3_dot)),
+                  cross_tuple(b2, b3_ddot))
+    rotation = (b1[0], b2[0], b3[0], b1[1], b2[1], b3[1], b1[2], b2[2], b3[2])
+    # vee(S) = ½ (S₃₂ - S₂₃, S₁₃ - S₃₁, S₂₁ - S₁₂)
+    rate = (0.5 * (dot(b3, b2_dot) - dot(b2, b3_dot)), 0.5 * (dot(b1, b3_dot) - dot(b3, b1_dot)),
+            0.5 * (dot(b2, b1_dot) - dot(b1, b2_dot)))
+    acceleration = (0.5 * (dot(b3, b2_ddot) - dot(b2, b3_ddot)),
+                    0.5 * (dot(b1, b3_ddot) - dot(b3, b1_ddot)),
+                    0.5 * (dot(b2, b1_ddot) - dot(b1, b2_ddot)))
+    return rotation, rate, acceleration
+
+
+@njit(cache=True)
+def attitude_errors(rotation, angular_velocity, desired_rotation, desired_rate):
+    """``eR = ½ vee(RdᵀR - RᵀRd)``, ``eΩ = Ω - RᵀRd Ωd`` (Lee 2010), and ``RᵀRd``."""
+    rd_t_r = mat_mul_tuple(transpose(desired_rotation), rotation)
+    attitude_error = (0.5 * (rd_t_r[7] - rd_t_r[5]), 0.5 * (rd_t_r[2] - rd_t_r[6]),
+                      0.5 * (rd_t_r[3] - rd_t_r[1]))
+    r_t_rd = transpose(rd_t_r)
+    rate_error = combine(1.0, angular_velocity, -1.0, mat_vec_tuple(r_t_rd, desired_rate))
+    return attitude_error, rate_error, r_t_rd
+
+
+@njit(cache=True)
+def geometric_law(x, v, R, w, reference, mass, gravity, inertia, kx, kv, kR, kOmega,
+                  force_estimate, torque_estimate):
+    """Lee 2010 with NDOB compensation for one vehicle; ``reference`` is (xd, ẋd, ẍd, x⃛d,
+    x⃜d, b1d, ḃ1d, b̈1d). Returns thrust, moment, F, Rd, Ωd, eR, eΩ."""
+    position, velocity, acceleration, jerk, snap, heading, heading_rate, heading_accel = reference
+    position_error = combine(1.0, x, -1.0, position)
+    velocity_error = combine(1.0, v, -1.0, velocity)
+    # F = -kx ex - kv ev + m g e3 + m ẍd - d̂x
+    force = (-kx[0] * position_error[0] - kv[0] * velocity_error[0] + mass * acceleration[0]
+             - force_estimate[0],
+             -kx[1] * position_error[1] - kv[1] * velocity_error[1] + mass * acceleration[1]
+             - force_estimate[1],
+             -kx[2] * position_error[2] - kv[2] * velocity_error[2] + mass * gravity
+             + mass * acceleration[2] - force_estimate[2])
+    body_z = (R[2], R[5], R[8])
+    thrust = dot(force, body_z)
+    body_z_dot = mat_vec_tuple(R, (w[1], -w[0], 0.0))  # d/dt R e3 = R hat(Ω) e3
+    # model-predicted acceleration and jerk errors: v̇ = -g e3 + (f R e3 + d̂x) / m
+    predicted = combine(thrust / mass, body_z, 1.0 / mass, force_estimate)
+    acceleration_error = (predicted[0] - acceleration[0], predicted[1] - acceleration[1],
+                          predicted[2] - gravity - acceleration[2])
+    force_dot = (-kx[0] * velocity_error[0] - kv[0] * acceleration_error[0] + mass * jerk[0],
+                 -kx[1] * velocity_error[1] - kv[1] * acceleration_error[1] + mass * jerk[1],
+                 -kx[2] * velocity_error[2] - kv[2] * acceleration_error[2] + mass * jerk[2])
+    thrust_dot = dot(force_dot, body_z) + dot(force, body_z_dot)
+    jerk_error = combine(thrust_dot / mass, body_z, thrust / mass, body_z_dot)
+    jerk_error = combine(1.0, jerk_error, -1.0, jerk)
+    force_ddot = (-kx[0] * acceleration_error[0] - kv[0] * jerk_error[0] + mass * snap[0],
+                  -kx[1] * acceleration_error[1] - kv[1] * jerk_error[1] + mass * snap[1],
+                  -kx[2] * acceleration_error[2] - kv[2] * jerk_error[2] + mass * snap[2])
+    rd, rate_d, acceleration_d = desired_attitude(force, force_dot, force_ddot, heading,
+                                                  heading_rate, heading_accel)
+    attitude_error, rate_error, r_t_rd = attitude_errors(R, w, rd, rate_d)
+    rate_body = mat_vec_tuple(r_t_rd, rate_d)
+    acceleration_body = mat_vec_tuple(r_t_rd, acceleration_d)
+    gyroscopic = cross_tuple(w, mat_vec_tuple(inertia, w))
+    feedforward = mat_vec_tuple(inertia, combine(1.0, cross_tuple(w, rate_body), -1.0,
+                                                 acceleration_body))
+    # M = -kR eR - kΩ eΩ + Ω × JΩ - J(hat(Ω) RᵀRd Ωd - RᵀRd Ω̇d) - d̂Ω
+    moment = (-kR[0] * attitude_error[0] - kOmega[0] * rate_error[0] + gyroscopic[0]
+              - feedforward[0] - torque_estimate[0],
+              -kR[1] * attitude_error[1] - kOmega[1] * rate_error[1] + gyroscopic[1]
+              - feedforward[1] - torque_estimate[1],
+              -kR[2] * attitude_error[2] - kOmega[2] * rate_error[2] + gyroscopic[2]
+              - feedforward[2] - torque_estimate[2])
+    return thrust, moment, force, rd, rate_d, attitude_error, rate_error
+
+
+# --- batch loops (one call per control step for the whole batch) ---------------------------
+
+@njit(cache=True, nogil=True)
+def geometric_batch(start, stop, position, velocity, rotation, angular_velocity, reference,
+                    mass, gravity, inertia, kx, kv, kR, kOmega, force_estimate,
+                    torque_estimate, thrust, moment, desired_force, desired_rotation,
+                    desired_rate, attitude_error, rate_error):
+    inertia_tuple = square(inertia)
+    gains = (vector(kx), vector(kv), vector(kR), vector(kOmega))
+    for i in range(start, stop):
+        ref = (row(reference[0], i), row(reference[1], i), row(reference[2], i),
+               row(reference[3], i), row(reference[4], i), row(reference[5], i),
+               row(reference[6], i), row(reference[7], i))
+        f, m, force, rd, rate_d, e_r, e_w = geometric_law(
+            row(position, i), row(velocity, i), matrix(rotation, i), row(angular_velocity, i),
+            ref, mass, gravity, inertia_tuple, gains[0], gains[1], gains[2], gains[3],
+            row(force_estimate, i), row(torque_estimate, i))
+        thrust[i] = f
+        put(moment, i, m)
+        put(desired_force, i, force)
+        for k in range(9):
+            desired_rotation[i, k // 3, k % 3] = rd[k]
+        put(desired_rate, i, rate_d)
+        put(attitude_error, i, e_r)
+        put(rate_error, i, e_w)
+
+
+@njit(cache=True)
+def desired_attitude_batch(force, force_dot, force_ddot, heading, heading_rate,
+                           heading_acceleration, rotation, rate, acceleration):
+    for i in range(force.shape[0]):
+        rd, rate_d, acceleration_d = desired_attitude(
+            row(force, i), row(force_dot, i), row(force_ddot, i), row(heading, i),
+            row(heading_rate, i), row(heading_acceleration, i))
+        for k in range(9):
+            rotation[i, k // 3, k % 3] = rd[k]
+        put(rate, i, rate_d)
+        put(acceleration, i, acceleration_d)
+
+
+@njit(cache=True)
+def attitude_errors_batch(rotation, angular_velocity, desired_rotation, desired_rate,
+                          attitude_error, rate_error, r_t_rd):
+    for i in range(rotation.shape[0]):
+        e_r, e_w, rt = attitude_errors(matrix(rotation, i), row(angular_velocity, i),
+                                       matrix(desired_rotation, i), row(desired_rate, i))
+        put(attitude_error, i, e_r)
+        put(rate_error, i, e_w)
+        for k in range(9):
+            r_t_rd[i, k // 3, k % 3] = rt[k]
+
+
+@njit(cache=True)
+def observer_estimate_batch(velocity, angular_velocity, gain, rotational_gain, z_force,
+                            z_torque, fresh, force_estimate, torque_estimate):
+    """``d̂x = zx + Ks' v``, ``d̂Ω = zΩ + Km' Ω``; a fresh episode starts at z = -K' x, so
+    its first estimate is zero."""
+    km = square(rotational_gain)
+    for i in range(velocity.shape[0]):
+        v, w = row(velocity, i), row(angular_velocity, i)
+        km_w = mat_vec_tuple(km, w)
+        if fresh[i]:
+            put(z_force, i, (-gain * v[0], -gain * v[1], -gain * v[2]))
+            put(z_torque, i, (-km_w[0], -km_w[1], -km_w[2]))
+            fresh[i] = False
+        put(force_estimate, i, combine(1.0, row(z_force, i), gain, v))
+        put(torque_estimate, i, add(row(z_torque, i), km_w))
+
+
+@njit(cache=True)
+def observer_advance_batch(start_velocity, start_body_z, start_angular_velocity, thrust,
+                           moment, end_rotation, end_angular_velocity, mass, gravity, inertia,
+                           gain, alpha, rotational_gain, alpha_rotation, z_force, z_torque):
+    """One forward-Euler step of z over a control step, with the thrust direction and the
+    gyroscopic torque averaged over the step's two ends (unbiased to second order in dt)."""
+    J = square(inertia)
+    km = square(rotational_gain)
+    a_rot = square(alpha_rotation)
+    for i in range(start_velocity.shape[0]):
+        end_body_z = (end_rotation[i, 0, 2], end_rotation[i, 1, 2], end_rotation[i, 2, 2])
+        lift = combine(0.5 * thrust[i], row(start_body_z, i), 0.5 * thrust[i], end_body_z)
+        v, z = row(start_velocity, i), row(z_force, i)
+        # żx = -(Ks/m)(zx + Ks v - m g e3 + f R e3)
+        put(z_force, i, (z[0] - alpha * (z[0] + gain * v[0] + lift[0]),
+                         z[1] - alpha * (z[1] + gain * v[1] + lift[1]),
+                         z[2] - alpha * (z[2] + gain * v[2] - mass * gravity + lift[2])))
+        w0, w1 = row(start_angular_velocity, i), row(end_angular_velocity, i)
+        gyroscopic = combine(0.5, cross_tuple(w0, mat_vec_tuple(J, w0)),
+                             0.5, cross_tuple(w1, mat_vec_tuple(J, w1)))
+        zt = row(z_torque, i)
+        # żΩ = -Km J⁻¹(zΩ + Km Ω - Ω × JΩ + M)
+        residual = add(combine(1.0, zt, 1.0, mat_vec_tuple(km, w0)),
+                       combine(-1.0, gyroscopic, 1.0, row(moment, i)))
+        put(z_torque, i, combine(1.0, zt, -1.0, mat_vec_tuple(a_rot, residual)))

@@ -1,0 +1,130 @@
+"""Residual control: a base controller's command plus a scaled policy residual.
+
+``ResidualCommand`` does it for a whole ``QuadrotorBatch`` (one controller call for all N
+vehicles); ``quad_dob_env.wrappers.ResidualActionWrapper`` is its single-env face and
+``QuadrotorVectorEnv(..., base_controller=...)`` its vector face, so both run this code.
+
+Applied command (before the actuators' own limits):
+``thrust = base_thrust + thrust_scale · max_total_thrust · a₀``,
+``moment_k = base_moment_k + moment_scale · moment_limit_k · a_k`` (k = 1..3),
+with the residual ``a`` clipped to [-1, 1]. A zero residual gives the base command exactly.
+
+Observation: the env's own observation followed by 10 entries:
+
+| index (after the env's) | entry                                                   | unit |
+|-------------------------|---------------------------------------------------------|------|
+| 0-3                     | base command as a normalised action (thrust, Mx, My, Mz) | -    |
+| 4-6                     | observer's force estimate d̂x / (m g) (0 without one)     | -    |
+| 7-9                     | observer's torque estimate d̂Ω / moment limit            | -    |
+
+Reward: the env's reward (built with no effort term) minus
+``residual_effort_weight · mean(a²)``, so only the policy's own effort is penalised.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from quad_dob_env.validation import as_finite
+
+if TYPE_CHECKING:  # the layering: quad_dob_env imports baselines only when asked to
+    from baselines.base import Controller
+    from quad_dob_env.envs.core import QuadrotorBatch
+
+RESIDUAL_OBSERVATION_SIZE = 10
+
+
+def resolve_controller(base: Any, core: QuadrotorBatch) -> Controller:
+    """A controller object, or one built by name with ``baselines.make_controller``."""
+    if isinstance(base, str):
+        from baselines import make_controller  # at run time only: DESIGN.md layering
+
+        return make_controller(base, core.vehicle)
+    if not (hasattr(base, "compute") and hasattr(base, "reset") and hasattr(base, "applied")):
+        raise ValueError(f"base_controller must be a controller name or a baselines Controller, "
+                         f"got {base!r}")
+    return base
+
+
+class ResidualCommand:
+    """Base controller + residual for every vehicle of ``core``."""
+
+    def __init__(self, core: QuadrotorBatch, base_controller: Any = "geometric-ndob",
+                 thrust_scale: float = 0.1, moment_scale: float = 0.1,
+                 residual_effort_weight: float = 0.01) -> None:
+        self.core = core
+        self.controller = resolve_controller(base_controller, core)
+        self.thrust_scale = as_finite(thrust_scale, "residual thrust_scale", 0.0, strictly=True)
+        self.moment_scale = as_finite(moment_scale, "residual moment_scale", 0.0, strictly=True)
+        if self.thrust_scale > 1 or self.moment_scale > 1:
+            raise ValueError(f"residual thrust_scale and moment_scale are fractions of the "
+                             f"limits in (0, 1], got {thrust_scale}, {moment_scale}")
+        self.effort_weight = as_finite(residual_effort_weight, "residual_effort_weight", 0.0)
+        vehicle, limit = core.vehicle, core.actuator.moment_limit
+        self._residual_range = np.concatenate([[self.thrust_scale * vehicle.max_total_thrust],
+                                               self.moment_scale * limit])
+        self._estimate_scale = np.concatenate([np.full(3, 1.0 / (vehicle.mass * vehicle.gravity)),
+                                               1.0 / limit])
+        n = core.n
+        self.base_thrust, self.base_moment = np.zeros(n), np.zeros((n, 3))
+        self.extra_observation = np.zeros((n, RESIDUAL_OBSERVATION_SIZE), dtype=np.float32)
+        self.rewards = np.zeros(n)
+        self._state_before = None
+        self._residual = np.zeros((n, 4))
+        self._started = False
+
+    def restart(self, indices: NDArray[np.intp]) -> None:
+        """After ``core.reset(indices)``: restart those vehicles' controller state (all of
+        them the first time). Call ``plan`` once the batch is settled."""
+        core = self.core
+        if not self._started or len(indices) == core.n:
+            self.controller.reset(core.n, core.vehicle, core.scenario.dt)
+            self._started = True
+        else:
+            self.controller.reset(core.n, core.vehicle, core.scenario.dt, indices)
+        self.rewards[indices] = 0.0
+
+    def command(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The env actions (N, 4) for base command + scaled ``residual`` (N, 4)."""
+        if not self._started:
+            raise RuntimeError("ResidualCommand.restart and plan must run before command")
+        core = self.core
+        self._residual = np.clip(residual, -1.0, 1.0)
+        offset = self._residual * self._residual_range
+        self._state_before = core.state.copy()
+        return core.action_from_command(self.base_thrust + offset[:, 0],
+                                        self.base_moment + offset[:, 1:])
+
+    def record(self) -> None:
+        """After the core flew ``command``'s actions: tell the controller what was applied
+        and score the residual's effort."""
+        core = self.core
+        self.controller.applied(self._state_before, core.applied.thrust, core.applied.moment)
+        self.rewards = core.rewards - self.effort_weight * np.mean(self._residual**2, axis=1)
+
+    def plan(self) -> None:
+        """Every vehicle's base command for the coming step, and the extra observation."""
+        core, controller = self.core, self.controller
+        self.base_thrust, self.base_moment = controller.compute(core.time, core.state,
+                                                                core.reference)
+        extra = self.extra_observation
+        extra[:, :4] = core.action_from_command(self.base_thrust, self.base_moment)
+        zeros = np.zeros((core.n, 3))
+        estimates = np.concatenate([controller.diagnostics.get("force_estimate", zeros),
+                                    controller.diagnostics.get("torque_estimate", zeros)], 1)
+        extra[:, 4:] = np.clip(estimates * self._estimate_scale, -1e3, 1e3)
+
+    def info(self) -> dict[str, NDArray]:
+        """``base_thrust`` (N,), ``base_moment`` and the observer's ``force_estimate`` and
+        ``torque_estimate`` (N, 3; zero without an observer), for the coming step."""
+        diagnostics = self.controller.diagnostics
+        zeros = np.zeros((self.core.n, 3))
+        return {"base_thrust": self.base_thrust.copy(), "base_moment": self.base_moment.copy(),
+                "force_estimate": np.array(diagnostics.get("force_estimate", zeros)),
+                "torque_estimate": np.array(diagnostics.get("torque_estimate", zeros))}
+
+    def observation(self, core_observation: NDArray[np.float32]) -> NDArray[np.float32]:
+        return np.concatenate([core_observation, self.extra_observation], axis=1)

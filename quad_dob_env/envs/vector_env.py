@@ -1,0 +1,190 @@
+"""``QuadrotorVectorEnv``: N vehicles as one Gymnasium vector env, stepped by the batched core."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+from numpy.typing import NDArray
+
+from quad_dob_env.envs.core import TERMINATION_REASONS, EpisodeLimits, QuadrotorBatch, RewardWeights
+from quad_dob_env.envs.kernels import OBSERVATION_BOUND
+from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
+from quad_dob_env.scenarios import Scenario, make_scenario
+
+
+class QuadrotorVectorEnv(VectorEnv):
+    """N quadrotors of one scenario, each the same as a ``QuadrotorEnv`` (spaces, reward,
+    termination: see its docstring), stepped together in one compiled call.
+
+    Seeding: ``reset(seed=s)`` gives vehicle i the generator of a single env reset with
+    ``seed=s + i`` (a list gives one seed per vehicle), so vehicle i equals that single env
+    step for step. Autoreset: Gymnasium's next-step mode. The step after a vehicle's
+    episode ends resets it instead of stepping it: its observation is the new episode's
+    first, with reward 0 and ``terminated = truncated = False``; its action is ignored.
+    ``info`` holds arrays with a leading axis N (``time``, ``position_error``,
+    ``disturbance_force``, ...); ``termination_reason`` holds strings with the mask
+    ``_termination_reason`` where an episode ended.
+
+    Residual mode: with ``base_controller`` (a name such as ``"geometric-ndob"`` or a
+    ``baselines`` controller) every vehicle is flown by that controller, run once per step
+    for the whole batch, plus the action as a residual scaled by ``thrust_scale`` and
+    ``moment_scale`` (``quad_dob_env.envs.residual``: the command, the 10 extra observation
+    entries, the reward). ``info`` then adds ``base_thrust``, ``base_moment``,
+    ``force_estimate`` and ``torque_estimate``. ``reward_effort_weight`` defaults to 0.01
+    without a base and to 0 with one (the residual's own effort is
+    ``residual_effort_weight``).
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "render_fps": 100,
+                                          "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int, scenario: str | Scenario = "paper-none",
+                 scenario_options: dict[str, Any] | None = None,
+                 action_mode: str = "thrust_moments", rotation_representation: str = "matrix",
+                 max_position_error: float = 5.0, max_tilt: float = np.pi / 2,
+                 max_body_rate: float = 35.0, reward_position_scale: float = 0.25,
+                 reward_effort_weight: float | None = None, render_mode: str | None = None,
+                 base_controller: Any = None, thrust_scale: float = 0.1,
+                 moment_scale: float = 0.1, residual_effort_weight: float = 0.01) -> None:
+        if render_mode is not None:
+            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        self.render_mode = render_mode
+        self.scenario = make_scenario(scenario, **(scenario_options or {}))
+        if reward_effort_weight is None:
+            reward_effort_weight = 0.01 if base_controller is None else 0.0
+        self.core = QuadrotorBatch(
+            self.scenario, num_envs, action_mode, rotation_representation,
+            EpisodeLimits(max_position_error, max_tilt, max_body_rate),
+            RewardWeights(reward_position_scale, reward_effort_weight),
+        )
+        self.residual = None if base_controller is None else ResidualCommand(
+            self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight)
+        self.num_envs = self.core.n
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.scenario.dt)}
+        self.single_action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
+        size = self.core.observation_size + (
+            0 if self.residual is None else RESIDUAL_OBSERVATION_SIZE)
+        self.single_observation_space = gym.spaces.Box(
+            -OBSERVATION_BOUND, OBSERVATION_BOUND, (size,), np.float32)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self._generators: list[np.random.Generator] = []
+        self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+
+    def reset(self, *, seed: int | list[int | None] | None = None,
+              options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:
+        n = self.num_envs
+        if seed is None or isinstance(seed, (int, np.integer)):
+            seeds = [None if seed is None else int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise ValueError(f"reset(seed=...) needs an int or {n} seeds, got {len(seeds)}")
+        self._generators = [seeding.np_random(s)[0] for s in seeds]
+        self.restart(np.arange(n))
+        self.plan()
+        self._needs_reset[:] = False
+        info = self._info()
+        info["sampled"] = [dict(sampled) for sampled in self.core.sampled]
+        return self.observations(), info
+
+    def step(self, actions: Any) -> tuple[NDArray[np.float32], NDArray, NDArray, NDArray, dict]:
+        if not self._generators:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        core = self.core
+        self.fly(validated_batch_actions(actions, self.num_envs))
+        restarting = np.flatnonzero(self._needs_reset)
+        if restarting.size:
+            self.restart(restarting)
+        self.plan()
+        rewards = self.rewards().copy()
+        terminated = core.terminated
+        truncated = core.truncated
+        if restarting.size:
+            rewards[restarting] = 0.0
+            terminated[restarting] = truncated[restarting] = False
+        self._needs_reset = terminated | truncated
+        return (self.observations(), rewards, terminated, truncated,
+                self._info(self._needs_reset))
+
+    # --- the stages, shared with training.vec_env's SB3 adapter -------------------------
+    def restart(self, indices: NDArray[np.intp]) -> None:
+        """New episodes for vehicles ``indices``, from their own generators."""
+        self.core.reset(indices, [self._generators[i] for i in indices])
+        if self.residual is not None:
+            self.residual.restart(indices)
+
+    def fly(self, actions: NDArray[np.float64]) -> None:
+        """One step of every vehicle from validated actions (residuals in residual mode)."""
+        if self.residual is None:
+            self.core.step(actions)
+        else:
+            self.core.step(self.residual.command(actions))
+            self.residual.record()
+
+    def plan(self) -> None:
+        """The base command for the coming step (residual mode; nothing otherwise)."""
+        if self.residual is not None:
+            self.residual.plan()
+
+    def rewards(self) -> NDArray[np.float64]:
+        return self.core.rewards if self.residual is None else self.residual.rewards
+
+    def observations(self) -> NDArray[np.float32]:
+        if self.residual is None:
+            return self.core.obs.copy()
+        return self.residual.observation(self.core.obs)
+
+    def _info(self, ended: NDArray[np.bool_] | None = None) -> dict[str, Any]:
+        core = self.core
+        reference = core.reference
+        state, applied = core.state, core.applied
+        if ended is None:
+            ended = core.terminated | core.truncated
+        reasons = np.full(self.num_envs, "", dtype=object)
+        if ended.any():
+            for i in np.flatnonzero(ended):
+                reasons[i] = core.termination_reason(i)
+        return {
+            "time": core.time,
+            "position_error": state.position - reference.position,
+            "velocity_error": state.velocity - reference.velocity,
+            "reference_position": reference.position,
+            "reference_velocity": reference.velocity,
+            "reference_acceleration": reference.acceleration,
+            "reference_heading": reference.heading,
+            "disturbance_force": core.disturbance_force.copy(),
+            "disturbance_torque": core.disturbance_torque.copy(),
+            "applied_thrust": applied.thrust.copy(),
+            "applied_moment": applied.moment.copy(),
+            "rotor_thrusts": applied.rotor_thrusts.copy(),
+            "actuator_saturated": applied.saturated.copy(),
+            "termination_reason": reasons,
+            "_termination_reason": ended,
+            **({} if self.residual is None else self.residual.info()),
+        }
+
+
+def validated_batch_actions(actions: Any, num_envs: int) -> NDArray[np.float64]:
+    """Actions as float64 (N, 4); NaN, inf or a wrong shape raise ValueError naming them."""
+    try:
+        batch = np.asarray(actions, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"actions must be numeric with shape ({num_envs}, 4)") from None
+    if batch.shape != (num_envs, 4):
+        raise ValueError(f"actions must have shape ({num_envs}, 4), got {batch.shape}")
+    finite = np.isfinite(batch).all(axis=1)
+    if not finite.all():
+        bad = np.flatnonzero(~finite)
+        raise ValueError(f"actions must be finite; envs {bad[:10].tolist()} got "
+                         f"{batch[bad[0]].tolist()} (allowed: [-1, 1], values outside are "
+                         "clipped)")
+    return batch
+
+
+__all__ = ["TERMINATION_REASONS", "QuadrotorVectorEnv", "validated_batch_actions"]

@@ -1,0 +1,71 @@
+"""``ResidualActionWrapper``: the single-env face of ``quad_dob_env.envs.residual``.
+
+Command, observation and reward: see ``quad_dob_env.envs.residual``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import NDArray
+
+from quad_dob_env.envs.kernels import OBSERVATION_BOUND
+from quad_dob_env.envs.quadrotor_env import QuadrotorEnv, validated_actions
+from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
+
+
+class ResidualActionWrapper(gym.Wrapper):
+    """A single ``QuadrotorEnv`` flown by ``base_controller`` plus the policy's residual
+    (command, observation and reward: ``quad_dob_env.envs.residual``).
+
+    ``info`` also holds ``base_thrust``, ``base_moment`` (the base command for the coming
+    step), ``force_estimate`` and ``torque_estimate`` (the observer's, zero without one).
+    """
+
+    def __init__(self, env: gym.Env, base_controller: Any = "geometric-ndob",
+                 thrust_scale: float = 0.1, moment_scale: float = 0.1,
+                 residual_effort_weight: float = 0.01) -> None:
+        super().__init__(env)
+        core = getattr(env.unwrapped, "core", None)
+        if core is None or core.n != 1:
+            raise ValueError(f"ResidualActionWrapper wraps a single QuadrotorEnv, got {env!r}")
+        self.residual = ResidualCommand(core, base_controller, thrust_scale, moment_scale,
+                                        residual_effort_weight)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
+        self.observation_space = gym.spaces.Box(
+            -OBSERVATION_BOUND, OBSERVATION_BOUND,
+            (core.observation_size + RESIDUAL_OBSERVATION_SIZE,), np.float32)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[NDArray[np.float32], dict]:
+        observation, info = self.env.reset(seed=seed, options=options)
+        self.residual.restart(np.zeros(1, dtype=np.intp))
+        self.residual.plan()
+        return self._observation(observation), self._info(info)
+
+    def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
+        residual = validated_actions(action, (4,))
+        observation, _, terminated, truncated, info = self.env.step(
+            self.residual.command(residual[None])[0])
+        self.residual.record()
+        self.residual.plan()
+        return (self._observation(observation), float(self.residual.rewards[0]), terminated,
+                truncated, self._info(info))
+
+    def _observation(self, observation: NDArray[np.float32]) -> NDArray[np.float32]:
+        return self.residual.observation(np.asarray(observation)[None])[0]
+
+    def _info(self, info: dict) -> dict:
+        return {**info, **{key: value[0] for key, value in self.residual.info().items()}}
+
+
+def make_residual_env(base_controller: Any = "geometric-ndob", thrust_scale: float = 0.1,
+                      moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
+                      **env_kwargs: Any) -> ResidualActionWrapper:
+    """``ResidualActionWrapper(QuadrotorEnv(**env_kwargs))``, the env's own effort term off
+    (the entry point of the ``...Residual-v0`` ids)."""
+    env_kwargs.setdefault("reward_effort_weight", 0.0)
+    return ResidualActionWrapper(QuadrotorEnv(**env_kwargs), base_controller, thrust_scale,
+                                 moment_scale, residual_effort_weight)

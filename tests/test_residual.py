@@ -1,0 +1,123 @@
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import quad_dob_env  # noqa: F401
+from baselines import make_controller
+from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
+from quad_dob_env.scenarios import make_scenario
+from quad_dob_env.wrappers import ResidualActionWrapper
+from training.rollout import fly
+from training.vec_env import QuadrotorSB3VecEnv
+
+SCENARIO, BASE = "dryden-helix-gusts", "geometric-ndob:tuned"
+SHORT = {"duration": 0.3}
+
+
+def test_zero_residual_flies_exactly_the_base_controller():
+    env = gym.make("QuadDOB/TrackResidual-v0", scenario=SCENARIO, base_controller=BASE)
+    vector = gym.make_vec("QuadDOB/TrackResidual-v0", num_envs=3,
+                          vectorization_mode="vector_entry_point", scenario=SCENARIO,
+                          base_controller=BASE)
+    env.reset(seed=2)
+    vector.reset(seed=0)  # vehicle i is seed i
+    core, vector_core = env.unwrapped.core, vector.unwrapped.core
+    single_path, vector_path = [], []
+    for _ in range(400):
+        single_path.append(core.state.position[0].copy())
+        vector_path.append(vector_core.state.position.copy())
+        env.step(np.zeros(4, np.float32))
+        vector.step(np.zeros((3, 4)))
+    base = fly(make_controller(BASE), [make_scenario(SCENARIO)], seed=2)[0].position[:400]
+    np.testing.assert_array_equal(np.array(single_path), base)  # bit for bit
+    np.testing.assert_array_equal(np.array(vector_path)[:, 2], base)
+
+
+def test_residual_adds_its_scaled_share_of_the_limits():
+    # wrench actuation: moment limits of 7.9 N m on every axis, far from the base's command
+    env = gym.make("QuadDOB/HoverResidual-v0", base_controller="geometric",
+                   scenario_options={"actuation": "wrench"}, thrust_scale=0.2,
+                   moment_scale=0.05)
+    _, info = env.reset(seed=0)
+    vehicle = env.unwrapped.core.vehicle
+    limit = env.unwrapped.core.actuator.moment_limit
+    action = np.array([0.5, -1.0, 0.0, 3.0], np.float32)  # 3.0 is clipped to 1
+    _, reward, *_, after = env.step(action)
+    applied = env.unwrapped.core.applied
+    assert applied.thrust[0] == pytest.approx(info["base_thrust"]
+                                              + 0.5 * 0.2 * vehicle.max_total_thrust)
+    np.testing.assert_allclose(applied.moment[0], info["base_moment"]
+                               + np.array([-0.05, 0.0, 0.05]) * limit, rtol=1e-9, atol=1e-12)
+    # the reward charges only the residual's effort (the base's own command is free)
+    assert reward == pytest.approx(np.exp(-np.linalg.norm(after["position_error"]) / 0.25)
+                                   - 0.01 * np.mean(np.clip(action, -1, 1) ** 2))
+
+
+def test_residual_observation_carries_the_base_command_and_estimates():
+    env = gym.make("QuadDOB/TrackResidual-v0", scenario="paper-II",
+                   base_controller=BASE)
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (34,) and env.observation_space.contains(obs)
+    core = env.unwrapped.core
+    for _ in range(100):
+        obs, _, _, _, info = env.step(np.zeros(4, np.float32))
+    np.testing.assert_allclose(obs[24:28], core.action_from_command(
+        info["base_thrust"], info["base_moment"])[0], atol=1e-6)
+    vehicle = core.vehicle
+    # by 1 s the tuned observer has found paper-II's constant force
+    np.testing.assert_allclose(obs[28:31] * vehicle.mass * vehicle.gravity,
+                               info["force_estimate"], rtol=1e-5)
+    np.testing.assert_allclose(info["force_estimate"], [1.3, 2.0, 2.6], atol=0.05)
+
+
+def test_residual_envs_pass_the_checkers():
+    with pytest.warns(UserWarning, match="different from the unwrapped"):
+        check_env(ResidualActionWrapper(QuadrotorEnv("hover-calm")), skip_render_check=True)
+    sb3_check_env(gym.make("QuadDOB/TrackResidual-v0"), warn=False)
+
+
+def test_vector_residual_equals_single_residual_envs_through_autoresets():
+    n, steps = 3, 70
+    vector = QuadrotorVectorEnv(n, "gusty-hover", scenario_options=SHORT,
+                                base_controller="geometric-ndob")
+    singles = [gym.make("QuadDOB/HoverResidual-v0", scenario="gusty-hover",
+                        scenario_options=SHORT) for _ in range(n)]
+    obs, _ = vector.reset(seed=5)
+    for i, env in enumerate(singles):
+        np.testing.assert_array_equal(obs[i], env.reset(seed=5 + i)[0])
+    actions = np.random.default_rng(1).uniform(-1, 1, (steps, n, 4))
+    pending = [False] * n
+    for step in range(steps):
+        obs, rewards, *_ = vector.step(actions[step])
+        for i, env in enumerate(singles):
+            if pending[i]:
+                expected, reward, done = env.reset()[0], 0.0, False
+            else:
+                expected, reward, term, trunc, _ = env.step(actions[step, i].astype(np.float32))
+                done = term or trunc
+            # float32 actions in the single env: residuals agree to float32 rounding
+            np.testing.assert_allclose(obs[i], expected, atol=1e-5)
+            assert rewards[i] == pytest.approx(reward, abs=1e-6)
+            pending[i] = done
+
+
+def test_sb3_adapter_runs_in_residual_mode():
+    venv = QuadrotorSB3VecEnv(4, "hover-calm", seed=0, base_controller="geometric-ndob",
+                              scenario_options=SHORT)
+    obs = venv.reset()
+    assert obs.shape == (4, 34)
+    terminal = []
+    for _ in range(40):
+        obs, rewards, _, infos = venv.step(np.zeros((4, 4), np.float32))
+        assert np.isfinite(obs).all() and np.isfinite(rewards).all()
+        terminal += [info["terminal_observation"] for info in infos if info]
+    assert len(terminal) == 4 and all(o.shape == (34,) for o in terminal)  # 30-step episodes
+
+
+def test_bad_base_controller_is_named():
+    with pytest.raises(ValueError, match=r"controller 'geometric-dob'.*valid: geometric"):
+        gym.make("QuadDOB/TrackResidual-v0", base_controller="geometric-dob")
+    with pytest.raises(ValueError, match="thrust_scale"):
+        gym.make("QuadDOB/TrackResidual-v0", thrust_scale=0.0)

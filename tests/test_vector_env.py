@@ -1,0 +1,105 @@
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import quad_dob_env  # noqa: F401
+from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
+from training.vec_env import QuadrotorSB3VecEnv
+
+SHORT = {"duration": 0.3}  # 30 steps, so episodes end and autoreset inside the tests
+
+
+def test_make_vec_gives_the_native_vector_env_with_batched_spaces():
+    env = gym.make_vec("QuadDOB/Track-v0", num_envs=6, vectorization_mode="vector_entry_point")
+    assert isinstance(env.unwrapped, QuadrotorVectorEnv)
+    assert env.observation_space.shape == (6, 24) and env.action_space.shape == (6, 4)
+    obs, info = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+    assert info["position_error"].shape == (6, 3)
+    obs, rewards, *_ = env.step(env.action_space.sample())
+    assert env.observation_space.contains(obs) and rewards.shape == (6,)
+
+
+def test_seeding_is_reproducible_and_per_vehicle():
+    a, b = (QuadrotorVectorEnv(4, "hover-calm") for _ in range(2))
+    obs_a, _ = a.reset(seed=9)
+    obs_b, _ = b.reset(seed=9)
+    np.testing.assert_array_equal(obs_a, obs_b)
+    assert not np.array_equal(obs_a[0], obs_a[1])
+    single, _ = QuadrotorEnv("hover-calm").reset(seed=11)
+    np.testing.assert_array_equal(obs_a[2], single)  # vehicle i <-> seed + i
+
+
+def test_vehicles_equal_single_envs_through_next_step_autoresets():
+    n, steps = 5, 100
+    vector = QuadrotorVectorEnv(n, "gusty-hover", scenario_options=SHORT)
+    singles = [QuadrotorEnv("gusty-hover", SHORT) for _ in range(n)]
+    obs, _ = vector.reset(seed=100)
+    for i, env in enumerate(singles):
+        np.testing.assert_array_equal(obs[i], env.reset(seed=100 + i)[0])
+    pending = [False] * n
+    actions = np.random.default_rng(0).uniform(-0.2, 0.2, (steps, n, 4))
+    autoresets = 0
+    for step in range(steps):
+        obs, rewards, terminated, truncated, _ = vector.step(actions[step])
+        for i, env in enumerate(singles):
+            if pending[i]:  # next-step autoreset: this step resets instead of stepping
+                expected, reward, done = env.reset()[0], 0.0, False
+                autoresets += 1
+            else:
+                expected, reward, term, trunc, _ = env.step(actions[step, i])
+                done = term or trunc
+            np.testing.assert_allclose(obs[i], expected, rtol=0, atol=1e-12)
+            assert rewards[i] == pytest.approx(reward, abs=1e-12)
+            assert bool(terminated[i] or truncated[i]) == done
+            pending[i] = done
+    assert autoresets >= n * 2
+
+
+def test_ended_episodes_report_their_reason():
+    vector = QuadrotorVectorEnv(3, "hover-calm", scenario_options=SHORT)
+    vector.reset(seed=0)
+    for _ in range(30):
+        _, _, _, truncated, info = vector.step(np.zeros((3, 4)))
+    assert truncated.all() and info["_termination_reason"].all()
+    assert list(info["termination_reason"]) == ["time_limit"] * 3
+
+
+def test_bad_actions_and_order_are_named():
+    vector = QuadrotorVectorEnv(3, "hover-calm")
+    with pytest.raises(gym.error.ResetNeeded):
+        vector.step(np.zeros((3, 4)))
+    vector.reset(seed=0)
+    actions = np.zeros((3, 4))
+    actions[1, 2] = np.nan
+    with pytest.raises(ValueError, match=r"envs \[1\]"):
+        vector.step(actions)
+    with pytest.raises(ValueError, match=r"shape \(3, 4\)"):
+        vector.step(np.zeros((2, 4)))
+    with pytest.raises(ValueError, match="needs an int or 3 seeds"):
+        vector.reset(seed=[1, 2])
+
+
+def test_sb3_adapter_resets_in_the_same_step_and_keeps_the_terminal_observation():
+    venv = QuadrotorSB3VecEnv(3, "hover-calm", seed=0, scenario_options=SHORT)
+    first = venv.reset()
+    for _ in range(29):
+        venv.step(np.zeros((3, 4)))
+    obs, rewards, dones, infos = venv.step(np.zeros((3, 4)))
+    assert dones.all()
+    for i, info in enumerate(infos):
+        assert info["TimeLimit.truncated"] and info["termination_reason"] == "time_limit"
+        assert not np.array_equal(info["terminal_observation"], obs[i])
+    assert obs.shape == first.shape and rewards.dtype == np.float32
+
+
+def test_ppo_trains_a_few_thousand_steps_on_the_adapter():
+    from stable_baselines3 import PPO
+
+    venv = QuadrotorSB3VecEnv(8, "hover-calm", seed=0)
+    model = PPO("MlpPolicy", venv, n_steps=128, batch_size=256, n_epochs=2, seed=0,
+                device="cpu", verbose=0)
+    model.learn(total_timesteps=3072)
+    assert model.num_timesteps >= 3072
+    action, _ = model.predict(venv.reset(), deterministic=True)
+    assert action.shape == (8, 4)
