@@ -20,6 +20,7 @@ $(STAMP): pyproject.toml
 
 demo: $(STAMP)
 	$(BIN)/quad-dob paper --out results
+	$(BIN)/quad-dob evaluate --out results/evaluation
 
 test: $(STAMP)
 	$(BIN)/ruff check .

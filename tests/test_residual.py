@@ -59,7 +59,7 @@ def test_residual_observation_carries_the_base_command_and_estimates():
     env = gym.make("QuadDOB/TrackResidual-v0", scenario="paper-II",
                    base_controller=BASE)
     obs, _ = env.reset(seed=0)
-    assert obs.shape == (34,) and env.observation_space.contains(obs)
+    assert obs.shape == (40,) and env.observation_space.contains(obs)
     core = env.unwrapped.core
     for _ in range(100):
         obs, _, _, _, info = env.step(np.zeros(4, np.float32))
@@ -107,13 +107,13 @@ def test_sb3_adapter_runs_in_residual_mode():
     venv = QuadrotorSB3VecEnv(4, "hover-calm", seed=0, base_controller="geometric-ndob",
                               scenario_options=SHORT)
     obs = venv.reset()
-    assert obs.shape == (4, 34)
+    assert obs.shape == (4, 40)
     terminal = []
     for _ in range(40):
         obs, rewards, _, infos = venv.step(np.zeros((4, 4), np.float32))
         assert np.isfinite(obs).all() and np.isfinite(rewards).all()
         terminal += [info["terminal_observation"] for info in infos if info]
-    assert len(terminal) == 4 and all(o.shape == (34,) for o in terminal)  # 30-step episodes
+    assert len(terminal) == 4 and all(o.shape == (40,) for o in terminal)  # 30-step episodes
 
 
 def test_bad_base_controller_is_named():

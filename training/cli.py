@@ -28,6 +28,21 @@ def _paper(args: argparse.Namespace) -> int:
                       args.dt, args.substeps, args.out, args.json, not args.no_figures)
 
 
+def _train(args: argparse.Namespace) -> int:
+    from training.train import main as train_main
+
+    return train_main(args.algo, args.mode, args.env, args.scenario, args.timesteps,
+                      args.n_envs, args.seed, args.out, args.resume, args.base,
+                      args.checkpoint_every, args.evaluate_every, not args.no_progress)
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from training.evaluate import main as evaluate_main
+
+    return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
+                         args.json)
+
+
 def _names(text: str) -> list[str]:
     return [name.strip() for name in text.split(",") if name.strip()]
 
@@ -68,6 +83,42 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--json", action="store_true", help="print the table as JSON rows")
     paper.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     paper.set_defaults(handler=_paper)
+    train = commands.add_parser(
+        "train", help="train PPO (stable-baselines3) on the vector env, residual or direct")
+    train.add_argument("--algo", default="ppo", help="algorithm (default: %(default)s)")
+    train.add_argument("--mode", default="residual", help="residual or direct "
+                       "(default: %(default)s)")
+    train.add_argument("--env", default="QuadDOB/TrackResidual-v0",
+                       help="env id; its hyperparameters come from "
+                       "training/hyperparams/ppo.yml (default: %(default)s)")
+    train.add_argument("--scenario", default=None, help="scenario (default: the yml's)")
+    train.add_argument("--base", default=None,
+                       help="base controller of a residual (default: the yml's)")
+    train.add_argument("--timesteps", type=_positive_int, default=None)
+    train.add_argument("--n-envs", type=_positive_int, default=None)
+    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--out", type=Path, default=Path("runs/ppo"))
+    train.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to go on "
+                       "from")
+    train.add_argument("--checkpoint-every", type=_positive_int, default=100_000,
+                       help="timesteps between checkpoints (default: %(default)s)")
+    train.add_argument("--evaluate-every", type=_positive_int, default=100_000,
+                       help="timesteps between evaluations against the base "
+                       "(default: %(default)s)")
+    train.add_argument("--no-progress", action="store_true", help="no progress bar")
+    train.set_defaults(handler=_train)
+    evaluate = commands.add_parser(
+        "evaluate", help="score policies on scenarios over seeds: table, CSV, bar plot")
+    evaluate.add_argument("--policies", default="geometric-ndob:tuned,geometric-ndob,pid,smc,"
+                          "residual", help="comma-separated: controller names, ppo:PATH, "
+                          "residual (the shipped policy), residual:PATH (default: %(default)s)")
+    evaluate.add_argument("--scenarios", default="dryden-helix-gusts",
+                          help="comma-separated scenario names (default: %(default)s)")
+    evaluate.add_argument("--seeds", default="9001-9020",
+                          help="a count N (seeds 0..N-1) or a range A-B (default: %(default)s)")
+    evaluate.add_argument("--out", type=Path, default=Path("results/evaluation"))
+    evaluate.add_argument("--json", action="store_true", help="print the rows as JSON")
+    evaluate.set_defaults(handler=_evaluate)
     listing = commands.add_parser("list", help="list env ids, scenarios and vehicles")
     listing.set_defaults(handler=_list)
     return parser

@@ -1,6 +1,6 @@
 """Scores of a flight, in the form of the paper's Table I and beyond.
 
-One implementation for every report (``quad-dob paper`` now, evaluation later).
+One implementation for every report: ``quad-dob paper`` and ``quad-dob evaluate``.
 """
 
 from __future__ import annotations
@@ -53,6 +53,11 @@ def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
         # None (shown as "—") for controllers that estimate nothing
         "final_estimate_error": float(estimate_error[-1]) if has_observer else None,
         "peak_thrust": float(flight.requested_thrust.max()),
+        # control effort: RMS of the applied collective thrust and moment norm
+        "rms_thrust": float(_rms(flight.applied_thrust)),
+        "rms_moment": (float(_rms(np.linalg.norm(flight.applied_moment, axis=1)))
+                       if flight.applied_moment is not None else None),
+        "crashed": flight.termination_reason not in ("", "time_limit"),
         "thrust_limit": float(flight.thrust_limit),
         "flown": float(flight.time[-1] + flight.dt),
         "ended": flight.termination_reason,

@@ -44,13 +44,14 @@ class Flight:
     force_estimate: NDArray
     torque_estimate: NDArray
     termination_reason: str = ""
+    applied_moment: NDArray | None = None  # (T, 3) [N m]
     extra: dict = field(default_factory=dict)
 
 
 _RECORDED = ("time", "position", "velocity", "acceleration", "rotation", "reference_position",
              "reference_velocity", "reference_acceleration", "desired_rotation",
              "requested_thrust", "applied_thrust", "disturbance_force", "disturbance_torque",
-             "force_estimate", "torque_estimate")
+             "force_estimate", "torque_estimate", "applied_moment")
 
 
 def _stack_states(cores: list[QuadrotorBatch]) -> VehicleState:
@@ -104,7 +105,8 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
             "reference_velocity": reference.velocity,
             "reference_acceleration": reference.acceleration,
             "desired_rotation": diagnostics["desired_rotation"], "requested_thrust": thrust,
-            "applied_thrust": applied_thrust, "disturbance_force": disturbance_force,
+            "applied_thrust": applied_thrust, "applied_moment": applied_moment,
+            "disturbance_force": disturbance_force,
             "disturbance_torque": np.concatenate([core.disturbance_torque for core in cores]),
             "force_estimate": diagnostics.get("force_estimate", zeros),
             "torque_estimate": diagnostics.get("torque_estimate", zeros),

@@ -225,6 +225,16 @@ class QuadrotorBatch:
                                   self.vehicle.mixer_matrix, actions)
         return actions
 
+    def command_from_action(self, actions: NDArray) -> tuple[NDArray, NDArray]:
+        """Thrust (N,) and moment (N, 3) that normalised ``actions`` (N, 4) command, before
+        the actuators' limits (the action map, clipped to [-1, 1])."""
+        actions = np.clip(np.asarray(actions, dtype=float).reshape(-1, 4), -1.0, 1.0)
+        wrench = self._centre + actions * np.where(actions >= 0, self._scale_up,
+                                                   self._scale_down)
+        if self.action_mode == "rotor_thrusts":
+            wrench = wrench @ self.vehicle.allocation_matrix.T
+        return wrench[:, 0], wrench[:, 1:]
+
     # --- time and reference ---------------------------------------------------------------
     @property
     def time(self) -> NDArray[np.float64]:

@@ -9,13 +9,19 @@ Applied command (before the actuators' own limits):
 ``moment_k = base_moment_k + moment_scale · moment_limit_k · a_k`` (k = 1..3),
 with the residual ``a`` clipped to [-1, 1]. A zero residual gives the base command exactly.
 
-Observation: the env's own observation followed by 10 entries:
+Observation: the env's own observation followed by 16 entries, from the state the base
+controller reads:
 
 | index (after the env's) | entry                                                   | unit |
 |-------------------------|---------------------------------------------------------|------|
 | 0-3                     | base command as a normalised action (thrust, Mx, My, Mz) | -    |
 | 4-6                     | observer's force estimate d̂x / (m g) (0 without one)     | -    |
 | 7-9                     | observer's torque estimate d̂Ω / moment limit            | -    |
+| 10-12                   | position error in the body frame, Rᵀ(x - x_d)           | m    |
+| 13-15                   | velocity error in the body frame, Rᵀ(v - v_d)           | m/s  |
+
+The body-frame errors are there because the residual acts through body moments: with them
+a correction is nearly linear in what the policy sees, whatever the heading.
 
 Reward: the env's reward (built with no effort term) minus
 ``residual_effort_weight · mean(a²)``, so only the policy's own effort is penalised.
@@ -34,7 +40,7 @@ if TYPE_CHECKING:  # the layering: quad_dob_env imports baselines only when aske
     from baselines.base import Controller
     from quad_dob_env.envs.core import QuadrotorBatch
 
-RESIDUAL_OBSERVATION_SIZE = 10
+RESIDUAL_OBSERVATION_SIZE = 16
 
 
 def resolve_controller(base: Any, core: QuadrotorBatch) -> Controller:
@@ -70,6 +76,7 @@ class ResidualCommand:
                                                1.0 / limit])
         n = core.n
         self.base_thrust, self.base_moment = np.zeros(n), np.zeros((n, 3))
+        self.requested_thrust = np.zeros(n)  # base + residual, before the actuators' limits
         self.extra_observation = np.zeros((n, RESIDUAL_OBSERVATION_SIZE), dtype=np.float32)
         self.rewards = np.zeros(n)
         self._state_before = None
@@ -95,8 +102,8 @@ class ResidualCommand:
         self._residual = np.clip(residual, -1.0, 1.0)
         offset = self._residual * self._residual_range
         self._state_before = core.state.copy()
-        return core.action_from_command(self.base_thrust + offset[:, 0],
-                                        self.base_moment + offset[:, 1:])
+        self.requested_thrust = self.base_thrust + offset[:, 0]
+        return core.action_from_command(self.requested_thrust, self.base_moment + offset[:, 1:])
 
     def record(self) -> None:
         """After the core flew ``command``'s actions: tell the controller what was applied
@@ -115,7 +122,12 @@ class ResidualCommand:
         zeros = np.zeros((core.n, 3))
         estimates = np.concatenate([controller.diagnostics.get("force_estimate", zeros),
                                     controller.diagnostics.get("torque_estimate", zeros)], 1)
-        extra[:, 4:] = np.clip(estimates * self._estimate_scale, -1e3, 1e3)
+        extra[:, 4:10] = np.clip(estimates * self._estimate_scale, -1e3, 1e3)
+        state, reference = core.state, core.reference
+        errors = np.stack([state.position - reference.position,
+                           state.velocity - reference.velocity], axis=1)  # (N, 2, 3)
+        body = np.einsum("nji,nkj->nki", state.rotation, errors)  # Rᵀ e for each
+        extra[:, 10:] = np.clip(body.reshape(core.n, 6), -1e3, 1e3)
 
     def info(self) -> dict[str, NDArray]:
         """``base_thrust`` (N,), ``base_moment`` and the observer's ``force_estimate`` and

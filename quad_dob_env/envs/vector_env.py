@@ -33,7 +33,7 @@ class QuadrotorVectorEnv(VectorEnv):
     Residual mode: with ``base_controller`` (a name such as ``"geometric-ndob"`` or a
     ``baselines`` controller) every vehicle is flown by that controller, run once per step
     for the whole batch, plus the action as a residual scaled by ``thrust_scale`` and
-    ``moment_scale`` (``quad_dob_env.envs.residual``: the command, the 10 extra observation
+    ``moment_scale`` (``quad_dob_env.envs.residual``: the command, the 16 extra observation
     entries, the reward). ``info`` then adds ``base_thrust``, ``base_moment``,
     ``force_estimate`` and ``torque_estimate``. ``reward_effort_weight`` defaults to 0.01
     without a base and to 0 with one (the residual's own effort is

@@ -1,0 +1,121 @@
+import json
+
+import numpy as np
+import pytest
+
+from quad_dob_env.envs import QuadrotorVectorEnv
+from training import cli
+from training.evaluate import evaluate, parse_seeds
+from training.policies import check_spaces, load_model, make_policy, sha256
+from training.train import resolve_config, train
+
+
+def _tiny(mode: str, env_id: str, **options):
+    config = resolve_config("ppo", mode, env_id, "hover-calm", 256, 8, seed=3, **options)
+    config["ppo"].update(n_steps=32, batch_size=64, n_epochs=1)
+    return config
+
+
+@pytest.fixture(scope="module")
+def residual_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("residual")
+    train(_tiny("residual", "QuadDOB/HoverResidual-v0"), out, evaluate_every=10**9,
+          progress_bar=False)
+    return out
+
+
+def test_train_save_load_evaluate_round_trip(residual_run, capsys):
+    files = {p.name for p in residual_run.iterdir()}
+    assert {"model.zip", "config.yaml", "evaluations.csv", "tb", "train.log",
+            "training_curve.png", "best_model.zip", "best_model.yaml"} <= files
+    assert "timesteps/s" in (residual_run / "train.log").read_text()
+    model, config = load_model(residual_run / "model.zip")
+    assert config["mode"] == "residual" and config["base_controller"] == "geometric-ndob:tuned"
+    assert model.observation_space.shape == (40,)
+    rows = evaluate(["geometric-ndob:tuned", f"residual:{residual_run}"], ["gusty-hover"],
+                    parse_seeds("2"))
+    assert [row["policy"] for row in rows] == ["geometric-ndob:tuned", "residual:" +
+                                               residual_run.name]
+    for row in rows:
+        assert np.isfinite(row["rms_position_settled_mean"]) and 0 <= row["crash_rate"] <= 1
+    assert cli.main(["evaluate", "--policies", f"pid,ppo:{residual_run / 'model.zip'}",
+                     "--scenarios", "hover-calm", "--seeds", "7-8", "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert {(r["scenario"], r["policy"]) for r in printed} == {
+        ("hover-calm", "pid"), ("hover-calm", f"ppo:{residual_run.name}")}
+
+
+def test_resume_goes_on_from_a_checkpoint(residual_run, tmp_path):
+    config = _tiny("residual", "QuadDOB/HoverResidual-v0")
+    model = train(config, tmp_path, resume=residual_run / "model.zip", evaluate_every=10**9,
+                  progress_bar=False)
+    assert model.num_timesteps >= 2 * 256
+
+
+def test_a_model_in_an_env_with_other_spaces_fails_before_any_step(residual_run, tmp_path):
+    policy = make_policy(f"residual:{residual_run}")
+    direct_env = QuadrotorVectorEnv(1, "hover-calm")  # 24 observations, not 40
+    with pytest.raises(ValueError, match=r"expects observations \(40,\).*gives observations "
+                                         r"\(24,\)"):
+        check_spaces(policy, direct_env)
+    direct = tmp_path / "direct"
+    train(_tiny("direct", "QuadDOB/Hover-v0"), direct, evaluate_every=10**9,
+          progress_bar=False)
+    with pytest.raises(ValueError, match="trained in mode 'direct', not 'residual'"):
+        make_policy(f"residual:{direct}")
+
+
+def test_the_shipped_policy_loads_after_its_checksum_and_fits_its_env():
+    policy = make_policy("residual")
+    assert policy.base == "geometric-ndob:tuned"
+    env = QuadrotorVectorEnv(2, "dryden-helix-gusts", **policy.env_kwargs())
+    check_spaces(policy, env)
+    obs, _ = env.reset(seed=0)
+    assert policy.act(obs).shape == (2, 4)
+
+
+def test_model_files_are_checked_before_loading(residual_run, tmp_path):
+    path = residual_run / "model.zip"
+    assert load_model(path, sha256(path))[1]["mode"] == "residual"
+    with pytest.raises(ValueError, match="does not match its recorded sha256"):
+        load_model(path, "0" * 64)
+    with pytest.raises(ValueError, match="does not exist"):
+        load_model(tmp_path / "missing.zip")
+    lonely = tmp_path / "lonely.zip"
+    lonely.write_bytes(path.read_bytes())
+    with pytest.raises(ValueError, match="no training config beside"):
+        load_model(lonely)
+
+
+def test_bad_training_and_evaluation_input_is_named():
+    with pytest.raises(ValueError, match="does not fit env"):
+        resolve_config("ppo", "residual", "QuadDOB/Track-v0", None, 10, 1, 0)
+    with pytest.raises(ValueError, match=r"env id 'QuadDOB/Track-v9'.*valid"):
+        resolve_config("ppo", "direct", "QuadDOB/Track-v9", None, 10, 1, 0)
+    with pytest.raises(ValueError, match="algorithm 'sac'"):
+        resolve_config("sac", "direct", "QuadDOB/Track-v0", None, 10, 1, 0)
+    assert parse_seeds("3") == [0, 1, 2] and parse_seeds("9001-9020")[-1] == 9020
+    with pytest.raises(ValueError, match="inclusive range"):
+        parse_seeds("20-10")
+    with pytest.raises(ValueError, match=r"policy 'ppo'.*valid"):
+        make_policy("ppo")
+
+
+def test_normalised_observations_travel_with_the_model(tmp_path):
+    config = _tiny("residual", "QuadDOB/HoverResidual-v0")
+    config["normalize_observations"] = True
+    train(config, tmp_path, evaluate_every=10**9, progress_bar=False)
+    policy = make_policy(f"residual:{tmp_path}")
+    statistics = policy.config["observation_normalization"]
+    assert len(statistics["mean"]) == 40 and min(statistics["var"]) >= 0
+    observations = np.zeros((3, 40), np.float32)
+    assert policy.act(observations).shape == (3, 4)
+
+
+def test_the_shipped_residual_beats_its_base_in_gusty_turbulence():
+    # a guard on the shipped policy: five of the README's 20 held-out seeds
+    rows = evaluate(["geometric-ndob:tuned", "residual"], ["dryden-helix-gusts"],
+                    parse_seeds("9001-9005"))
+    base, residual = rows
+    assert residual["crash_rate"] <= base["crash_rate"]
+    assert residual["rms_position_settled_mean"] < 0.75 * base["rms_position_settled_mean"]

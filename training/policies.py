@@ -1,0 +1,208 @@
+"""Policies by name, and flying them over many seeds at once.
+
+A policy is what ``quad-dob evaluate --policies`` names:
+
+| spec               | what flies                                                        |
+|--------------------|-------------------------------------------------------------------|
+| ``geometric-ndob`` (any ``baselines`` controller name) | that controller alone     |
+| ``ppo:PATH``       | a PPO model trained with ``quad-dob train`` (direct or residual)  |
+| ``residual``       | the shipped residual policy (``training/pretrained``) on its base |
+| ``residual:PATH``  | a residual model from ``quad-dob train --mode residual``          |
+
+Every policy flies in a ``QuadrotorVectorEnv`` with one vehicle per seed: a controller is
+the base of a residual env given zero residuals (which flies it exactly), a residual model
+adds its actions to its base, a direct model commands the vehicle itself. The records are
+``training.rollout.Flight``s, so ``quad-dob evaluate`` scores them with the same metric code
+as ``quad-dob paper``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from baselines import CONTROLLERS
+from quad_dob_env.envs import QuadrotorVectorEnv
+from quad_dob_env.scenarios import Scenario
+from quad_dob_env.validation import unknown_name_error
+from training.rollout import Flight
+
+PRETRAINED = Path(__file__).parent / "pretrained"
+SHIPPED_RESIDUAL = PRETRAINED / "residual_dryden_helix_gusts.zip"
+# sha256 of the shipped zip: SB3 zips hold pickled objects that run code when loaded, so the
+# shipped file is checked before it is opened
+SHIPPED_RESIDUAL_SHA256 = "450680df9137c5ef202517d3df10c2e74b2cad154c02556d66134a0c9b352ff7"
+
+
+@dataclass
+class Policy:
+    """``name`` for tables; ``base`` controller name or None; ``model`` an SB3 model (or None
+    for a controller alone); ``config`` the training config saved beside the model."""
+
+    name: str
+    base: str | None
+    model: Any = None
+    config: dict | None = None
+
+    def act(self, observations: NDArray[np.float32]) -> NDArray:
+        """Deterministic actions for (N, obs) observations, normalised as in training."""
+        normalization = (self.config or {}).get("observation_normalization")
+        if normalization is not None:
+            mean = np.asarray(normalization["mean"])
+            scale = np.sqrt(np.asarray(normalization["var"]) + normalization["epsilon"])
+            clip = normalization["clip"]
+            observations = np.clip((observations - mean) / scale, -clip, clip).astype(np.float32)
+        actions, _ = self.model.predict(observations, deterministic=True)
+        return actions
+
+    def env_kwargs(self) -> dict[str, Any]:
+        """The env options the model was trained with (its spaces depend on them)."""
+        if self.config is None:
+            return {"base_controller": self.base}
+        options = dict(self.config.get("env_kwargs", {}))
+        options.pop("scenario", None)
+        options["base_controller"] = self.base
+        return options
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def load_model(path: str | Path, expected_sha256: str | None = None) -> tuple[Any, dict]:
+    """An SB3 model and the ``config.yaml`` saved beside it by ``quad-dob train``.
+
+    SB3 zips can execute code when loaded: load only files you trust. With
+    ``expected_sha256`` the file is checked before it is opened.
+    """
+    from stable_baselines3 import PPO
+
+    path = Path(path)
+    if path.is_dir():
+        path = path / "model.zip"
+    if not path.is_file():
+        raise ValueError(f"policy file {str(path)!r} does not exist")
+    if expected_sha256 is not None and sha256(path) != expected_sha256:
+        raise ValueError(f"policy file {str(path)!r} does not match its recorded sha256 "
+                         f"{expected_sha256}: refusing to load it")
+    config_path = path.with_name(path.stem + ".yaml")
+    if not config_path.is_file():
+        config_path = path.parent / "config.yaml"
+    if not config_path.is_file():
+        raise ValueError(f"no training config beside {str(path)!r} (looked for "
+                         f"{path.stem}.yaml and config.yaml): cannot tell which env it fits")
+    config = yaml.safe_load(config_path.read_text())
+    return PPO.load(path, device="cpu"), config
+
+
+def make_policy(spec: str) -> Policy:
+    """The policy a ``--policies`` entry names (see the module docstring)."""
+    kind, _, path = spec.partition(":")
+    if spec in CONTROLLERS:
+        return Policy(spec, base=spec)
+    if kind == "residual" and not path:
+        model, config = load_model(SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256)
+        return Policy("residual", config["base_controller"], model, config)
+    if kind in ("ppo", "residual") and path:
+        model, config = load_model(path)
+        mode = config.get("mode")
+        if kind == "residual" and mode != "residual":
+            raise ValueError(f"{spec!r}: the model at {path} was trained in mode {mode!r}, "
+                             "not 'residual'")
+        base = config.get("base_controller") if mode == "residual" else None
+        return Policy(f"{kind}:{_short_name(Path(path))}", base, model, config)
+    raise unknown_name_error("policy", spec, [*CONTROLLERS, "ppo:PATH", "residual",
+                                              "residual:PATH"])
+
+
+def _short_name(path: Path) -> str:
+    """``runs/wind/model.zip`` -> ``wind``; ``runs/wind/ppo_200000_steps.zip`` -> that stem."""
+    if path.suffix != ".zip":
+        return path.name
+    return path.parent.name if path.stem in ("model", "best_model") else path.stem
+
+
+def check_spaces(policy: Policy, env: QuadrotorVectorEnv) -> None:
+    """Fail before any step when the model's spaces do not fit the env, naming both."""
+    if policy.model is None:
+        return
+    model_obs, env_obs = policy.model.observation_space, env.single_observation_space
+    model_act, env_act = policy.model.action_space, env.single_action_space
+    if model_obs.shape != env_obs.shape or model_act.shape != env_act.shape:
+        raise ValueError(
+            f"policy {policy.name!r} expects observations {model_obs.shape} and actions "
+            f"{model_act.shape} (trained on {policy.config.get('env_id')} in mode "
+            f"{policy.config.get('mode')!r}), but the env gives observations "
+            f"{env_obs.shape} and takes actions {env_act.shape}")
+
+
+def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Flight]:
+    """One episode per seed, all flown together; records stop at each episode's end."""
+    n = len(seeds)
+    env = QuadrotorVectorEnv(n, scenario, **policy.env_kwargs())
+    check_spaces(policy, env)
+    obs, _ = env.reset(seed=[int(s) for s in seeds])
+    core, residual = env.core, env.residual
+    vehicle = core.vehicle
+    gravity = np.array([0.0, 0.0, vehicle.gravity])
+    rows: list[dict[str, list]] = [{} for _ in range(n)]
+    reasons = [""] * n
+    flying = np.ones(n, dtype=bool)
+    for _ in range(scenario.steps):
+        if policy.model is None:
+            actions = np.zeros((n, 4))
+        else:
+            actions = policy.act(obs)
+        state, reference = core.state.copy(), core.reference
+        diagnostics = residual.controller.diagnostics if residual is not None else {}
+        desired = diagnostics.get("desired_rotation")
+        if desired is None:
+            desired = _flat_attitude(core)
+        estimates = (diagnostics.get("force_estimate", np.zeros((n, 3))),
+                     diagnostics.get("torque_estimate", np.zeros((n, 3))))
+        obs, _, terminated, truncated, _ = env.step(actions)
+        requested = (residual.requested_thrust if residual is not None
+                     else core.command_from_action(np.asarray(actions, float))[0])
+        applied = core.applied
+        record = {
+            "time": core.time - core.scenario.dt, "position": state.position,
+            "velocity": state.velocity,
+            "acceleration": (applied.thrust[:, None] * state.rotation[:, :, 2]
+                             + core.disturbance_force) / vehicle.mass - gravity,
+            "rotation": state.rotation, "reference_position": reference.position,
+            "reference_velocity": reference.velocity,
+            "reference_acceleration": reference.acceleration,
+            "desired_rotation": desired,
+            "requested_thrust": requested, "applied_thrust": applied.thrust,
+            "applied_moment": applied.moment,
+            "disturbance_force": core.disturbance_force,
+            "disturbance_torque": core.disturbance_torque,
+            "force_estimate": estimates[0], "torque_estimate": estimates[1],
+        }
+        for i in np.flatnonzero(flying):
+            for key, values in record.items():
+                rows[i].setdefault(key, []).append(np.array(values[i], copy=True))
+            if terminated[i] or truncated[i]:
+                flying[i] = False
+                reasons[i] = core.termination_reason(i)
+        if not flying.any():
+            break
+    return [Flight(scenario=scenario.name, controller=policy.name, dt=scenario.dt,
+                   thrust_limit=vehicle.max_total_thrust,
+                   **{key: np.array(values) for key, values in row.items()},
+                   termination_reason=reason)
+            for row, reason in zip(rows, reasons, strict=True)]
+
+
+def _flat_attitude(core) -> NDArray:
+    """For a policy with no controller: the attitude that flies the reference exactly."""
+    from baselines.attitude import feedforward_attitude
+
+    return feedforward_attitude(core.reference, core.vehicle.mass,
+                                core.vehicle.gravity).rotation

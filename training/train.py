@@ -1,0 +1,250 @@
+"""``quad-dob train``: PPO (stable-baselines3) on N vehicles of the native vector env.
+
+Read top to bottom: resolve the config (the env id's entry in ``hyperparams/ppo.yml``, then
+the command line), build the vector env, build or resume the model, train with checkpoints
+and an evaluation against the base controller, save the model with its config beside it.
+
+Outputs in ``--out``: ``model.zip`` and ``config.yaml`` (everything needed to rebuild the env
+it fits), ``checkpoints/``, ``tb/`` (tensorboard), ``evaluations.csv`` (the training curve:
+the policy's and the base controller's RMS position error on held-out seeds), ``train.log``.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+import yaml
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+import quad_dob_env
+from quad_dob_env.validation import unknown_name_error
+from training.metrics import flight_metrics
+from training.policies import Policy, fly_policy
+from training.vec_env import QuadrotorSB3VecEnv
+
+HYPERPARAMS = Path(__file__).parent / "hyperparams" / "ppo.yml"
+ALGORITHMS = ("ppo",)
+MODES = ("residual", "direct")
+PPO_KEYS = ("n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "learning_rate",
+            "ent_coef", "clip_range", "max_grad_norm", "vf_coef")
+ENV_KEYS = ("reward_position_scale", "reward_effort_weight", "residual_effort_weight",
+            "thrust_scale", "moment_scale", "max_position_error", "max_tilt", "max_body_rate")
+EVAL_SEEDS = list(range(10_000, 10_008))
+OBSERVATION_CLIP = 10.0  # held out: training seeds count up from --seed
+
+
+def _schedule(value: Any) -> Any:
+    """rl-zoo3's ``lin_X``: X decayed linearly to 0 over training; numbers stay numbers."""
+    if isinstance(value, str) and value.startswith("lin_"):
+        start = float(value[4:])
+        return lambda progress_remaining: progress_remaining * start
+    return value
+
+
+def resolve_config(algo: str, mode: str, env_id: str, scenario: str | None,
+                   timesteps: int | None, n_envs: int | None, seed: int,
+                   base_controller: str | None = None,
+                   hyperparams: Path = HYPERPARAMS) -> dict[str, Any]:
+    """The whole run as plain data: hyperparameters, env options, seed, versions."""
+    if algo not in ALGORITHMS:
+        raise unknown_name_error("algorithm", algo, ALGORITHMS)
+    if mode not in MODES:
+        raise unknown_name_error("mode", mode, MODES)
+    if env_id not in quad_dob_env.ENV_IDS:
+        raise unknown_name_error("env id", env_id, quad_dob_env.ENV_IDS)
+    residual_id = "Residual" in env_id
+    if (mode == "residual") != residual_id:
+        raise ValueError(f"mode {mode!r} does not fit env {env_id!r}: residual training takes "
+                         "a ...Residual-v0 id, direct training the others")
+    table = yaml.safe_load(Path(hyperparams).read_text())
+    if env_id not in table:
+        raise ValueError(f"{hyperparams} has no entry for {env_id}; it has: " + ", ".join(table))
+    entry = dict(table[env_id])
+    spec_kwargs = dict(gym.spec(env_id).kwargs)
+    env_kwargs = {"scenario": scenario or entry.get("scenario") or spec_kwargs["scenario"],
+                  **{key: entry[key] for key in ENV_KEYS if key in entry}}
+    if residual_id:
+        env_kwargs["base_controller"] = (base_controller or entry.get("base_controller")
+                                         or spec_kwargs["base_controller"])
+    elif base_controller is not None:
+        raise ValueError("--base applies to residual training only")
+    return {
+        "algo": algo, "mode": mode, "env_id": env_id, "seed": int(seed),
+        "n_envs": int(n_envs or entry.get("n_envs", 64)),
+        "n_timesteps": int(timesteps or entry.get("n_timesteps", 1_000_000)),
+        "policy": entry.get("policy", "MlpPolicy"),
+        "ppo": {key: entry[key] for key in PPO_KEYS if key in entry},
+        "policy_kwargs": dict(entry.get("policy_kwargs", {})),
+        "normalize_observations": bool(entry.get("normalize_observations", False)),
+        "env_kwargs": env_kwargs,
+        "base_controller": env_kwargs.get("base_controller"),
+        "versions": {"quad_dob_env": quad_dob_env.__version__, "torch": str(torch.__version__),
+                     "stable_baselines3": __import__("stable_baselines3").__version__},
+    }
+
+
+def normalization(venv: Any) -> dict[str, Any] | None:
+    """The running observation statistics as plain numbers, so a model's config carries
+    them (``Policy.act`` applies them) and no pickle is needed; None when not normalised."""
+    if not isinstance(venv, VecNormalize):
+        return None
+    return {"mean": venv.obs_rms.mean.tolist(), "var": venv.obs_rms.var.tolist(),
+            "count": float(venv.obs_rms.count), "epsilon": float(venv.epsilon),
+            "clip": float(venv.clip_obs)}
+
+
+class BaselineEvaluation(BaseCallback):
+    """Every ``every`` timesteps: fly the policy on held-out seeds, beside the base
+    controller (flown once), and log both RMS position errors (t >= 2 s) and crash rates.
+    The best policy so far (fewest crashes, then lowest error) is saved as ``best_model.zip``
+    with its ``best_model.yaml``."""
+
+    def __init__(self, config: dict, out: Path, every: int) -> None:
+        super().__init__()
+        self.config, self.out, self.every = config, out, every
+        self._next = every
+        self._best: tuple[float, float] | None = None
+        self._scenario = quad_dob_env.make_scenario(config["env_kwargs"]["scenario"])
+        self.base_scores = None
+        if config["base_controller"]:
+            self.base_scores = self._score(Policy(config["base_controller"],
+                                                  config["base_controller"]))
+
+    def _score(self, policy: Policy) -> tuple[float, float]:
+        metrics = [flight_metrics(f) for f in fly_policy(policy, self._scenario, EVAL_SEEDS)]
+        return (float(np.mean([m["rms_position_settled"] for m in metrics])),
+                float(np.mean([m["crashed"] for m in metrics])))
+
+    def _on_training_start(self) -> None:
+        self._next = self.num_timesteps + self.every
+        self._evaluate()
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps >= self._next:
+            self._next += self.every
+            self._evaluate()
+        return True
+
+    def _on_training_end(self) -> None:
+        self._evaluate()
+
+    def _evaluate(self) -> None:
+        config = {**self.config,
+                  "observation_normalization": normalization(self.model.get_env())}
+        policy = Policy("policy", self.config["base_controller"], self.model, config)
+        rms, crashes = self._score(policy)
+        self.logger.record("eval/rms_position", rms)
+        self.logger.record("eval/crash_rate", crashes)
+        row = {"timesteps": self.num_timesteps, "rms_position": rms, "crash_rate": crashes}
+        if self.base_scores is not None:
+            self.logger.record("eval/base_rms_position", self.base_scores[0])
+            row.update(base_rms_position=self.base_scores[0], base_crash_rate=self.base_scores[1])
+        if self._best is None or (crashes, rms) < self._best:
+            self._best = (crashes, rms)
+            self.model.save(self.out / "best_model.zip")
+            (self.out / "best_model.yaml").write_text(
+                yaml.safe_dump({**config, "best_at_timesteps": self.num_timesteps,
+                                "best_eval_rms_position": rms}, sort_keys=False))
+        path = self.out / "evaluations.csv"
+        new = not path.exists()
+        with open(path, "a", newline="") as file:
+            writer = csv.DictWriter(file, fieldnames=list(row))
+            if new:
+                writer.writeheader()
+            writer.writerow(row)
+
+
+def train(config: dict[str, Any], out: Path, resume: Path | None = None,
+          checkpoint_every: int = 100_000, evaluate_every: int = 100_000,
+          progress_bar: bool = True) -> PPO:
+    out.mkdir(parents=True, exist_ok=True)
+    torch.set_num_threads(1)  # small MLPs: threads cost more than they save, and the env
+    # already uses every core for large batches
+    venv = VecMonitor(QuadrotorSB3VecEnv(config["n_envs"], seed=config["seed"],
+                                         **config["env_kwargs"]))
+    if config["normalize_observations"]:
+        venv = VecNormalize(venv, norm_obs=True, norm_reward=False, clip_obs=OBSERVATION_CLIP)
+        if config.get("observation_normalization"):  # resuming: from the saved statistics
+            saved = config["observation_normalization"]
+            venv.obs_rms.mean = np.array(saved["mean"])
+            venv.obs_rms.var = np.array(saved["var"])
+            venv.obs_rms.count = saved["count"]
+    if resume is not None:
+        model = PPO.load(resume, env=venv, device="cpu", tensorboard_log=str(out / "tb"))
+    else:
+        model = PPO(config["policy"], venv, seed=config["seed"], device="cpu", verbose=0,
+                    tensorboard_log=str(out / "tb"), policy_kwargs=config["policy_kwargs"],
+                    **{key: _schedule(value) for key, value in config["ppo"].items()})
+    (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    callbacks = [
+        CheckpointCallback(max(checkpoint_every // config["n_envs"], 1), str(out / "checkpoints"),
+                           name_prefix="ppo"),
+        BaselineEvaluation(config, out, evaluate_every),
+    ]
+    start = time.perf_counter()
+    steps_before = model.num_timesteps
+    model.learn(config["n_timesteps"], callback=callbacks, progress_bar=progress_bar,
+                reset_num_timesteps=resume is None, tb_log_name="ppo")
+    wall = time.perf_counter() - start
+    config["observation_normalization"] = normalization(venv)
+    (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    model.save(out / "model.zip")
+    rate = (model.num_timesteps - steps_before) / wall
+    message = (f"trained {model.num_timesteps - steps_before:,} timesteps in {wall:.1f} s "
+               f"({rate:,.0f} timesteps/s, evaluations included) -> {out / 'model.zip'}")
+    print(message)
+    with open(out / "train.log", "a") as log:
+        log.write(message + "\n")
+    plot_training_curve(out / "evaluations.csv", out / "training_curve.png")
+    return model
+
+
+def plot_training_curve(evaluations: Path, path: Path) -> None:
+    """The policy's RMS position error on the held-out seeds against timesteps, beside the
+    base controller's."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with open(evaluations) as file:
+        rows = list(csv.DictReader(file))
+    timesteps = [int(row["timesteps"]) for row in rows]
+    figure, axis = plt.subplots(figsize=(5.5, 3.4))
+    axis.plot(timesteps, [float(row["rms_position"]) for row in rows], "o-", label="policy")
+    if "base_rms_position" in rows[0]:
+        axis.axhline(float(rows[0]["base_rms_position"]), color="k", linestyle="--",
+                     label="base controller alone")
+    axis.set_xlabel("timesteps")
+    axis.set_ylabel("RMS position error, t ≥ 2 s [m]")
+    axis.set_title(f"held-out seeds {EVAL_SEEDS[0]}-{EVAL_SEEDS[-1]}", fontsize=9)
+    axis.legend(fontsize=8)
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+
+
+def main(algo: str, mode: str, env_id: str, scenario: str | None, timesteps: int | None,
+         n_envs: int | None, seed: int, out: Path, resume: Path | None,
+         base_controller: str | None, checkpoint_every: int, evaluate_every: int,
+         progress_bar: bool) -> int:
+    if resume is not None and not Path(resume).is_file():
+        raise ValueError(f"--resume {str(resume)!r} is not a file")
+    config = resolve_config(algo, mode, env_id, scenario, timesteps, n_envs, seed,
+                            base_controller)
+    if resume is not None:  # the run's observation statistics, from its config.yaml
+        for folder in (Path(resume).parent, Path(resume).parent.parent):
+            if (folder / "config.yaml").is_file():
+                saved = yaml.safe_load((folder / "config.yaml").read_text())
+                config["observation_normalization"] = saved.get("observation_normalization")
+                break
+    train(config, out, resume, checkpoint_every, evaluate_every, progress_bar)
+    return 0
