@@ -37,6 +37,11 @@ PAPER_FORCE = (1.3, 2.0, 2.6)
 TORQUE_READINGS: dict[str, float] = {"0.6*dx": 0.6, "dx/0.6": 1 / 0.6}
 
 
+# Bounds that keep a typo from asking for an absurd experiment: a control period from
+# 0.1 ms to 0.1 s, at most a million steps per episode (its reference is tabulated), and
+# at most 100 physics substeps per control step.
+MIN_DT, MAX_DT, MAX_STEPS, MAX_SUBSTEPS = 1e-4, 0.1, 1_000_000, 100
+
 @dataclass(frozen=True)
 class SensorNoise:
     """What the agent observes, optional: Gaussian noise with these standard deviations on
@@ -146,14 +151,23 @@ class Scenario:
                     if key not in fields_:
                         raise unknown_name_error(f"{kind.__name__} field", key, fields_)
                 object.__setattr__(self, name, kind(**value))
-        dt = as_finite(self.dt, "Scenario.dt", 0.0, strictly=True)
+        dt = as_finite(self.dt, "Scenario.dt", MIN_DT)
+        if dt > MAX_DT:
+            raise ValueError(f"Scenario.dt must be in [{MIN_DT}, {MAX_DT}] s, got {self.dt!r}")
         duration = as_finite(self.duration, "Scenario.duration", dt)
-        if not isinstance(self.substeps, (int, np.integer)) or self.substeps < 1:
-            raise ValueError(f"Scenario.substeps must be an integer >= 1, got {self.substeps!r}")
+        if duration / dt > MAX_STEPS:
+            raise ValueError(f"Scenario.duration / dt must be at most {MAX_STEPS:,} steps (the "
+                             f"reference is tabulated per step), got {duration / dt:,.0f}")
+        if (not isinstance(self.substeps, (int, np.integer)) or isinstance(self.substeps, bool)
+                or not 1 <= self.substeps <= MAX_SUBSTEPS):
+            raise ValueError(f"Scenario.substeps must be an integer in [1, {MAX_SUBSTEPS}], "
+                             f"got {self.substeps!r}")
         if self.actuation not in ACTUATIONS:
             raise unknown_name_error("actuation", self.actuation, ACTUATIONS)
         as_finite(self.initial_position_noise, "Scenario.initial_position_noise", 0.0)
-        as_finite(self.initial_attitude_noise, "Scenario.initial_attitude_noise", 0.0)
+        if as_finite(self.initial_attitude_noise, "Scenario.initial_attitude_noise", 0.0) > np.pi:
+            raise ValueError("Scenario.initial_attitude_noise is a rotation angle per axis in "
+                             f"[0, pi], got {self.initial_attitude_noise!r}")
         for name in ("initial_position", "initial_velocity", "initial_angular_velocity"):
             object.__setattr__(self, name,
                                tuple(as_vector3(getattr(self, name), f"Scenario.{name}")))

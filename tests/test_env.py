@@ -92,7 +92,7 @@ def test_out_of_range_actions_are_clipped_and_non_finite_ones_rejected():
     a.reset(seed=1), b.reset(seed=1)
     assert np.array_equal(a.step(np.array([5.0, -9.0, 0.2, 1.0]))[0],
                           b.step(np.array([1.0, -1.0, 0.2, 1.0]))[0])
-    with pytest.raises(ValueError, match="action must be finite"):
+    with pytest.raises(ValueError, match="actions must be finite"):
         a.step(np.array([np.nan, 0, 0, 0]))
     with pytest.raises(ValueError, match=r"shape \(4,\)"):
         a.step(np.zeros(3))

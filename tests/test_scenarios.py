@@ -60,9 +60,9 @@ def test_step_force_scales_with_the_vehicle():
 def test_options_replace_fields_and_bad_ones_are_named():
     fine = make_scenario("paper-I", dt=0.005, substeps=2)
     assert (fine.dt, fine.substeps, fine.steps) == (0.005, 2, 2000)
-    with pytest.raises(ValueError, match=r"dt must be > 0"):
+    with pytest.raises(ValueError, match=r"dt must be >= 0.0001"):
         make_scenario("paper-I", dt=0.0)
-    with pytest.raises(ValueError, match=r"substeps must be an integer >= 1"):
+    with pytest.raises(ValueError, match=r"substeps must be an integer in \[1, 100\]"):
         make_scenario("paper-I", substeps=0)
     with pytest.raises(ValueError, match=r"unknown option for scenario 'paper-I' 'dtt'.*valid:"):
         make_scenario("paper-I", dtt=0.1)

@@ -119,3 +119,12 @@ def test_the_shipped_residual_beats_its_base_in_gusty_turbulence():
     base, residual = rows
     assert residual["crash_rate"] <= base["crash_rate"]
     assert residual["rms_position_settled_mean"] < 0.75 * base["rms_position_settled_mean"]
+
+
+def test_a_typo_in_the_hyperparameter_file_is_named(tmp_path):
+    hyperparams = tmp_path / "ppo.yml"
+    hyperparams.write_text("QuadDOB/Track-v0:\n  n_step: 64\n")
+    with pytest.raises(ValueError, match=r"key in ppo.yml \[QuadDOB/Track-v0\] 'n_step'.*"
+                                         r"did you mean 'n_steps'"):
+        resolve_config("ppo", "direct", "QuadDOB/Track-v0", None, 10, 1, 0,
+                       hyperparams=hyperparams)

@@ -37,6 +37,8 @@ PPO_KEYS = ("n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "learnin
             "ent_coef", "clip_range", "max_grad_norm", "vf_coef")
 ENV_KEYS = ("reward_position_scale", "reward_effort_weight", "residual_effort_weight",
             "thrust_scale", "moment_scale", "max_position_error", "max_tilt", "max_body_rate")
+CONFIG_KEYS = ("scenario", "base_controller", "n_envs", "n_timesteps", "policy",
+               "policy_kwargs", "normalize_observations", *PPO_KEYS, *ENV_KEYS)
 EVAL_SEEDS = list(range(10_000, 10_008))
 OBSERVATION_CLIP = 10.0  # held out: training seeds count up from --seed
 
@@ -68,6 +70,10 @@ def resolve_config(algo: str, mode: str, env_id: str, scenario: str | None,
     if env_id not in table:
         raise ValueError(f"{hyperparams} has no entry for {env_id}; it has: " + ", ".join(table))
     entry = dict(table[env_id])
+    for key in entry:
+        if key not in CONFIG_KEYS:
+            raise unknown_name_error(f"key in {Path(hyperparams).name} [{env_id}]", key,
+                                     CONFIG_KEYS)
     spec_kwargs = dict(gym.spec(env_id).kwargs)
     env_kwargs = {"scenario": scenario or entry.get("scenario") or spec_kwargs["scenario"],
                   **{key: entry[key] for key in ENV_KEYS if key in entry}}

@@ -18,7 +18,6 @@ from numpy.typing import NDArray
 from stable_baselines3.common.vec_env import VecEnv
 
 from quad_dob_env.envs import QuadrotorVectorEnv
-from quad_dob_env.envs.vector_env import validated_batch_actions
 
 
 class QuadrotorSB3VecEnv(VecEnv):
@@ -45,7 +44,7 @@ class QuadrotorSB3VecEnv(VecEnv):
         return venv.observations()
 
     def step_async(self, actions: NDArray) -> None:
-        self._actions = validated_batch_actions(actions, self.num_envs)
+        self._actions = actions  # checked by the vector env's fly
 
     def step_wait(self) -> tuple[NDArray[np.float32], NDArray, NDArray, list[dict]]:
         venv, core = self.vector_env, self.core

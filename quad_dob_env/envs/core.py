@@ -41,7 +41,9 @@ from quad_dob_env.validation import as_finite, unknown_name_error
 ACTION_MODES = ("thrust_moments", "rotor_thrusts")
 ROTATION_REPRESENTATIONS = {"matrix": 9, "6d": 6}
 # Index 0 means "still flying"; the rest are info["termination_reason"] values.
-TERMINATION_REASONS = ("", "crashed", "out_of_bounds", "attitude_lost", "non_finite_state")
+TERMINATION_REASONS = ("", "crashed", "out_of_bounds", "attitude_lost", "non_finite_state",
+                       "invalid_action")
+INVALID_ACTION_MODES = ("raise", "terminate")
 TIME_LIMIT = "time_limit"
 _REFERENCE_FIELDS = [f.name for f in fields(Reference)]
 
@@ -72,6 +74,33 @@ class RewardWeights:
     def __post_init__(self) -> None:
         as_finite(self.position_scale, "reward position_scale", 0.0, strictly=True)
         as_finite(self.effort_weight, "reward effort_weight", 0.0)
+
+
+def screen_actions(actions: object, shape: tuple[int, ...], invalid_actions: str = "raise"
+                   ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Actions as float64 of ``shape`` ((4,) or (N, 4)) and the rows that were NaN or
+    infinite. ``invalid_actions="raise"`` raises ValueError on them; ``"terminate"`` sets
+    those rows to 0 (hover) and returns their indices, so the caller ends those episodes.
+    A wrong shape or a non-numeric action always raises. Values outside [-1, 1] pass: the
+    core clips them."""
+    if invalid_actions not in INVALID_ACTION_MODES:
+        raise unknown_name_error("invalid_actions", invalid_actions, INVALID_ACTION_MODES)
+    try:
+        array = np.array(actions, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"actions must be numeric with shape {shape}, got "
+                         f"{actions!r}") from None
+    if array.shape != shape:
+        raise ValueError(f"actions must have shape {shape}, got {array.shape}")
+    rows = array.reshape(-1, 4)
+    bad = np.flatnonzero(~np.isfinite(rows).all(axis=1))
+    if bad.size and invalid_actions == "raise":
+        where = "" if len(shape) == 1 else f"envs {bad[:10].tolist()} got "
+        raise ValueError(f"actions must be finite; {where}{rows[bad[0]].tolist()} (allowed: "
+                         "[-1, 1], values outside are clipped; invalid_actions='terminate' "
+                         "ends the episode instead)")
+    rows[bad] = 0.0
+    return array, bad
 
 
 # --- the core ----------------------------------------------------------------------------
@@ -341,6 +370,11 @@ class QuadrotorBatch:
             self.applied.moment, self.applied.rotor_thrusts, self.applied.saturated,
             self.disturbance_force, self.disturbance_torque)
         self._measure(self._all, reset=False)
+
+    def end_for_invalid_actions(self, indices: NDArray[np.intp]) -> None:
+        """End the episodes of vehicles whose action was NaN or infinite (flown at the
+        hover command) with reason ``invalid_action``."""
+        self.termination_code[indices] = TERMINATION_REASONS.index("invalid_action")
 
     @property
     def terminated(self) -> NDArray[np.bool_]:

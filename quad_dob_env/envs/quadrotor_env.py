@@ -8,9 +8,16 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
+from quad_dob_env.envs.core import (
+    INVALID_ACTION_MODES,
+    EpisodeLimits,
+    QuadrotorBatch,
+    RewardWeights,
+    screen_actions,
+)
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
 from quad_dob_env.scenarios import Scenario, make_scenario
+from quad_dob_env.validation import unknown_name_error
 
 
 class QuadrotorEnv(gym.Env):
@@ -23,7 +30,9 @@ class QuadrotorEnv(gym.Env):
     ``QuadDOB/Track-v0`` the paper helix ``paper-none``; ``scenario=`` picks any other.
 
     ## Action space
-    ``Box(-1, 1, (4,), float32)``; values outside are clipped, NaN or ±inf raise ValueError.
+    ``Box(-1, 1, (4,), float32)``; values outside are clipped. NaN or ±inf raise ValueError,
+    or with ``invalid_actions="terminate"`` the vehicle flies that step at hover and the
+    episode ends (``invalid_action``).
     Each entry maps piecewise-linearly with 0 at hover: ``[-1, 0, 1] -> [0, hover, max]``.
 
     | action_mode        | entries                       | range after mapping               |
@@ -68,6 +77,7 @@ class QuadrotorEnv(gym.Env):
     | ``out_of_bounds``    | farther than ``max_position_error`` (5 m) from the reference  |
     | ``attitude_lost``    | tilt > ``max_tilt`` (90°) or a rate > ``max_body_rate`` (35 rad/s) |
     | ``non_finite_state`` | the step produced NaN/inf; the last finite state is kept      |
+    | ``invalid_action``   | a NaN/inf action with ``invalid_actions="terminate"``         |
 
     ``truncated`` with reason ``time_limit`` after the scenario's duration.
 
@@ -90,7 +100,8 @@ class QuadrotorEnv(gym.Env):
     ``scenario`` (name or ``Scenario``), ``scenario_options`` (dict for ``make_scenario``),
     ``action_mode``, ``rotation_representation`` (``matrix`` or ``6d``),
     ``max_position_error``, ``max_tilt``, ``max_body_rate``, ``reward_position_scale``,
-    ``reward_effort_weight``, ``render_mode`` (none yet).
+    ``reward_effort_weight``, ``render_mode`` (none yet), ``invalid_actions`` (``raise`` or
+    ``terminate``).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "render_fps": 100}
@@ -100,9 +111,13 @@ class QuadrotorEnv(gym.Env):
                  action_mode: str = "thrust_moments", rotation_representation: str = "matrix",
                  max_position_error: float = 5.0, max_tilt: float = np.pi / 2,
                  max_body_rate: float = 35.0, reward_position_scale: float = 0.25,
-                 reward_effort_weight: float = 0.01, render_mode: str | None = None) -> None:
+                 reward_effort_weight: float = 0.01, render_mode: str | None = None,
+                 invalid_actions: str = "raise") -> None:
         if render_mode is not None:
             raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        if invalid_actions not in INVALID_ACTION_MODES:
+            raise unknown_name_error("invalid_actions", invalid_actions, INVALID_ACTION_MODES)
+        self.invalid_actions = invalid_actions
         self.render_mode = render_mode
         self.scenario = make_scenario(scenario, **(scenario_options or {}))
         self.core = QuadrotorBatch(
@@ -126,7 +141,10 @@ class QuadrotorEnv(gym.Env):
 
     def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
         core = self.core
-        core.step(validated_actions(action, (4,))[None])
+        actions, invalid = screen_actions(action, (4,), self.invalid_actions)
+        core.step(actions[None])
+        if invalid.size:
+            core.end_for_invalid_actions(invalid)
         terminated = bool(core.termination_code[0])
         truncated = not terminated and int(core.step_count[0]) >= self.scenario.steps
         return core.obs[0].copy(), float(core.rewards[0]), terminated, truncated, self._info()
@@ -161,13 +179,4 @@ def validated_actions(action: Any, shape: tuple[int, ...]) -> NDArray[np.float64
 
     Values outside [-1, 1] pass through: the core clips them.
     """
-    try:
-        actions = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"action must be numeric with shape {shape}, got {action!r}") from None
-    if actions.shape != shape:
-        raise ValueError(f"action must have shape {shape}, got {actions.shape}")
-    if not np.isfinite(actions).all():
-        raise ValueError(f"action must be finite; got {actions.tolist()} (allowed: [-1, 1], "
-                         "values outside are clipped)")
-    return actions
+    return screen_actions(action, shape)[0]

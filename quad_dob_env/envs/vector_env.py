@@ -11,10 +11,18 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
-from quad_dob_env.envs.core import TERMINATION_REASONS, EpisodeLimits, QuadrotorBatch, RewardWeights
+from quad_dob_env.envs.core import (
+    INVALID_ACTION_MODES,
+    TERMINATION_REASONS,
+    EpisodeLimits,
+    QuadrotorBatch,
+    RewardWeights,
+    screen_actions,
+)
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
 from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
 from quad_dob_env.scenarios import Scenario, make_scenario
+from quad_dob_env.validation import unknown_name_error
 
 
 class QuadrotorVectorEnv(VectorEnv):
@@ -50,9 +58,13 @@ class QuadrotorVectorEnv(VectorEnv):
                  max_body_rate: float = 35.0, reward_position_scale: float = 0.25,
                  reward_effort_weight: float | None = None, render_mode: str | None = None,
                  base_controller: Any = None, thrust_scale: float = 0.1,
-                 moment_scale: float = 0.1, residual_effort_weight: float = 0.01) -> None:
+                 moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
+                 invalid_actions: str = "raise") -> None:
         if render_mode is not None:
             raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        if invalid_actions not in INVALID_ACTION_MODES:
+            raise unknown_name_error("invalid_actions", invalid_actions, INVALID_ACTION_MODES)
+        self.invalid_actions = invalid_actions
         self.render_mode = render_mode
         self.scenario = make_scenario(scenario, **(scenario_options or {}))
         if reward_effort_weight is None:
@@ -97,7 +109,7 @@ class QuadrotorVectorEnv(VectorEnv):
         if not self._generators:
             raise gym.error.ResetNeeded("call reset() before step()")
         core = self.core
-        self.fly(validated_batch_actions(actions, self.num_envs))
+        self.fly(actions)
         restarting = np.flatnonzero(self._needs_reset)
         if restarting.size:
             self.restart(restarting)
@@ -119,13 +131,17 @@ class QuadrotorVectorEnv(VectorEnv):
         if self.residual is not None:
             self.residual.restart(indices)
 
-    def fly(self, actions: NDArray[np.float64]) -> None:
-        """One step of every vehicle from validated actions (residuals in residual mode)."""
+    def fly(self, actions: Any) -> None:
+        """One step of every vehicle (residuals in residual mode); NaN/inf rows raise or,
+        with ``invalid_actions="terminate"``, fly at hover and end those episodes."""
+        actions, invalid = screen_actions(actions, (self.num_envs, 4), self.invalid_actions)
         if self.residual is None:
             self.core.step(actions)
         else:
             self.core.step(self.residual.command(actions))
             self.residual.record()
+        if invalid.size:
+            self.core.end_for_invalid_actions(invalid)
 
     def plan(self) -> None:
         """The base command for the coming step (residual mode; nothing otherwise)."""
@@ -172,19 +188,7 @@ class QuadrotorVectorEnv(VectorEnv):
 
 def validated_batch_actions(actions: Any, num_envs: int) -> NDArray[np.float64]:
     """Actions as float64 (N, 4); NaN, inf or a wrong shape raise ValueError naming them."""
-    try:
-        batch = np.asarray(actions, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"actions must be numeric with shape ({num_envs}, 4)") from None
-    if batch.shape != (num_envs, 4):
-        raise ValueError(f"actions must have shape ({num_envs}, 4), got {batch.shape}")
-    finite = np.isfinite(batch).all(axis=1)
-    if not finite.all():
-        bad = np.flatnonzero(~finite)
-        raise ValueError(f"actions must be finite; envs {bad[:10].tolist()} got "
-                         f"{batch[bad[0]].tolist()} (allowed: [-1, 1], values outside are "
-                         "clipped)")
-    return batch
+    return screen_actions(actions, (num_envs, 4))[0]
 
 
 __all__ = ["TERMINATION_REASONS", "QuadrotorVectorEnv", "validated_batch_actions"]

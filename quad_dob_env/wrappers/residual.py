@@ -11,8 +11,9 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from quad_dob_env.envs.core import screen_actions
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
-from quad_dob_env.envs.quadrotor_env import QuadrotorEnv, validated_actions
+from quad_dob_env.envs.quadrotor_env import QuadrotorEnv
 from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
 
 
@@ -46,9 +47,14 @@ class ResidualActionWrapper(gym.Wrapper):
         return self._observation(observation), self._info(info)
 
     def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
-        residual = validated_actions(action, (4,))
+        residual, invalid = screen_actions(action, (4,), self.env.unwrapped.invalid_actions)
         observation, _, terminated, truncated, info = self.env.step(
             self.residual.command(residual[None])[0])
+        if invalid.size:  # the env flew the base command; the fault ends the episode
+            core = self.residual.core
+            core.end_for_invalid_actions(invalid)
+            terminated, truncated = True, False
+            info["termination_reason"] = core.termination_reason(0)
         self.residual.record()
         self.residual.plan()
         return (self._observation(observation), float(self.residual.rewards[0]), terminated,
