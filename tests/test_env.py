@@ -199,7 +199,7 @@ def test_stepping_past_the_time_limit_keeps_a_valid_reference():
         ({"rotation_representation": "quaternion"}, "valid: matrix, 6d"),
         ({"max_tilt": 4.0}, "max_tilt must be <= pi"),
         ({"reward_position_scale": 0.0}, "position_scale must be > 0"),
-        ({"render_mode": "human"}, "render_mode 'human' is not supported"),
+        ({"render_mode": "video"}, "render_mode 'video' is not supported; valid: None, human"),
         ({"scenario_options": {"vehicle": "blimp"}}, "unknown vehicle preset"),
     ],
 )

@@ -43,6 +43,13 @@ def _evaluate(args: argparse.Namespace) -> int:
                          args.json)
 
 
+def _replay(args: argparse.Namespace) -> int:
+    from training.replay import main as replay_main
+
+    return replay_main(_names(args.policy), args.scenario, args.seed, args.out, args.fps,
+                       args.width)
+
+
 def _names(text: str) -> list[str]:
     return [name.strip() for name in text.split(",") if name.strip()]
 
@@ -119,6 +126,19 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--out", type=Path, default=Path("results/evaluation"))
     evaluate.add_argument("--json", action="store_true", help="print the rows as JSON")
     evaluate.set_defaults(handler=_evaluate)
+    replay = commands.add_parser(
+        "replay", help="render one episode of one or more policies (side by side) to a video")
+    replay.add_argument("--policy", default="geometric,geometric-ndob:tuned",
+                        help="comma-separated policies, as for evaluate (default: %(default)s)")
+    replay.add_argument("--scenario", default="paper-II")
+    replay.add_argument("--seed", type=int, default=0)
+    replay.add_argument("--out", type=Path, default=Path("results/flight.gif"),
+                        help="a .gif or .mp4 path (default: %(default)s)")
+    replay.add_argument("--fps", type=_positive_float, default=20.0,
+                        help="frames per second of flight (default: %(default)s)")
+    replay.add_argument("--width", type=_positive_int, default=400,
+                        help="width of each policy's panel in pixels (default: %(default)s)")
+    replay.set_defaults(handler=_replay)
     listing = commands.add_parser("list", help="list env ids, scenarios and vehicles")
     listing.set_defaults(handler=_list)
     return parser

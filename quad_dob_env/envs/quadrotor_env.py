@@ -16,6 +16,12 @@ from quad_dob_env.envs.core import (
     screen_actions,
 )
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
+from quad_dob_env.envs.rendering import (
+    RENDER_MODES,
+    FlightRenderer,
+    HumanWindow,
+    check_render_mode,
+)
 from quad_dob_env.scenarios import Scenario, make_scenario
 from quad_dob_env.validation import unknown_name_error
 
@@ -100,11 +106,12 @@ class QuadrotorEnv(gym.Env):
     ``scenario`` (name or ``Scenario``), ``scenario_options`` (dict for ``make_scenario``),
     ``action_mode``, ``rotation_representation`` (``matrix`` or ``6d``),
     ``max_position_error``, ``max_tilt``, ``max_body_rate``, ``reward_position_scale``,
-    ``reward_effort_weight``, ``render_mode`` (none yet), ``invalid_actions`` (``raise`` or
+    ``reward_effort_weight``, ``render_mode`` (``rgb_array``: ``render()`` returns a frame,
+    headless; ``human``: a window at the control rate), ``invalid_actions`` (``raise`` or
     ``terminate``).
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "render_fps": 100}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": list(RENDER_MODES), "render_fps": 100}
 
     def __init__(self, scenario: str | Scenario = "paper-none",
                  scenario_options: dict[str, Any] | None = None,
@@ -113,12 +120,12 @@ class QuadrotorEnv(gym.Env):
                  max_body_rate: float = 35.0, reward_position_scale: float = 0.25,
                  reward_effort_weight: float = 0.01, render_mode: str | None = None,
                  invalid_actions: str = "raise") -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
         if invalid_actions not in INVALID_ACTION_MODES:
             raise unknown_name_error("invalid_actions", invalid_actions, INVALID_ACTION_MODES)
         self.invalid_actions = invalid_actions
-        self.render_mode = render_mode
+        self.render_mode = check_render_mode(render_mode)
+        self._renderer: FlightRenderer | None = None
+        self._window: HumanWindow | None = None
         self.scenario = make_scenario(scenario, **(scenario_options or {}))
         self.core = QuadrotorBatch(
             self.scenario, 1, action_mode, rotation_representation,
@@ -137,6 +144,7 @@ class QuadrotorEnv(gym.Env):
         self.core.reset(np.zeros(1, dtype=np.intp), [self.np_random])
         info = self._info()
         info["sampled"] = dict(self.core.sampled[0])
+        self._after_step(reset=True)
         return self.core.obs[0].copy(), info
 
     def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
@@ -147,7 +155,44 @@ class QuadrotorEnv(gym.Env):
             core.end_for_invalid_actions(invalid)
         terminated = bool(core.termination_code[0])
         truncated = not terminated and int(core.step_count[0]) >= self.scenario.steps
+        self._after_step(reset=False)
         return core.obs[0].copy(), float(core.rewards[0]), terminated, truncated, self._info()
+
+    def render(self) -> NDArray[np.uint8] | None:
+        """``rgb_array``: the frame (H, W, 3) uint8 (``quad_dob_env.envs.rendering`` says
+        what is drawn); ``human``: shows it. None without a render mode."""
+        if self.render_mode is None:
+            gym.logger.warn("render() without a render_mode: pass render_mode='rgb_array' or "
+                            "'human' to the env")
+            return None
+        frame = self._renderer_now().frame(0)
+        if self.render_mode == "human":
+            if self._window is None:
+                self._window = HumanWindow(self.metadata["render_fps"])
+            self._window.show(frame)
+            return None
+        return frame
+
+    def close(self) -> None:
+        if self._window is not None:
+            self._window.close()
+        super().close()
+
+    def _renderer_now(self) -> FlightRenderer:
+        if self._renderer is None:
+            self._renderer = FlightRenderer(self.core)
+            self._renderer.record(0)
+        return self._renderer
+
+    def _after_step(self, reset: bool) -> None:
+        if self.render_mode is None:
+            return
+        renderer = self._renderer_now()
+        if reset:
+            renderer.reset()
+        renderer.record(0)
+        if self.render_mode == "human":
+            self.render()
 
     def _info(self) -> dict[str, Any]:
         core = self.core

@@ -20,9 +20,12 @@ from quad_dob_env.envs.core import (
     screen_actions,
 )
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
+from quad_dob_env.envs.rendering import FlightRenderer
 from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
 from quad_dob_env.scenarios import Scenario, make_scenario
 from quad_dob_env.validation import unknown_name_error
+
+RENDERED_VEHICLES = 4
 
 
 class QuadrotorVectorEnv(VectorEnv):
@@ -48,7 +51,7 @@ class QuadrotorVectorEnv(VectorEnv):
     ``residual_effort_weight``).
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "render_fps": 100,
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 100,
                                           "autoreset_mode": AutoresetMode.NEXT_STEP}
 
     def __init__(self, num_envs: int, scenario: str | Scenario = "paper-none",
@@ -60,8 +63,9 @@ class QuadrotorVectorEnv(VectorEnv):
                  base_controller: Any = None, thrust_scale: float = 0.1,
                  moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
                  invalid_actions: str = "raise") -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
+                             "valid: None, rgb_array")
         if invalid_actions not in INVALID_ACTION_MODES:
             raise unknown_name_error("invalid_actions", invalid_actions, INVALID_ACTION_MODES)
         self.invalid_actions = invalid_actions
@@ -87,6 +91,8 @@ class QuadrotorVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._generators: list[np.random.Generator] = []
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+        self._renderer = None if render_mode is None else FlightRenderer(self.core)
+        self._rendered = range(min(self.num_envs, RENDERED_VEHICLES))
 
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:
@@ -130,6 +136,16 @@ class QuadrotorVectorEnv(VectorEnv):
         self.core.reset(indices, [self._generators[i] for i in indices])
         if self.residual is not None:
             self.residual.restart(indices)
+        if self._renderer is not None:
+            for i in indices:
+                self._renderer.reset(int(i))
+
+    def render(self) -> tuple[NDArray[np.uint8], ...] | None:
+        """``rgb_array``: a frame (H, W, 3) for each of the first four vehicles (what is
+        drawn: ``quad_dob_env.envs.rendering``)."""
+        if self._renderer is None:
+            return None
+        return tuple(self._renderer.frame(i) for i in self._rendered)
 
     def fly(self, actions: Any) -> None:
         """One step of every vehicle (residuals in residual mode); NaN/inf rows raise or,
@@ -144,9 +160,13 @@ class QuadrotorVectorEnv(VectorEnv):
             self.core.end_for_invalid_actions(invalid)
 
     def plan(self) -> None:
-        """The base command for the coming step (residual mode; nothing otherwise)."""
+        """The base command for the coming step (residual mode; nothing otherwise); the
+        rendered vehicles' paths grow here, once the batch is settled."""
         if self.residual is not None:
             self.residual.plan()
+        if self._renderer is not None:
+            for i in self._rendered:
+                self._renderer.record(i)
 
     def rewards(self) -> NDArray[np.float64]:
         return self.core.rewards if self.residual is None else self.residual.rewards

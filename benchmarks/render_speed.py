@@ -1,0 +1,52 @@
+"""How fast frames are drawn, and what recording a video of a 10 s episode costs.
+
+Run by hand: ``python benchmarks/render_speed.py``. Flies geometric + NDOB (tuned) through
+``paper-II`` (1,000 steps at 100 Hz) with ``render_mode="rgb_array"`` under
+``gymnasium.wrappers.RecordVideo`` and prints the wall time of the whole episode, video
+encoding included, and the time per frame.
+"""
+
+from __future__ import annotations
+
+import platform
+import tempfile
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import quad_dob_env  # noqa: F401
+from baselines.policy import ReferencePolicy
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory() as folder:
+        env = gym.make("QuadDOB/Track-v0", scenario="paper-II", render_mode="rgb_array")
+        policy = ReferencePolicy("geometric-ndob:tuned", env)
+        env = gym.wrappers.RecordVideo(env, folder, episode_trigger=lambda _: True,
+                                       disable_logger=True)
+        env.reset(seed=0)
+        frame_times = []
+        start = time.perf_counter()
+        obs, _ = env.reset(seed=0)
+        done, steps = False, 0
+        while not done:
+            action, _ = policy.predict(obs)
+            obs, _, terminated, truncated, _ = env.step(action)
+            steps += 1
+            done = terminated or truncated
+        env.close()  # writes the video
+        wall = time.perf_counter() - start
+        drawn = env.unwrapped
+        for _ in range(50):
+            tick = time.perf_counter()
+            drawn.render()
+            frame_times.append(time.perf_counter() - tick)
+    print(f"machine: {platform.machine()}, Python {platform.python_version()}")
+    print(f"RecordVideo of a {steps / 100:.0f} s episode ({steps} frames, paper-II, "
+          f"geometric-ndob:tuned): {wall:.1f} s wall, encoding included")
+    print(f"one rgb_array frame (480x360): {1e3 * np.median(frame_times):.1f} ms")
+
+
+if __name__ == "__main__":
+    main()
