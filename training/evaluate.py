@@ -2,8 +2,9 @@
 
 Scores (``training.metrics``, the code ``quad-dob paper`` uses): RMS position error and RMS
 attitude error after t = 2 s, control effort (RMS applied moment norm), crash rate. Writes
-``evaluation.md``, ``evaluation.csv`` and ``evaluation.png`` (bars with ±std), or prints the
-rows as JSON with ``scenario`` and ``policy`` keys.
+``evaluation.md``, ``evaluation.csv``, ``evaluation.png`` (bars with ±std) and the
+interactive ``report.html`` (figures of the first seed), or prints the rows as JSON with
+``scenario`` and ``policy`` keys.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import numpy as np
 from quad_dob_env.scenarios import make_scenario
 from training.metrics import flight_metrics
 from training.policies import fly_policy, make_policy
+from training.report import write_report
 
 SCORES = (("rms_position_settled", "RMS ‖e_x‖, t≥2 s [m]"),
           ("rms_attitude_settled", "RMS attitude, t≥2 s [rad]"),
@@ -41,14 +43,19 @@ def parse_seeds(text: str) -> list[int]:
                          f"such as 9001-9020, got {text!r}") from None
 
 
-def evaluate(policies: list[str], scenarios: list[str], seeds: list[int]) -> list[dict]:
-    """One row per (scenario, policy): mean and std over seeds of each score, crash rate."""
+def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
+             first_flights: dict | None = None) -> list[dict]:
+    """One row per (scenario, policy): mean and std over seeds of each score, crash rate.
+    ``first_flights``, when given, collects each scenario's flights on the first seed."""
     built = [make_policy(spec) for spec in policies]
     rows = []
     for scenario_name in scenarios:
         scenario = make_scenario(scenario_name)
         for policy in built:
-            metrics = [flight_metrics(f) for f in fly_policy(policy, scenario, seeds)]
+            flights = fly_policy(policy, scenario, seeds)
+            if first_flights is not None:
+                first_flights.setdefault(scenario_name, []).append(flights[0])
+            metrics = [flight_metrics(f) for f in flights]
             row: dict = {"scenario": scenario_name, "policy": policy.name,
                          "seeds": f"{seeds[0]}-{seeds[-1]}" if len(seeds) > 1 else str(seeds[0])}
             for key, _ in SCORES:
@@ -60,7 +67,7 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int]) -> lis
     return rows
 
 
-def write_report(rows: list[dict], out: Path) -> None:
+def write_tables(rows: list[dict], out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "evaluation.csv", "w", newline="") as file:
         writer = csv.DictWriter(file, fieldnames=list(rows[0]))
@@ -106,11 +113,18 @@ def _bar_plot(rows: list[dict], path: Path) -> None:
 
 def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
          as_json: bool) -> int:
-    rows = evaluate(policies, scenarios, parse_seeds(seeds))
+    seed_list = parse_seeds(seeds)
+    first_flights: dict = {}
+    rows = evaluate(policies, scenarios, seed_list, first_flights)
     if as_json:
         print(json.dumps(rows, indent=1))
         return 0
-    write_report(rows, out)
+    write_tables(rows, out)
+    columns = [("scenario", "scenario"), ("policy", "policy"), ("seeds", "seeds")]
+    for key, label in SCORES:
+        columns += [(f"{key}_mean", f"{label} mean"), (f"{key}_std", "± std")]
+    write_report(out / "report.html", f"quad-dob evaluate (figures: seed {seed_list[0]})",
+                 rows, [*columns, ("crash_rate", "crash rate")], first_flights)
     print(markdown_table(rows))
-    print(f"\nwrote {out / 'evaluation.md'}, evaluation.csv, evaluation.png")
+    print(f"\nwrote {out / 'evaluation.md'}, evaluation.csv, evaluation.png, report.html")
     return 0

@@ -2,7 +2,8 @@
 
 Scenarios paper-none, paper-I, paper-II, paper-IIA and ground-effect-landing; controllers
 geometric, geometric-ndob (the paper's observer gains), geometric-ndob:tuned, pid, smc.
-Writes ``table.md``, ``table.csv`` and (unless ``figures=False``) six PNGs per scenario.
+Writes ``table.md``, ``table.csv`` and (unless ``figures=False``) six PNGs per scenario and
+the interactive ``report.html``.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from baselines import make_controller
 from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.scenarios import make_scenario
 from training.metrics import flight_metrics
+from training.report import write_report
 from training.rollout import fly
 
 PAPER_SCENARIOS = ("paper-none", "paper-I", "paper-II", "paper-IIA", "ground-effect-landing")
@@ -70,6 +72,11 @@ def run_paper(scenarios: list[str] = list(PAPER_SCENARIOS),  # noqa: B006
             compared = [c for c in controllers if c in FIGURE_CONTROLLERS] or controllers
             draw_figures([[flights[c][i] for c in compared] for i in range(len(built))],
                          out_dir / "figures")
+            write_report(out_dir / "report.html", "quad-dob paper",
+                         rows, [("scenario", "scenario"), ("controller", "controller"),
+                                *COLUMNS, ("ended", "ended")],
+                         {s.name: [flights[c][i] for c in controllers]
+                          for i, s in enumerate(built)})
     return rows
 
 
@@ -124,6 +131,6 @@ def main(scenarios: list[str], controllers: list[str], torque_reading: str,
         return 0
     print(markdown_table(rows))
     print(f"\nThrust limit {rows[0]['thrust_limit']:.0f} N. Written to {out_dir}/ "
-          f"(table.md, table.csv{', figures/' if figures else ''}) in "
+          f"(table.md, table.csv{', figures/, report.html' if figures else ''}) in "
           f"{time.perf_counter() - start:.1f} s.")
     return 0
