@@ -252,8 +252,11 @@ def _hover(*, vehicle: str | VehicleParams = "paper", height: float = 1.0,
 
 
 def _dryden_helix(*, vehicle: str | VehicleParams = "paper", intensity: str = "moderate",
-                  gusts: bool = False) -> Scenario:
-    disturbance: Disturbance = Dryden(intensity, altitude=2.0, direction=None)
+                  gusts: bool = False, wind_scale: float = 1.0) -> Scenario:
+    # wind_scale multiplies the mean wind and the turbulence (for sweeps over intensity)
+    scale = as_finite(wind_scale, "wind_scale", 0.0)
+    disturbance: Disturbance = Dryden(intensity, altitude=2.0, direction=None,
+                                      intensity_scale=None if scale == 1.0 else (scale, scale))
     if gusts:
         disturbance = disturbance + _gust_pair()
     return Scenario(
@@ -314,8 +317,8 @@ _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "ground-effect-landing": tuple(inspect.signature(_ground_effect_landing).parameters),
     "hover-calm": tuple(inspect.signature(_hover).parameters),
     "hover-step-force": ("vehicle", "height"),
-    "dryden-helix": ("vehicle", "intensity"),
-    "dryden-helix-gusts": ("vehicle", "intensity"),
+    "dryden-helix": ("vehicle", "intensity", "wind_scale"),
+    "dryden-helix-gusts": ("vehicle", "intensity", "wind_scale"),
     "gusty-hover": ("vehicle",),
     "takeoff-landing-wind": ("vehicle",),
 }

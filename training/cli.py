@@ -50,6 +50,13 @@ def _replay(args: argparse.Namespace) -> int:
                        args.width)
 
 
+def _sweep(args: argparse.Namespace) -> int:
+    from training.sweep import run_sweep
+
+    run_sweep(args.config, args.out, args.ray_address, args.workers)
+    return 0
+
+
 def _names(text: str) -> list[str]:
     return [name.strip() for name in text.split(",") if name.strip()]
 
@@ -139,6 +146,19 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--width", type=_positive_int, default=400,
                         help="width of each policy's panel in pixels (default: %(default)s)")
     replay.set_defaults(handler=_replay)
+    sweep = commands.add_parser(
+        "sweep", help="a grid or random sweep of evaluations or trainings, resumable, "
+        "locally or on Ray")
+    sweep.add_argument("config", type=Path, help="the sweep's YAML (see training/sweeps/)")
+    sweep.add_argument("--out", type=Path, default=None,
+                       help="output folder (default: results/sweeps/NAME)")
+    sweep.add_argument("--ray-address", default=None,
+                       help="run the tasks on Ray: auto, HOST:PORT, or local (a Ray instance "
+                       "on this machine); default: a process pool, no Ray needed")
+    sweep.add_argument("--workers", type=_positive_int, default=None,
+                       help="local processes (default: every core); with --ray-address "
+                       "local, Ray's CPUs")
+    sweep.set_defaults(handler=_sweep)
     listing = commands.add_parser("list", help="list env ids, scenarios and vehicles")
     listing.set_defaults(handler=_list)
     return parser
