@@ -78,3 +78,14 @@ def test_bad_sweep_configs_are_named(tmp_path):
     config.write_text(SMALL.replace("kind: evaluate", "kind: tune"))
     with pytest.raises(ValueError, match="sweep kind 'tune'"):
         load_config(config)
+
+
+def test_a_training_sweep_trains_and_scores_each_combination(tmp_path):
+    config = tmp_path / "train.yaml"
+    config.write_text("kind: train\nname: tiny\nenv: QuadDOB/HoverResidual-v0\n"
+                      "scenario: hover-calm\ntimesteps: 256\nn_envs: 8\n"
+                      "grid:\n  seed: [0, 1]\n  n_steps: [32]\n  batch_size: [64]\n"
+                      "seeds: 7-8\n")
+    rows = run_sweep(config, tmp_path / "out", workers=1)
+    assert [(row["seed"], row["seeds"]) for row in rows] == [(0, 2), (1, 2)]
+    assert all(row["rms_position_mean"] < 1.0 for row in rows)
