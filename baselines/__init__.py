@@ -1,6 +1,8 @@
 """Reference controllers, all batched, behind one interface (DESIGN.md principle 2).
 
 - ``base``: the ``Controller`` template (reset / compute / applied).
+- ``kernels``: the geometric controller's and the observer's equations, once per vehicle,
+  compiled (the modules below call them for the batch).
 - ``attitude``: desired attitude from a thrust vector and heading, with analytic Ωd, Ω̇d.
 - ``geometric``: Lee–Leok–McClamroch 2010 on SE(3); with an observer, geometric + NDOB.
 - ``observer``: the nonlinear disturbance observer (Chen 2000 form).

@@ -11,6 +11,7 @@
 - ``residual``: ``ResidualCommand``, a base controller's command plus a scaled residual for
   the whole batch; the vector env's ``base_controller=`` mode and
   ``quad_dob_env.wrappers.ResidualActionWrapper`` both run it.
+- ``rendering``: ``FlightRenderer``, the frames of ``render_mode="rgb_array"``/``"human"``.
 """
 
 from quad_dob_env.envs.core import (
