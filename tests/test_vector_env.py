@@ -103,3 +103,22 @@ def test_ppo_trains_a_few_thousand_steps_on_the_adapter():
     assert model.num_timesteps >= 3072
     action, _ = model.predict(venv.reset(), deterministic=True)
     assert action.shape == (8, 4)
+
+
+def test_native_vector_env_matches_gymnasiums_sync_vector_env_through_autoresets():
+    kwargs = {"scenario": "gusty-hover", "scenario_options": SHORT}
+    native = gym.make_vec("QuadDOB/Hover-v0", num_envs=3,
+                          vectorization_mode="vector_entry_point", **kwargs)
+    reference = gym.make_vec("QuadDOB/Hover-v0", num_envs=3, vectorization_mode="sync",
+                             **kwargs)
+    assert native.observation_space == reference.observation_space
+    assert native.action_space == reference.action_space
+    assert native.metadata["autoreset_mode"] == reference.metadata["autoreset_mode"]
+    obs, _ = native.reset(seed=21)
+    expected, _ = reference.reset(seed=21)
+    np.testing.assert_array_equal(obs, expected)
+    actions = np.random.default_rng(2).uniform(-0.3, 0.3, (70, 3, 4)).astype(np.float32)
+    for action in actions:
+        result, expected = native.step(action), reference.step(action)
+        for mine, theirs in zip(result[:4], expected[:4], strict=True):
+            np.testing.assert_allclose(mine, theirs, rtol=0, atol=1e-12)
