@@ -64,6 +64,20 @@ def action_from_command_batch(thrust, moment, rotor_mode, centre, scale_up, scal
             out[i, k] = min(max(action, -1.0), 1.0)
 
 
+@njit(cache=True)
+def body_frame_errors(position, velocity, rotation, reference_position, reference_velocity,
+                      out):
+    """``out[i] = [Rᵀ(x - x_d), Rᵀ(v - v_d)]`` (N, 6), for the residual's observation."""
+    for i in range(position.shape[0]):
+        for k in range(3):
+            position_error, velocity_error = 0.0, 0.0
+            for j in range(3):
+                position_error += rotation[i, j, k] * (position[i, j] - reference_position[i, j])
+                velocity_error += rotation[i, j, k] * (velocity[i, j] - reference_velocity[i, j])
+            out[i, k] = position_error
+            out[i, 3 + k] = velocity_error
+
+
 @njit(cache=True, inline="always")
 def _bounded(value):
     return min(max(value, -OBSERVATION_BOUND), OBSERVATION_BOUND)

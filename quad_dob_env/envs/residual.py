@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from quad_dob_env.envs.kernels import body_frame_errors
 from quad_dob_env.validation import as_finite
 
 if TYPE_CHECKING:  # the layering: quad_dob_env imports baselines only when asked to
@@ -79,6 +80,7 @@ class ResidualCommand:
         self.requested_thrust = np.zeros(n)  # base + residual, before the actuators' limits
         self.extra_observation = np.zeros((n, RESIDUAL_OBSERVATION_SIZE), dtype=np.float32)
         self.rewards = np.zeros(n)
+        self._body_errors = np.zeros((n, 6))
         self._state_before = None
         self._residual = np.zeros((n, 4))
         self._started = False
@@ -124,10 +126,9 @@ class ResidualCommand:
                                     controller.diagnostics.get("torque_estimate", zeros)], 1)
         extra[:, 4:10] = np.clip(estimates * self._estimate_scale, -1e3, 1e3)
         state, reference = core.state, core.reference
-        errors = np.stack([state.position - reference.position,
-                           state.velocity - reference.velocity], axis=1)  # (N, 2, 3)
-        body = np.einsum("nji,nkj->nki", state.rotation, errors)  # Rᵀ e for each
-        extra[:, 10:] = np.clip(body.reshape(core.n, 6), -1e3, 1e3)
+        body_frame_errors(state.position, state.velocity, state.rotation, reference.position,
+                          reference.velocity, self._body_errors)
+        extra[:, 10:] = np.clip(self._body_errors, -1e3, 1e3)
 
     def info(self) -> dict[str, NDArray]:
         """``base_thrust`` (N,), ``base_moment`` and the observer's ``force_estimate`` and
