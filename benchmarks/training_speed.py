@@ -16,11 +16,8 @@ import time
 from pathlib import Path
 
 import torch
-from stable_baselines3 import PPO
-from stable_baselines3.common.vec_env import VecMonitor
 
-from training.train import _schedule, resolve_config
-from training.vec_env import QuadrotorSB3VecEnv
+from training.train import make_model, make_vec_env, resolve_config
 
 
 def main() -> None:
@@ -29,13 +26,8 @@ def main() -> None:
     args = parser.parse_args()
     config = resolve_config("ppo", "residual", "QuadDOB/TrackResidual-v0", None,
                             args.timesteps, None, seed=0)
-    torch.set_num_threads(1)
-    venv = VecMonitor(QuadrotorSB3VecEnv(config["n_envs"], seed=0, **config["env_kwargs"]))
     with tempfile.TemporaryDirectory() as folder:
-        model = PPO(config["policy"], venv, seed=0, device="cpu", verbose=0,
-                    tensorboard_log=str(Path(folder) / "tb"),
-                    policy_kwargs=config["policy_kwargs"],
-                    **{key: _schedule(value) for key, value in config["ppo"].items()})
+        model = make_model(config, make_vec_env(config), Path(folder) / "tb")
         model.learn(config["n_envs"] * config["ppo"].get("n_steps", 2048))  # warm up
         start = time.perf_counter()
         model.learn(args.timesteps, reset_num_timesteps=False)

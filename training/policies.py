@@ -31,7 +31,7 @@ from baselines import CONTROLLERS
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.validation import unknown_name_error
-from training.rollout import Flight
+from training.rollout import Flight, FlightRecorder
 
 PRETRAINED = Path(__file__).parent / "pretrained"
 SHIPPED_RESIDUAL = PRETRAINED / "residual_dryden_helix_gusts.zip"
@@ -149,55 +149,31 @@ def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Fli
     check_spaces(policy, env)
     obs, _ = env.reset(seed=[int(s) for s in seeds])
     core, residual = env.core, env.residual
-    vehicle = core.vehicle
-    gravity = np.array([0.0, 0.0, vehicle.gravity])
-    rows: list[dict[str, list]] = [{} for _ in range(n)]
-    reasons = [""] * n
-    flying = np.ones(n, dtype=bool)
+    recorder = FlightRecorder(n, core.vehicle)
+    zeros = np.zeros((n, 3))
     for _ in range(scenario.steps):
-        if policy.model is None:
-            actions = np.zeros((n, 4))
-        else:
-            actions = policy.act(obs)
+        actions = np.zeros((n, 4)) if policy.model is None else policy.act(obs)
         state, reference = core.state.copy(), core.reference
         diagnostics = residual.controller.diagnostics if residual is not None else {}
         desired = diagnostics.get("desired_rotation")
         if desired is None:
             desired = _flat_attitude(core)
-        estimates = (diagnostics.get("force_estimate", np.zeros((n, 3))),
-                     diagnostics.get("torque_estimate", np.zeros((n, 3))))
+        estimates = (diagnostics.get("force_estimate", zeros),
+                     diagnostics.get("torque_estimate", zeros))
         obs, _, terminated, truncated, _ = env.step(actions)
         requested = (residual.requested_thrust if residual is not None
-                     else core.command_from_action(np.asarray(actions, float))[0])
-        applied = core.applied
-        record = {
-            "time": core.time - core.scenario.dt, "position": state.position,
-            "velocity": state.velocity,
-            "acceleration": (applied.thrust[:, None] * state.rotation[:, :, 2]
-                             + core.disturbance_force) / vehicle.mass - gravity,
-            "rotation": state.rotation, "reference_position": reference.position,
-            "reference_velocity": reference.velocity,
-            "reference_acceleration": reference.acceleration,
-            "desired_rotation": desired,
-            "requested_thrust": requested, "applied_thrust": applied.thrust,
-            "applied_moment": applied.moment,
-            "disturbance_force": core.disturbance_force,
-            "disturbance_torque": core.disturbance_torque,
-            "force_estimate": estimates[0], "torque_estimate": estimates[1],
-        }
-        for i in np.flatnonzero(flying):
-            for key, values in record.items():
-                rows[i].setdefault(key, []).append(np.array(values[i], copy=True))
-            if terminated[i] or truncated[i]:
-                flying[i] = False
-                reasons[i] = core.termination_reason(i)
-        if not flying.any():
+                     else core.command_from_action(actions)[0])
+        if not recorder.add(
+                state, terminated | truncated, core.termination_reason,
+                time=core.time - scenario.dt, reference_position=reference.position,
+                reference_velocity=reference.velocity,
+                reference_acceleration=reference.acceleration, desired_rotation=desired,
+                requested_thrust=requested, applied_thrust=core.applied.thrust,
+                applied_moment=core.applied.moment, disturbance_force=core.disturbance_force,
+                disturbance_torque=core.disturbance_torque, force_estimate=estimates[0],
+                torque_estimate=estimates[1]):
             break
-    return [Flight(scenario=scenario.name, controller=policy.name, dt=scenario.dt,
-                   thrust_limit=vehicle.max_total_thrust,
-                   **{key: np.array(values) for key, values in row.items()},
-                   termination_reason=reason)
-            for row, reason in zip(rows, reasons, strict=True)]
+    return recorder.flights([scenario.name] * n, policy.name, scenario.dt)
 
 
 def _flat_attitude(core) -> NDArray:

@@ -6,7 +6,7 @@ every report computes its metrics from one kind of data.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from baselines.base import Controller
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.envs import QuadrotorBatch
+from quad_dob_env.params import VehicleParams
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.trajectories import Reference
 
@@ -54,6 +55,45 @@ _RECORDED = ("time", "position", "velocity", "acceleration", "rotation", "refere
              "force_estimate", "torque_estimate", "applied_moment")
 
 
+class FlightRecorder:
+    """Records of N vehicles, step by step, each stopped at its episode's end (``fly`` and
+    ``training.policies.fly_policy`` both keep theirs here)."""
+
+    def __init__(self, n: int, vehicle: VehicleParams) -> None:
+        self.rows: list[dict[str, list]] = [{key: [] for key in _RECORDED} for _ in range(n)]
+        self.reasons = [""] * n
+        self.flying = np.ones(n, dtype=bool)
+        self.vehicle = vehicle
+        self._gravity = np.array([0.0, 0.0, vehicle.gravity])
+
+    def add(self, state: VehicleState, ended: NDArray[np.bool_], reason: Callable[[int], str],
+            **record: NDArray) -> bool:
+        """Keep one step of the vehicles still flying (``record``: the other ``_RECORDED``
+        fields, (N, ...) each); ``ended`` marks whose episode this step ended, and
+        ``reason(i)`` says why. Returns whether any vehicle still flies."""
+        # the true acceleration, from the applied thrust and the disturbance
+        record["acceleration"] = (record["applied_thrust"][:, None] * state.rotation[:, :, 2]
+                                  + record["disturbance_force"]) / self.vehicle.mass \
+            - self._gravity
+        record.update(position=state.position, velocity=state.velocity,
+                      rotation=state.rotation)
+        for i in np.flatnonzero(self.flying):
+            for key in _RECORDED:
+                self.rows[i][key].append(np.array(record[key][i], copy=True))
+            if ended[i]:
+                self.flying[i] = False
+                self.reasons[i] = reason(i)
+        return bool(self.flying.any())
+
+    def flights(self, scenarios: Sequence[str], controller: str, dt: float) -> list[Flight]:
+        return [Flight(scenario=scenario, controller=controller, dt=dt,
+                       thrust_limit=self.vehicle.max_total_thrust,
+                       **{key: np.array(values) for key, values in row.items()},
+                       termination_reason=reason)
+                for scenario, row, reason in zip(scenarios, self.rows, self.reasons,
+                                                 strict=True)]
+
+
 def _stack_states(cores: list[QuadrotorBatch]) -> VehicleState:
     return VehicleState(*(np.concatenate([getattr(c.state, name) for c in cores]) for name in
                           ("position", "velocity", "rotation", "angular_velocity")))
@@ -78,11 +118,8 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
     n = len(cores)
     controller.reset(n, vehicle, dt)
     steps = [s.steps for s in scenarios]
-    rows: list[dict[str, list]] = [{key: [] for key in _RECORDED} for _ in cores]
-    reasons = [""] * n
-    flying = np.ones(n, dtype=bool)
+    recorder = FlightRecorder(n, vehicle)
     zeros = np.zeros((n, 3))
-    gravity = np.array([0.0, 0.0, vehicle.gravity])
     for step in range(max(steps)):
         state = _stack_states(cores)
         refs = [core.reference for core in cores]
@@ -94,33 +131,19 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
         applied_thrust = np.concatenate([core.applied.thrust for core in cores])
         applied_moment = np.concatenate([core.applied.moment for core in cores])
         controller.applied(state, applied_thrust, applied_moment)
-        disturbance_force = np.concatenate([core.disturbance_force for core in cores])
         diagnostics = controller.diagnostics
-        record = {
-            "time": np.full(n, step * dt), "position": state.position,
-            "velocity": state.velocity,
-            "acceleration": (applied_thrust[:, None] * state.rotation[:, :, 2]
-                             + disturbance_force) / vehicle.mass - gravity,
-            "rotation": state.rotation, "reference_position": reference.position,
-            "reference_velocity": reference.velocity,
-            "reference_acceleration": reference.acceleration,
-            "desired_rotation": diagnostics["desired_rotation"], "requested_thrust": thrust,
-            "applied_thrust": applied_thrust, "applied_moment": applied_moment,
-            "disturbance_force": disturbance_force,
-            "disturbance_torque": np.concatenate([core.disturbance_torque for core in cores]),
-            "force_estimate": diagnostics.get("force_estimate", zeros),
-            "torque_estimate": diagnostics.get("torque_estimate", zeros),
-        }
-        for i in np.flatnonzero(flying):
-            for key in _RECORDED:
-                rows[i][key].append(np.array(record[key][i], copy=True))
-            if cores[i].terminated[0] or step + 1 >= steps[i]:
-                flying[i] = False
-                reasons[i] = cores[i].termination_reason(0)
-        if not flying.any():
+        ended = np.array([core.terminated[0] or step + 1 >= steps[i]
+                          for i, core in enumerate(cores)])
+        if not recorder.add(
+                state, ended, lambda i: cores[i].termination_reason(0),
+                time=np.full(n, step * dt), reference_position=reference.position,
+                reference_velocity=reference.velocity,
+                reference_acceleration=reference.acceleration,
+                desired_rotation=diagnostics["desired_rotation"], requested_thrust=thrust,
+                applied_thrust=applied_thrust, applied_moment=applied_moment,
+                disturbance_force=np.concatenate([core.disturbance_force for core in cores]),
+                disturbance_torque=np.concatenate([core.disturbance_torque for core in cores]),
+                force_estimate=diagnostics.get("force_estimate", zeros),
+                torque_estimate=diagnostics.get("torque_estimate", zeros)):
             break
-    return [Flight(scenario=s.name, controller=controller.name, dt=dt,
-                   thrust_limit=vehicle.max_total_thrust,
-                   **{key: np.array(values) for key, values in row.items()},
-                   termination_reason=reason)
-            for s, row, reason in zip(scenarios, rows, reasons, strict=True)]
+    return recorder.flights([s.name for s in scenarios], controller.name, dt)

@@ -168,14 +168,26 @@ class BaselineEvaluation(BaseCallback):
             writer.writerow(row)
 
 
+def make_vec_env(config: dict[str, Any]) -> VecMonitor:
+    """The config's vehicles as an SB3 VecEnv (episode statistics included)."""
+    torch.set_num_threads(1)  # small MLPs: threads cost more than they save, and the env
+    # already uses every core for large batches
+    return VecMonitor(QuadrotorSB3VecEnv(config["n_envs"], seed=config["seed"],
+                                         **config["env_kwargs"]))
+
+
+def make_model(config: dict[str, Any], venv: Any, tensorboard: Path) -> PPO:
+    """A fresh PPO model with the config's policy and hyperparameters."""
+    return PPO(config["policy"], venv, seed=config["seed"], device="cpu", verbose=0,
+               tensorboard_log=str(tensorboard), policy_kwargs=config["policy_kwargs"],
+               **{key: _schedule(value) for key, value in config["ppo"].items()})
+
+
 def train(config: dict[str, Any], out: Path, resume: Path | None = None,
           checkpoint_every: int = 100_000, evaluate_every: int = 100_000,
           progress_bar: bool = True) -> PPO:
     out.mkdir(parents=True, exist_ok=True)
-    torch.set_num_threads(1)  # small MLPs: threads cost more than they save, and the env
-    # already uses every core for large batches
-    venv = VecMonitor(QuadrotorSB3VecEnv(config["n_envs"], seed=config["seed"],
-                                         **config["env_kwargs"]))
+    venv = make_vec_env(config)
     if config["normalize_observations"]:
         venv = VecNormalize(venv, norm_obs=True, norm_reward=False, clip_obs=OBSERVATION_CLIP)
         if config.get("observation_normalization"):  # resuming: from the saved statistics
@@ -186,9 +198,7 @@ def train(config: dict[str, Any], out: Path, resume: Path | None = None,
     if resume is not None:
         model = PPO.load(resume, env=venv, device="cpu", tensorboard_log=str(out / "tb"))
     else:
-        model = PPO(config["policy"], venv, seed=config["seed"], device="cpu", verbose=0,
-                    tensorboard_log=str(out / "tb"), policy_kwargs=config["policy_kwargs"],
-                    **{key: _schedule(value) for key, value in config["ppo"].items()})
+        model = make_model(config, venv, out / "tb")
     (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
     callbacks = [
         CheckpointCallback(max(checkpoint_every // config["n_envs"], 1), str(out / "checkpoints"),

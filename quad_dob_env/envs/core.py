@@ -28,6 +28,7 @@ from quad_dob_env.dynamics import (
 )
 from quad_dob_env.envs.kernels import (
     action_from_command_batch,
+    command_from_action_batch,
     sense_kernel,
     sensor_kernel,
     step_kernel,
@@ -263,12 +264,10 @@ class QuadrotorBatch:
     def command_from_action(self, actions: NDArray) -> tuple[NDArray, NDArray]:
         """Thrust (N,) and moment (N, 3) that normalised ``actions`` (N, 4) command, before
         the actuators' limits (the action map, clipped to [-1, 1])."""
-        actions = np.clip(np.asarray(actions, dtype=float).reshape(-1, 4), -1.0, 1.0)
-        wrench = self._centre + actions * np.where(actions >= 0, self._scale_up,
-                                                   self._scale_down)
-        if self.action_mode == "rotor_thrusts":
-            wrench = wrench @ self.vehicle.allocation_matrix.T
-        return wrench[:, 0], wrench[:, 1:]
+        actions = np.ascontiguousarray(actions, dtype=np.float64).reshape(-1, 4)
+        thrust, moment = np.empty(len(actions)), np.empty((len(actions), 3))
+        command_from_action_batch(actions, *self._action_map, thrust, moment)
+        return thrust, moment
 
     # --- time and reference ---------------------------------------------------------------
     @property

@@ -47,6 +47,17 @@ def _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation):
 
 
 @njit(cache=True)
+def command_from_action_batch(actions, rotor_mode, centre, scale_up, scale_down, allocation,
+                              thrust, moment):
+    """``_command`` for every row: what normalised actions command, before the actuators."""
+    for i in range(actions.shape[0]):
+        thrust[i], commanded = _command(actions, i, rotor_mode, centre, scale_up, scale_down,
+                                        allocation)
+        for k in range(3):
+            moment[i, k] = commanded[k]
+
+
+@njit(cache=True)
 def action_from_command_batch(thrust, moment, rotor_mode, centre, scale_up, scale_down,
                               mixer, out):
     """The inverse of ``_command``: the normalised actions that command ``thrust`` (N,) and

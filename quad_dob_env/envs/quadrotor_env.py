@@ -217,11 +217,3 @@ class QuadrotorEnv(gym.Env):
         if reason:
             info["termination_reason"] = reason
         return info
-
-
-def validated_actions(action: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
-    """Actions as float64 of ``shape``; NaN, inf or a wrong shape raise ValueError.
-
-    Values outside [-1, 1] pass through: the core clips them.
-    """
-    return screen_actions(action, shape)[0]

@@ -149,7 +149,8 @@ class QuadrotorVectorEnv(VectorEnv):
 
     def fly(self, actions: Any) -> None:
         """One step of every vehicle (residuals in residual mode); NaN/inf rows raise or,
-        with ``invalid_actions="terminate"``, fly at hover and end those episodes."""
+        with ``invalid_actions="terminate"``, fly at hover (residual mode: at the base
+        command, a zero residual) and end those episodes."""
         actions, invalid = screen_actions(actions, (self.num_envs, 4), self.invalid_actions)
         if self.residual is None:
             self.core.step(actions)
@@ -206,9 +207,4 @@ class QuadrotorVectorEnv(VectorEnv):
         }
 
 
-def validated_batch_actions(actions: Any, num_envs: int) -> NDArray[np.float64]:
-    """Actions as float64 (N, 4); NaN, inf or a wrong shape raise ValueError naming them."""
-    return screen_actions(actions, (num_envs, 4))[0]
-
-
-__all__ = ["TERMINATION_REASONS", "QuadrotorVectorEnv", "validated_batch_actions"]
+__all__ = ["TERMINATION_REASONS", "QuadrotorVectorEnv"]
