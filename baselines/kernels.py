@@ -177,6 +177,24 @@ def geometric_law(x, v, R, w, reference, mass, gravity, inertia, kx, kv, kR, kOm
 
 # --- batch loops (one call per control step for the whole batch) ---------------------------
 
+@njit(cache=True, inline="always")
+def geometric_vehicle(i, x, v, R, w, reference, mass, gravity, inertia, gains, force_estimate,
+                      torque_estimate, thrust, moment, desired_force, desired_rotation,
+                      desired_rate, attitude_error, rate_error):
+    """``geometric_law`` for vehicle i, its outputs written to row i."""
+    f, m, force, rd, rate_d, e_r, e_w = geometric_law(
+        x, v, R, w, reference, mass, gravity, inertia, gains[0], gains[1], gains[2], gains[3],
+        row(force_estimate, i), row(torque_estimate, i))
+    thrust[i] = f
+    put(moment, i, m)
+    put(desired_force, i, force)
+    for k in range(9):
+        desired_rotation[i, k // 3, k % 3] = rd[k]
+    put(desired_rate, i, rate_d)
+    put(attitude_error, i, e_r)
+    put(rate_error, i, e_w)
+
+
 @njit(cache=True, nogil=True)
 def geometric_batch(start, stop, position, velocity, rotation, angular_velocity, reference,
                     mass, gravity, inertia, kx, kv, kR, kOmega, force_estimate,
@@ -188,18 +206,23 @@ def geometric_batch(start, stop, position, velocity, rotation, angular_velocity,
         ref = (row(reference[0], i), row(reference[1], i), row(reference[2], i),
                row(reference[3], i), row(reference[4], i), row(reference[5], i),
                row(reference[6], i), row(reference[7], i))
-        f, m, force, rd, rate_d, e_r, e_w = geometric_law(
-            row(position, i), row(velocity, i), matrix(rotation, i), row(angular_velocity, i),
-            ref, mass, gravity, inertia_tuple, gains[0], gains[1], gains[2], gains[3],
-            row(force_estimate, i), row(torque_estimate, i))
-        thrust[i] = f
-        put(moment, i, m)
-        put(desired_force, i, force)
-        for k in range(9):
-            desired_rotation[i, k // 3, k % 3] = rd[k]
-        put(desired_rate, i, rate_d)
-        put(attitude_error, i, e_r)
-        put(rate_error, i, e_w)
+        geometric_vehicle(i, row(position, i), row(velocity, i), matrix(rotation, i),
+                          row(angular_velocity, i), ref, mass, gravity, inertia_tuple, gains,
+                          force_estimate, torque_estimate, thrust, moment, desired_force,
+                          desired_rotation, desired_rate, attitude_error, rate_error)
+
+
+@njit(cache=True, inline="always")
+def reference_at(table, r):
+    """Row ``r`` of a reference table (rows, 8, 3) as eight 3-tuples (``Reference`` order)."""
+    return ((table[r, 0, 0], table[r, 0, 1], table[r, 0, 2]),
+            (table[r, 1, 0], table[r, 1, 1], table[r, 1, 2]),
+            (table[r, 2, 0], table[r, 2, 1], table[r, 2, 2]),
+            (table[r, 3, 0], table[r, 3, 1], table[r, 3, 2]),
+            (table[r, 4, 0], table[r, 4, 1], table[r, 4, 2]),
+            (table[r, 5, 0], table[r, 5, 1], table[r, 5, 2]),
+            (table[r, 6, 0], table[r, 6, 1], table[r, 6, 2]),
+            (table[r, 7, 0], table[r, 7, 1], table[r, 7, 2]))
 
 
 @njit(cache=True)
@@ -227,45 +250,60 @@ def attitude_errors_batch(rotation, angular_velocity, desired_rotation, desired_
             r_t_rd[i, k // 3, k % 3] = rt[k]
 
 
+@njit(cache=True, inline="always")
+def observer_estimate_vehicle(i, velocity, angular_velocity, gain, km, z_force, z_torque, fresh,
+                              force_estimate, torque_estimate):
+    """``d̂x = zx + Ks' v``, ``d̂Ω = zΩ + Km' Ω`` for vehicle i (``km`` a 9-tuple); a fresh
+    episode starts at z = -K' x, so its first estimate is zero."""
+    v, w = row(velocity, i), row(angular_velocity, i)
+    km_w = mat_vec_tuple(km, w)
+    if fresh[i]:
+        put(z_force, i, (-gain * v[0], -gain * v[1], -gain * v[2]))
+        put(z_torque, i, (-km_w[0], -km_w[1], -km_w[2]))
+        fresh[i] = False
+    put(force_estimate, i, combine(1.0, row(z_force, i), gain, v))
+    put(torque_estimate, i, add(row(z_torque, i), km_w))
+
+
 @njit(cache=True)
 def observer_estimate_batch(velocity, angular_velocity, gain, rotational_gain, z_force,
                             z_torque, fresh, force_estimate, torque_estimate):
-    """``d̂x = zx + Ks' v``, ``d̂Ω = zΩ + Km' Ω``; a fresh episode starts at z = -K' x, so
-    its first estimate is zero."""
     km = square(rotational_gain)
     for i in range(velocity.shape[0]):
-        v, w = row(velocity, i), row(angular_velocity, i)
-        km_w = mat_vec_tuple(km, w)
-        if fresh[i]:
-            put(z_force, i, (-gain * v[0], -gain * v[1], -gain * v[2]))
-            put(z_torque, i, (-km_w[0], -km_w[1], -km_w[2]))
-            fresh[i] = False
-        put(force_estimate, i, combine(1.0, row(z_force, i), gain, v))
-        put(torque_estimate, i, add(row(z_torque, i), km_w))
+        observer_estimate_vehicle(i, velocity, angular_velocity, gain, km, z_force, z_torque,
+                                  fresh, force_estimate, torque_estimate)
+
+
+@njit(cache=True, inline="always")
+def observer_advance_vehicle(i, start_velocity, start_body_z, start_angular_velocity, thrust,
+                             moment, end_rotation, end_angular_velocity, mass, gravity, J,
+                             gain, alpha, km, a_rot, z_force, z_torque):
+    """One forward-Euler step of vehicle i's z over a control step, with the thrust
+    direction and the gyroscopic torque averaged over the step's two ends (unbiased to
+    second order in dt); ``J``, ``km`` and ``a_rot`` are 9-tuples."""
+    end_body_z = (end_rotation[i, 0, 2], end_rotation[i, 1, 2], end_rotation[i, 2, 2])
+    lift = combine(0.5 * thrust[i], row(start_body_z, i), 0.5 * thrust[i], end_body_z)
+    v, z = row(start_velocity, i), row(z_force, i)
+    # żx = -(Ks/m)(zx + Ks v - m g e3 + f R e3)
+    put(z_force, i, (z[0] - alpha * (z[0] + gain * v[0] + lift[0]),
+                     z[1] - alpha * (z[1] + gain * v[1] + lift[1]),
+                     z[2] - alpha * (z[2] + gain * v[2] - mass * gravity + lift[2])))
+    w0, w1 = row(start_angular_velocity, i), row(end_angular_velocity, i)
+    gyroscopic = combine(0.5, cross_tuple(w0, mat_vec_tuple(J, w0)),
+                         0.5, cross_tuple(w1, mat_vec_tuple(J, w1)))
+    zt = row(z_torque, i)
+    # żΩ = -Km J⁻¹(zΩ + Km Ω - Ω × JΩ + M)
+    residual = add(combine(1.0, zt, 1.0, mat_vec_tuple(km, w0)),
+                   combine(-1.0, gyroscopic, 1.0, row(moment, i)))
+    put(z_torque, i, combine(1.0, zt, -1.0, mat_vec_tuple(a_rot, residual)))
 
 
 @njit(cache=True)
 def observer_advance_batch(start_velocity, start_body_z, start_angular_velocity, thrust,
                            moment, end_rotation, end_angular_velocity, mass, gravity, inertia,
                            gain, alpha, rotational_gain, alpha_rotation, z_force, z_torque):
-    """One forward-Euler step of z over a control step, with the thrust direction and the
-    gyroscopic torque averaged over the step's two ends (unbiased to second order in dt)."""
-    J = square(inertia)
-    km = square(rotational_gain)
-    a_rot = square(alpha_rotation)
+    J, km, a_rot = square(inertia), square(rotational_gain), square(alpha_rotation)
     for i in range(start_velocity.shape[0]):
-        end_body_z = (end_rotation[i, 0, 2], end_rotation[i, 1, 2], end_rotation[i, 2, 2])
-        lift = combine(0.5 * thrust[i], row(start_body_z, i), 0.5 * thrust[i], end_body_z)
-        v, z = row(start_velocity, i), row(z_force, i)
-        # żx = -(Ks/m)(zx + Ks v - m g e3 + f R e3)
-        put(z_force, i, (z[0] - alpha * (z[0] + gain * v[0] + lift[0]),
-                         z[1] - alpha * (z[1] + gain * v[1] + lift[1]),
-                         z[2] - alpha * (z[2] + gain * v[2] - mass * gravity + lift[2])))
-        w0, w1 = row(start_angular_velocity, i), row(end_angular_velocity, i)
-        gyroscopic = combine(0.5, cross_tuple(w0, mat_vec_tuple(J, w0)),
-                             0.5, cross_tuple(w1, mat_vec_tuple(J, w1)))
-        zt = row(z_torque, i)
-        # żΩ = -Km J⁻¹(zΩ + Km Ω - Ω × JΩ + M)
-        residual = add(combine(1.0, zt, 1.0, mat_vec_tuple(km, w0)),
-                       combine(-1.0, gyroscopic, 1.0, row(moment, i)))
-        put(z_torque, i, combine(1.0, zt, -1.0, mat_vec_tuple(a_rot, residual)))
+        observer_advance_vehicle(i, start_velocity, start_body_z, start_angular_velocity,
+                                 thrust, moment, end_rotation, end_angular_velocity, mass,
+                                 gravity, J, gain, alpha, km, a_rot, z_force, z_torque)

@@ -7,6 +7,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import quad_dob_env  # noqa: F401
 from baselines import make_controller
 from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
+from quad_dob_env.envs.residual import ResidualCommand
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.wrappers import ResidualActionWrapper
 from training.rollout import fly
@@ -101,6 +102,33 @@ def test_vector_residual_equals_single_residual_envs_through_autoresets():
             np.testing.assert_allclose(obs[i], expected, atol=1e-5)
             assert rewards[i] == pytest.approx(reward, abs=1e-6)
             pending[i] = done
+
+
+@pytest.mark.parametrize("base", ["geometric-ndob:tuned", "geometric"])
+def test_compiled_residual_pass_equals_the_separate_stages(base):
+    # the geometric base runs in one compiled pass with the physics (baselines.fused); any
+    # other controller runs as command -> step -> record -> plan. Both must agree.
+    n, steps = 4, 75
+    compiled = QuadrotorVectorEnv(n, "gusty-hover", scenario_options=SHORT, base_controller=base)
+    staged = QuadrotorVectorEnv(n, "gusty-hover", scenario_options=SHORT, base_controller=base)
+    staged.residual = ResidualCommand(staged.core, base, compiled=False)
+    assert compiled.residual._fused is not None and staged.residual._fused is None
+    first = [env.reset(seed=3) for env in (compiled, staged)]
+    np.testing.assert_array_equal(first[0][0], first[1][0])
+    actions = np.random.default_rng(4).uniform(-1.2, 1.2, (steps, n, 4))
+    ended = 0
+    for step in range(steps):
+        (obs, rewards, term, trunc, info), (obs2, rewards2, term2, trunc2, info2) = (
+            env.step(actions[step]) for env in (compiled, staged))
+        np.testing.assert_allclose(obs, obs2, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(rewards, rewards2, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(term, term2)
+        np.testing.assert_array_equal(trunc, trunc2)
+        for key in ("base_thrust", "base_moment", "force_estimate", "torque_estimate",
+                    "applied_moment", "position_error"):
+            np.testing.assert_allclose(info[key], info2[key], rtol=0, atol=1e-9, err_msg=key)
+        ended += int((term | trunc).sum())
+    assert ended >= n  # the comparison ran through autoresets
 
 
 def test_sb3_adapter_runs_in_residual_mode():

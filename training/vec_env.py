@@ -39,7 +39,6 @@ class QuadrotorSB3VecEnv(VecEnv):
         self._seed = None  # later resets continue each vehicle's generator
         venv._generators = [seeding.np_random(s)[0] for s in seeds]
         venv.restart(np.arange(n))
-        venv.plan()
         self.reset_infos = [{} for _ in range(n)]
         return venv.observations()
 
@@ -49,7 +48,6 @@ class QuadrotorSB3VecEnv(VecEnv):
     def step_wait(self) -> tuple[NDArray[np.float32], NDArray, NDArray, list[dict]]:
         venv, core = self.vector_env, self.core
         venv.fly(self._actions)
-        venv.plan()
         rewards = venv.rewards().astype(np.float32)
         terminated, truncated = core.terminated, core.truncated
         dones = terminated | truncated
@@ -62,7 +60,6 @@ class QuadrotorSB3VecEnv(VecEnv):
                             "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
                             "termination_reason": core.termination_reason(i)}
             venv.restart(ended)
-            venv.plan()  # the restarted vehicles' first base command (residual mode)
         return venv.observations(), rewards, dones.copy(), infos
 
     def seed(self, seed: int | None = None) -> Sequence[int | None]:

@@ -353,6 +353,13 @@ class QuadrotorBatch:
         Updates ``state``, ``obs``, ``rewards``, ``termination_code``, ``applied`` and the
         true ``disturbance_force`` / ``disturbance_torque``.
         """
+        self.prepare_step()
+        run_over_batch(step_kernel, self.n, actions, *self.step_arguments())
+        self.finish_step()
+
+    def prepare_step(self) -> None:
+        """Before the compiled pass of a step: the tables long enough, and the random
+        disturbances sampled over the step."""
         self._reference_now = None
         rows = self._reference_table.shape[0]
         if self.step_count.max() + 1 >= rows:  # flown past the scenario's end: extend
@@ -364,16 +371,21 @@ class QuadrotorBatch:
                     own.fill(0.0)
             times = self.time[:, None] + self._sample_offsets if random.uses_time else None
             random.add_to(times, *self._own)
+
+    def step_arguments(self) -> tuple:
+        """What ``kernels.step_kernel`` takes after the slice and the actions."""
         s, sc = self.state, self.scenario
-        run_over_batch(
-            step_kernel, self.n, actions, self._action_map, self._actuation, self._actuator,
-            s.position, s.velocity, s.rotation, s.angular_velocity, self.step_count,
-            self._tables, self._own, self._reference_table,
-            (self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse, self.drag),
-            sc.dt, sc.substeps, self._law, self._limits, self._reward, self._rotation_mode,
-            self._clean_obs, self.rewards, self.termination_code, self.applied.thrust,
-            self.applied.moment, self.applied.rotor_thrusts, self.applied.saturated,
-            self.disturbance_force, self.disturbance_torque)
+        return (self._action_map, self._actuation, self._actuator, s.position, s.velocity,
+                s.rotation, s.angular_velocity, self.step_count, self._tables, self._own,
+                self._reference_table,
+                (self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse, self.drag),
+                sc.dt, sc.substeps, self._law, self._limits, self._reward, self._rotation_mode,
+                self._clean_obs, self.rewards, self.termination_code, self.applied.thrust,
+                self.applied.moment, self.applied.rotor_thrusts, self.applied.saturated,
+                self.disturbance_force, self.disturbance_torque)
+
+    def finish_step(self) -> None:
+        """After the compiled pass: the sensor model on the new observations."""
         self._measure(self._all, reset=False)
 
     def end_for_invalid_actions(self, indices: NDArray[np.intp]) -> None:

@@ -57,36 +57,53 @@ def command_from_action_batch(actions, rotor_mode, centre, scale_up, scale_down,
             moment[i, k] = commanded[k]
 
 
+@njit(cache=True, inline="always")
+def action_from_command_vehicle(i, thrust, moment, rotor_mode, centre, scale_up, scale_down,
+                                mixer, out):
+    """The inverse of ``_command`` for one vehicle: ``out[i]`` = the normalised action that
+    commands ``thrust`` and ``moment`` (3-tuple), clipped to [-1, 1] (beyond the limits it
+    saturates)."""
+    wrench = (thrust, moment[0], moment[1], moment[2])
+    for k in range(4):
+        if rotor_mode:
+            value = (mixer[k, 0] * wrench[0] + mixer[k, 1] * wrench[1]
+                     + mixer[k, 2] * wrench[2] + mixer[k, 3] * wrench[3])
+        else:
+            value = wrench[k]
+        offset = value - centre[k]
+        action = offset / (scale_up[k] if offset >= 0.0 else scale_down[k])
+        out[i, k] = min(max(action, -1.0), 1.0)
+
+
 @njit(cache=True)
 def action_from_command_batch(thrust, moment, rotor_mode, centre, scale_up, scale_down,
                               mixer, out):
-    """The inverse of ``_command``: the normalised actions that command ``thrust`` (N,) and
-    ``moment`` (N, 3), clipped to [-1, 1] (beyond the limits they saturate)."""
+    """``action_from_command_vehicle`` for every row of ``thrust`` (N,), ``moment`` (N, 3)."""
     for i in range(thrust.shape[0]):
-        wrench = (thrust[i], moment[i, 0], moment[i, 1], moment[i, 2])
-        for k in range(4):
-            if rotor_mode:
-                value = (mixer[k, 0] * wrench[0] + mixer[k, 1] * wrench[1]
-                         + mixer[k, 2] * wrench[2] + mixer[k, 3] * wrench[3])
-            else:
-                value = wrench[k]
-            offset = value - centre[k]
-            action = offset / (scale_up[k] if offset >= 0.0 else scale_down[k])
-            out[i, k] = min(max(action, -1.0), 1.0)
+        action_from_command_vehicle(i, thrust[i], (moment[i, 0], moment[i, 1], moment[i, 2]),
+                                    rotor_mode, centre, scale_up, scale_down, mixer, out)
+
+
+@njit(cache=True, inline="always")
+def body_frame_errors_vehicle(i, position, velocity, rotation, reference_position,
+                              reference_velocity, out):
+    """``out[i] = [Rᵀ(x - x_d), Rᵀ(v - v_d)]``, for the residual's observation."""
+    for k in range(3):
+        position_error, velocity_error = 0.0, 0.0
+        for j in range(3):
+            position_error += rotation[i, j, k] * (position[i, j] - reference_position[j])
+            velocity_error += rotation[i, j, k] * (velocity[i, j] - reference_velocity[j])
+        out[i, k] = position_error
+        out[i, 3 + k] = velocity_error
 
 
 @njit(cache=True)
 def body_frame_errors(position, velocity, rotation, reference_position, reference_velocity,
                       out):
-    """``out[i] = [Rᵀ(x - x_d), Rᵀ(v - v_d)]`` (N, 6), for the residual's observation."""
+    """``body_frame_errors_vehicle`` for every vehicle (N, 6)."""
     for i in range(position.shape[0]):
-        for k in range(3):
-            position_error, velocity_error = 0.0, 0.0
-            for j in range(3):
-                position_error += rotation[i, j, k] * (position[i, j] - reference_position[i, j])
-                velocity_error += rotation[i, j, k] * (velocity[i, j] - reference_velocity[i, j])
-            out[i, k] = position_error
-            out[i, 3 + k] = velocity_error
+        body_frame_errors_vehicle(i, position, velocity, rotation, reference_position[i],
+                                  reference_velocity[i], out)
 
 
 @njit(cache=True, inline="always")
@@ -237,3 +254,53 @@ def sense_kernel(indices, position, velocity, rotation, angular_velocity, step_c
     for i in indices:
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
         code[i], _ = _sense(i, x, v, R, w, reference, step_count[i], rotation_mode, limits, obs)
+
+
+# --- residual control (``quad_dob_env.envs.residual``), per vehicle ------------------------
+
+@njit(cache=True)
+def residual_command_kernel(start, stop, residual, residual_range, base_thrust, base_moment,
+                            action_map, mixer, clipped, requested_thrust, actions):
+    """Base command + ``residual_range ·`` clipped residual, as the env actions that command
+    it (clipped to [-1, 1] by the inverse action map)."""
+    rotor_mode, centre, scale_up, scale_down, _ = action_map
+    for i in range(start, stop):
+        for k in range(4):
+            clipped[i, k] = min(max(residual[i, k], -1.0), 1.0)
+        requested_thrust[i] = base_thrust[i] + clipped[i, 0] * residual_range[0]
+        moment = (base_moment[i, 0] + clipped[i, 1] * residual_range[1],
+                  base_moment[i, 1] + clipped[i, 2] * residual_range[2],
+                  base_moment[i, 2] + clipped[i, 3] * residual_range[3])
+        action_from_command_vehicle(i, requested_thrust[i], moment, rotor_mode, centre,
+                                    scale_up, scale_down, mixer, actions)
+
+
+@njit(cache=True)
+def residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rewards):
+    """The env's reward minus ``effort_weight · mean(residual²)``."""
+    for i in range(start, stop):
+        effort = 0.0
+        for k in range(4):
+            effort += clipped[i, k] * clipped[i, k]
+        rewards[i] = core_rewards[i] - effort_weight * (effort / 4.0)
+
+
+@njit(cache=True, inline="always")
+def residual_observation_vehicle(i, base_thrust, base_moment, force_estimate, torque_estimate,
+                                 estimate_scale, position, velocity, rotation, reference,
+                                 row_index, action_map, mixer, base_action, body_errors,
+                                 extra):
+    """Vehicle i's 16 extra observation entries (table in ``envs.residual``)."""
+    rotor_mode, centre, scale_up, scale_down, _ = action_map
+    action_from_command_vehicle(i, base_thrust[i], (base_moment[i, 0], base_moment[i, 1],
+                                                    base_moment[i, 2]),
+                                rotor_mode, centre, scale_up, scale_down, mixer, base_action)
+    body_frame_errors_vehicle(i, position, velocity, rotation, reference[row_index, 0],
+                              reference[row_index, 1], body_errors)
+    for k in range(4):
+        extra[i, k] = base_action[i, k]
+    for k in range(3):
+        extra[i, 4 + k] = min(max(force_estimate[i, k] * estimate_scale[k], -1e3), 1e3)
+        extra[i, 7 + k] = min(max(torque_estimate[i, k] * estimate_scale[3 + k], -1e3), 1e3)
+    for k in range(6):
+        extra[i, 10 + k] = min(max(body_errors[i, k], -1e3), 1e3)

@@ -61,7 +61,7 @@ class ResidualCommand:
 
     def __init__(self, core: QuadrotorBatch, base_controller: Any = "geometric-ndob",
                  thrust_scale: float = 0.1, moment_scale: float = 0.1,
-                 residual_effort_weight: float = 0.01) -> None:
+                 residual_effort_weight: float = 0.01, compiled: bool = True) -> None:
         self.core = core
         self.controller = resolve_controller(base_controller, core)
         self.thrust_scale = as_finite(thrust_scale, "residual thrust_scale", 0.0, strictly=True)
@@ -82,12 +82,15 @@ class ResidualCommand:
         self.rewards = np.zeros(n)
         self._body_errors = np.zeros((n, 6))
         self._state_before = None
+        self.force_estimate, self.torque_estimate = np.zeros((n, 3)), np.zeros((n, 3))
         self._residual = np.zeros((n, 4))
         self._started = False
+        fused = getattr(self.controller, "fused_residual", None) if compiled else None
+        self._fused = None if fused is None else fused(self)
 
     def restart(self, indices: NDArray[np.intp]) -> None:
         """After ``core.reset(indices)``: restart those vehicles' controller state (all of
-        them the first time). Call ``plan`` once the batch is settled."""
+        them the first time) and plan their first base command."""
         core = self.core
         if not self._started or len(indices) == core.n:
             self.controller.reset(core.n, core.vehicle, core.scenario.dt)
@@ -95,6 +98,21 @@ class ResidualCommand:
         else:
             self.controller.reset(core.n, core.vehicle, core.scenario.dt, indices)
         self.rewards[indices] = 0.0
+        if self._fused is None:
+            self.plan()
+        else:
+            self._fused.restart(indices)
+
+    def fly(self, residual: NDArray[np.float64]) -> None:
+        """Step the core with base + ``residual`` (N, 4) and plan the next base command:
+        one compiled pass when the controller offers one (``fused_residual``, the geometric
+        controller), else ``command``, ``core.step``, ``record`` and ``plan``."""
+        if self._fused is not None:
+            self._fused.fly(residual)
+            return
+        self.core.step(self.command(residual))
+        self.record()
+        self.plan()
 
     def command(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
         """The env actions (N, 4) for base command + scaled ``residual`` (N, 4)."""
@@ -122,8 +140,9 @@ class ResidualCommand:
         extra = self.extra_observation
         extra[:, :4] = core.action_from_command(self.base_thrust, self.base_moment)
         zeros = np.zeros((core.n, 3))
-        estimates = np.concatenate([controller.diagnostics.get("force_estimate", zeros),
-                                    controller.diagnostics.get("torque_estimate", zeros)], 1)
+        self.force_estimate = controller.diagnostics.get("force_estimate", zeros)
+        self.torque_estimate = controller.diagnostics.get("torque_estimate", zeros)
+        estimates = np.concatenate([self.force_estimate, self.torque_estimate], 1)
         extra[:, 4:10] = np.clip(estimates * self._estimate_scale, -1e3, 1e3)
         state, reference = core.state, core.reference
         body_frame_errors(state.position, state.velocity, state.rotation, reference.position,
@@ -133,11 +152,9 @@ class ResidualCommand:
     def info(self) -> dict[str, NDArray]:
         """``base_thrust`` (N,), ``base_moment`` and the observer's ``force_estimate`` and
         ``torque_estimate`` (N, 3; zero without an observer), for the coming step."""
-        diagnostics = self.controller.diagnostics
-        zeros = np.zeros((self.core.n, 3))
         return {"base_thrust": self.base_thrust.copy(), "base_moment": self.base_moment.copy(),
-                "force_estimate": np.array(diagnostics.get("force_estimate", zeros)),
-                "torque_estimate": np.array(diagnostics.get("torque_estimate", zeros))}
+                "force_estimate": self.force_estimate.copy(),
+                "torque_estimate": self.torque_estimate.copy()}
 
     def observation(self, core_observation: NDArray[np.float32]) -> NDArray[np.float32]:
         return np.concatenate([core_observation, self.extra_observation], axis=1)

@@ -105,7 +105,7 @@ class QuadrotorVectorEnv(VectorEnv):
                 raise ValueError(f"reset(seed=...) needs an int or {n} seeds, got {len(seeds)}")
         self._generators = [seeding.np_random(s)[0] for s in seeds]
         self.restart(np.arange(n))
-        self.plan()
+        self.record_paths()
         self._needs_reset[:] = False
         info = self._info()
         info["sampled"] = [dict(sampled) for sampled in self.core.sampled]
@@ -119,7 +119,7 @@ class QuadrotorVectorEnv(VectorEnv):
         restarting = np.flatnonzero(self._needs_reset)
         if restarting.size:
             self.restart(restarting)
-        self.plan()
+        self.record_paths()
         rewards = self.rewards().copy()
         terminated = core.terminated
         truncated = core.truncated
@@ -132,7 +132,8 @@ class QuadrotorVectorEnv(VectorEnv):
 
     # --- the stages, shared with training.vec_env's SB3 adapter -------------------------
     def restart(self, indices: NDArray[np.intp]) -> None:
-        """New episodes for vehicles ``indices``, from their own generators."""
+        """New episodes for vehicles ``indices``, from their own generators (residual mode:
+        with their first base command planned)."""
         self.core.reset(indices, [self._generators[i] for i in indices])
         if self.residual is not None:
             self.residual.restart(indices)
@@ -148,23 +149,20 @@ class QuadrotorVectorEnv(VectorEnv):
         return tuple(self._renderer.frame(i) for i in self._rendered)
 
     def fly(self, actions: Any) -> None:
-        """One step of every vehicle (residuals in residual mode); NaN/inf rows raise or,
-        with ``invalid_actions="terminate"``, fly at hover (residual mode: at the base
-        command, a zero residual) and end those episodes."""
+        """One step of every vehicle (residual mode: with the residuals, and the next base
+        command planned); NaN/inf rows raise or, with ``invalid_actions="terminate"``, fly
+        at hover (residual mode: at the base command, a zero residual) and end those
+        episodes."""
         actions, invalid = screen_actions(actions, (self.num_envs, 4), self.invalid_actions)
         if self.residual is None:
             self.core.step(actions)
         else:
-            self.core.step(self.residual.command(actions))
-            self.residual.record()
+            self.residual.fly(actions)
         if invalid.size:
             self.core.end_for_invalid_actions(invalid)
 
-    def plan(self) -> None:
-        """The base command for the coming step (residual mode; nothing otherwise); the
-        rendered vehicles' paths grow here, once the batch is settled."""
-        if self.residual is not None:
-            self.residual.plan()
+    def record_paths(self) -> None:
+        """The rendered vehicles' paths grow, once the batch is settled after a step."""
         if self._renderer is not None:
             for i in self._rendered:
                 self._renderer.record(i)

@@ -32,8 +32,9 @@ class ResidualActionWrapper(gym.Wrapper):
         core = getattr(env.unwrapped, "core", None)
         if core is None or core.n != 1:
             raise ValueError(f"ResidualActionWrapper wraps a single QuadrotorEnv, got {env!r}")
+        # the env steps itself, so the residual runs as separate stages around its step
         self.residual = ResidualCommand(core, base_controller, thrust_scale, moment_scale,
-                                        residual_effort_weight)
+                                        residual_effort_weight, compiled=False)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.observation_space = gym.spaces.Box(
             -OBSERVATION_BOUND, OBSERVATION_BOUND,
@@ -43,7 +44,6 @@ class ResidualActionWrapper(gym.Wrapper):
               ) -> tuple[NDArray[np.float32], dict]:
         observation, info = self.env.reset(seed=seed, options=options)
         self.residual.restart(np.zeros(1, dtype=np.intp))
-        self.residual.plan()
         return self._observation(observation), self._info(info)
 
     def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:

@@ -1,0 +1,194 @@
+"""The geometric (+NDOB) base, the residual and the physics in one compiled pass.
+
+``ResidualCommand`` drives any controller through ``compute`` and ``applied``: a handful of
+batch calls and array operations per step, ~250 µs of Python whatever N is, which at
+N = 256 cost more than the vehicles themselves. For the geometric controller it asks for
+this pass instead (``GeometricController.fused_residual``): one call per step, cut into one
+slice per core, runs for each vehicle
+
+    residual -> command -> physics step -> observer update -> observer estimate ->
+    geometric law for the next step -> extra observation and reward.
+
+It calls the same per-vehicle functions as the separate stages (``quad_dob_env.envs.kernels``
+and ``baselines.kernels``), so there is still one source for every equation; a test holds
+it to the separate stages to 1e-12 through autoresets.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from baselines.kernels import (
+    geometric_vehicle,
+    matrix,
+    observer_advance_vehicle,
+    observer_estimate_vehicle,
+    put,
+    reference_at,
+    row,
+    square,
+    vector,
+)
+from quad_dob_env.envs.kernels import (
+    residual_command_kernel,
+    residual_observation_vehicle,
+    residual_reward_kernel,
+    step_kernel,
+)
+from quad_dob_env.threads import run_over_batch
+
+if TYPE_CHECKING:
+    from baselines.geometric import GeometricController
+    from quad_dob_env.envs.residual import ResidualCommand
+
+_DIAGNOSTICS = ("desired_force", "desired_rotation", "desired_angular_velocity",
+                "attitude_error", "rate_error")
+
+
+@njit(cache=True)
+def plan_kernel(indices, plan):
+    """Each vehicle of ``indices``: its observer estimate, base command and extra
+    observation for the coming step, from its state now."""
+    (position, velocity, rotation, angular_velocity, reference, step_count, mass, gravity,
+     inertia, gains, has_observer, gain, km, z_force, z_torque, fresh, force_estimate,
+     torque_estimate, thrust, moment, desired_force, desired_rotation, desired_rate,
+     attitude_error, rate_error, estimate_scale, action_map, mixer, base_action, body_errors,
+     extra) = plan
+    inertia_, km_ = square(inertia), square(km)  # 9-tuples, as the equations take them
+    gains_ = (vector(gains[0]), vector(gains[1]), vector(gains[2]), vector(gains[3]))
+    for i in indices:
+        if has_observer:
+            observer_estimate_vehicle(i, velocity, angular_velocity, gain, km_, z_force,
+                                      z_torque, fresh, force_estimate, torque_estimate)
+        else:
+            put(force_estimate, i, (0.0, 0.0, 0.0))
+            put(torque_estimate, i, (0.0, 0.0, 0.0))
+        r = step_count[i]
+        geometric_vehicle(i, row(position, i), row(velocity, i), matrix(rotation, i),
+                          row(angular_velocity, i), reference_at(reference, r), mass, gravity,
+                          inertia_, gains_, force_estimate, torque_estimate, thrust, moment,
+                          desired_force, desired_rotation, desired_rate, attitude_error,
+                          rate_error)
+        residual_observation_vehicle(i, thrust, moment, force_estimate, torque_estimate,
+                                     estimate_scale, position, velocity, rotation, reference,
+                                     r, action_map, mixer, base_action, body_errors, extra)
+
+
+@njit(cache=True, nogil=True)
+def fused_residual_kernel(start, stop, command, actions, vehicles, update, plan):
+    """One residual step of vehicles ``start..stop-1`` (``quad_dob_env.threads`` splits the
+    batch across cores): ``command`` is what ``residual_command_kernel`` takes, ``vehicles``
+    ``QuadrotorBatch.step_arguments()``, ``update`` what the observer's update and the
+    reward need, ``plan`` what ``plan_kernel`` needs."""
+    # the state and the observer, in ``plan_kernel``'s order
+    velocity, rotation, angular_velocity = plan[1], plan[2], plan[3]
+    mass, gravity, inertia = plan[6], plan[7], plan[8]
+    has_observer, gain, km, z_force, z_torque = plan[10], plan[11], plan[12], plan[13], plan[14]
+    (velocity_before, body_z_before, rate_before, alpha, a_rot, clipped, core_rewards,
+     effort_weight, rewards, applied_thrust, applied_moment) = update
+    residual_command_kernel(start, stop, *command)
+    for i in range(start, stop):  # the observer's update needs the state before the step
+        for k in range(3):
+            velocity_before[i, k] = velocity[i, k]
+            body_z_before[i, k] = rotation[i, k, 2]
+            rate_before[i, k] = angular_velocity[i, k]
+    step_kernel(start, stop, actions, *vehicles)
+    residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rewards)
+    if has_observer:
+        inertia_, km_, a_rot_ = square(inertia), square(km), square(a_rot)
+        for i in range(start, stop):
+            observer_advance_vehicle(i, velocity_before, body_z_before, rate_before,
+                                     applied_thrust, applied_moment, rotation,
+                                     angular_velocity, mass, gravity, inertia_, gain, alpha,
+                                     km_, a_rot_, z_force, z_torque)
+    plan_kernel(np.arange(start, stop), plan)
+
+
+class FusedResidualStep:
+    """``fused_residual_kernel`` for a ``ResidualCommand`` whose base is ``controller``."""
+
+    def __init__(self, controller: GeometricController, residual: ResidualCommand) -> None:
+        self.controller, self.residual = controller, residual
+        n = residual.core.n
+        self._before = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)))
+        self._actions = np.zeros((n, 4))
+        self._clipped = np.zeros((n, 4))
+        self._base_action = np.zeros((n, 4))
+        self._body_errors = np.zeros((n, 6))
+        self._law: tuple = ()
+        self._observer: tuple = ()
+        self._observer_rates: tuple = ()
+        self._outputs: tuple = ()
+
+    def restart(self, indices: NDArray[np.intp]) -> None:
+        """After the controller's reset of vehicles ``indices``: their first plan."""
+        if not self._law or len(indices) == self.residual.core.n:
+            self._gather_constants()  # a full reset may have new gains and observer arrays
+            self._new_outputs()
+        plan_kernel(np.asarray(indices, dtype=np.intp), self._plan_arguments())
+
+    def fly(self, residual: NDArray[np.float64]) -> None:
+        """One step of every vehicle with ``residual`` (N, 4), and the plan for the next."""
+        core, command = self.residual.core, self.residual
+        core.prepare_step()
+        # this step flies the base command planned last step; the new plan gets new arrays
+        flown = (residual, command._residual_range, command.base_thrust, command.base_moment,
+                 core._action_map, core.vehicle.mixer_matrix, self._clipped,
+                 command.requested_thrust, self._actions)
+        self._new_outputs()
+        update = (*self._before, *self._observer_rates, self._clipped, core.rewards,
+                  command.effort_weight, command.rewards, core.applied.thrust,
+                  core.applied.moment)
+        run_over_batch(fused_residual_kernel, core.n, flown, self._actions,
+                       core.step_arguments(), update, self._plan_arguments())
+        core.finish_step()
+
+    def _gather_constants(self) -> None:
+        controller, vehicle = self.controller, self.controller.vehicle
+        gains = np.stack([controller._kx, controller._kv, controller.gains["kR"],
+                          controller.gains["kOmega"]]).astype(float)
+        self._law = (float(vehicle.mass), float(vehicle.gravity),
+                     np.array(vehicle.inertia_matrix, dtype=float), gains)
+        observer = controller.observer
+        if observer is None:
+            n = self.residual.core.n
+            self._observer = (False, 0.0, np.zeros((3, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+                              np.zeros(n, dtype=np.bool_))
+            self._observer_rates = (0.0, np.zeros((3, 3)))
+        else:
+            self._observer = (True, float(observer._ks), np.array(observer._km, dtype=float),
+                              observer._z_force, observer._z_torque, observer._fresh)
+            self._observer_rates = (float(observer._alpha),
+                                    np.array(observer._alpha_rotation, dtype=float))
+
+    def _new_outputs(self) -> None:
+        """Fresh arrays for what this step plans, so what a caller kept from the last step
+        stays as it was."""
+        n = self.residual.core.n
+        force_estimate, torque_estimate = np.empty((n, 3)), np.empty((n, 3))
+        thrust, moment = np.empty(n), np.empty((n, 3))
+        diagnostics = {"desired_force": np.empty((n, 3)), "desired_rotation": np.empty((n, 3, 3)),
+                       "desired_angular_velocity": np.empty((n, 3)),
+                       "attitude_error": np.empty((n, 3)), "rate_error": np.empty((n, 3))}
+        self._outputs = (force_estimate, torque_estimate, thrust, moment,
+                         *(diagnostics[key] for key in _DIAGNOSTICS))
+        self.controller.diagnostics = {**diagnostics, "force_estimate": force_estimate,
+                                       "torque_estimate": torque_estimate}
+        if self.controller.observer is not None:
+            self.controller.observer.force_estimate = force_estimate
+            self.controller.observer.torque_estimate = torque_estimate
+        self.residual.base_thrust, self.residual.base_moment = thrust, moment
+        self.residual.force_estimate, self.residual.torque_estimate = (force_estimate,
+                                                                      torque_estimate)
+
+    def _plan_arguments(self) -> tuple:
+        core, state = self.residual.core, self.residual.core.state
+        return (state.position, state.velocity, state.rotation, state.angular_velocity,
+                core._reference_table, core.step_count, *self._law, *self._observer,
+                *self._outputs, self.residual._estimate_scale, core._action_map,
+                core.vehicle.mixer_matrix, self._base_action, self._body_errors,
+                self.residual.extra_observation)
