@@ -29,6 +29,7 @@ from quad_dob_env.dynamics import (
 from quad_dob_env.envs.kernels import (
     action_from_command_batch,
     command_from_action_batch,
+    info_kernel,
     sense_kernel,
     sensor_kernel,
     step_kernel,
@@ -47,6 +48,14 @@ TERMINATION_REASONS = ("", "crashed", "out_of_bounds", "attitude_lost", "non_fin
 INVALID_ACTION_MODES = ("raise", "terminate")
 TIME_LIMIT = "time_limit"
 _REFERENCE_FIELDS = [f.name for f in fields(Reference)]
+# info entries per vehicle, as columns of one block (kernels.info_kernel writes them)
+_INFO_COLUMNS = (("time", 0), ("position_error", slice(1, 4)), ("velocity_error", slice(4, 7)),
+                 ("reference_position", slice(7, 10)), ("reference_velocity", slice(10, 13)),
+                 ("reference_acceleration", slice(13, 16)), ("reference_heading", slice(16, 19)),
+                 ("disturbance_force", slice(19, 22)), ("disturbance_torque", slice(22, 25)),
+                 ("applied_thrust", 25), ("applied_moment", slice(26, 29)),
+                 ("rotor_thrusts", slice(29, 33)))
+_INFO_WIDTH = 33
 
 
 @dataclass(frozen=True)
@@ -280,7 +289,7 @@ class QuadrotorBatch:
         """The reference at each vehicle's current time, (N, 3) per field (read-only views,
         gathered once per step)."""
         if self._reference_now is None:
-            rows = self._reference_table[self.step_count]
+            rows = np.take(self._reference_table, self.step_count, axis=0)  # faster than []
             rows.flags.writeable = False
             self._reference_now = Reference(*(rows[:, j] for j in range(len(_REFERENCE_FIELDS))))
         return self._reference_now
@@ -387,6 +396,21 @@ class QuadrotorBatch:
     def finish_step(self) -> None:
         """After the compiled pass: the sensor model on the new observations."""
         self._measure(self._all, reset=False)
+
+    def info_arrays(self) -> dict[str, NDArray]:
+        """Every vehicle's ``info`` numbers now, (N,) or (N, k) each: ``time``, the position
+        and velocity errors, the reference (position, velocity, acceleration, heading), the
+        true disturbance force and torque, the applied thrust, moment and rotor thrusts, and
+        ``actuator_saturated``. New arrays each call (views of one block, filled in one
+        compiled pass)."""
+        block = np.empty((self.n, _INFO_WIDTH))
+        s, applied = self.state, self.applied
+        info_kernel(s.position, s.velocity, self.step_count, self.scenario.dt,
+                    self._reference_table, self.disturbance_force, self.disturbance_torque,
+                    applied.thrust, applied.moment, applied.rotor_thrusts, block)
+        info = {name: block[:, columns] for name, columns in _INFO_COLUMNS}
+        info["actuator_saturated"] = applied.saturated.copy()
+        return info
 
     def end_for_invalid_actions(self, indices: NDArray[np.intp]) -> None:
         """End the episodes of vehicles whose action was NaN or infinite (flown at the

@@ -304,3 +304,45 @@ def residual_observation_vehicle(i, base_thrust, base_moment, force_estimate, to
         extra[i, 7 + k] = min(max(torque_estimate[i, k] * estimate_scale[3 + k], -1e3), 1e3)
     for k in range(6):
         extra[i, 10 + k] = min(max(body_errors[i, k], -1e3), 1e3)
+
+
+@njit(cache=True)
+def info_kernel(position, velocity, step_count, dt, reference, disturbance_force,
+                disturbance_torque, applied_thrust, applied_moment, rotor_thrusts, out):
+    """Each vehicle's ``info`` numbers as one row of ``out`` (layout:
+    ``QuadrotorBatch.info_arrays``)."""
+    for i in range(position.shape[0]):
+        r = step_count[i]
+        out[i, 0] = r * dt
+        for k in range(3):
+            out[i, 1 + k] = position[i, k] - reference[r, 0, k]
+            out[i, 4 + k] = velocity[i, k] - reference[r, 1, k]
+            out[i, 7 + k] = reference[r, 0, k]
+            out[i, 10 + k] = reference[r, 1, k]
+            out[i, 13 + k] = reference[r, 2, k]
+            out[i, 16 + k] = reference[r, 5, k]
+            out[i, 19 + k] = disturbance_force[i, k]
+            out[i, 22 + k] = disturbance_torque[i, k]
+            out[i, 26 + k] = applied_moment[i, k]
+        out[i, 25] = applied_thrust[i]
+        for k in range(4):
+            out[i, 29 + k] = rotor_thrusts[i, k]
+
+
+@njit(cache=True)
+def episode_ends_kernel(termination_code, step_count, max_steps, restarted, source_rewards,
+                        rewards, terminated, truncated, ended):
+    """A step's rewards and episode flags; vehicles that ``restarted`` this step report
+    reward 0 and no end (next-step autoreset). Returns how many episodes ended."""
+    count = 0
+    for i in range(termination_code.shape[0]):
+        if restarted[i]:
+            rewards[i] = 0.0
+            terminated[i] = truncated[i] = False
+        else:
+            rewards[i] = source_rewards[i]
+            terminated[i] = termination_code[i] > 0
+            truncated[i] = not terminated[i] and step_count[i] >= max_steps
+        ended[i] = terminated[i] or truncated[i]
+        count += ended[i]
+    return count

@@ -196,23 +196,10 @@ class QuadrotorEnv(gym.Env):
 
     def _info(self) -> dict[str, Any]:
         core = self.core
-        position, velocity, acceleration, _, _, heading, _, _ = core.reference_row(0).copy()
-        applied = core.applied
-        info = {
-            "time": float(core.step_count[0] * self.scenario.dt),
-            "position_error": core.state.position[0] - position,
-            "velocity_error": core.state.velocity[0] - velocity,
-            "reference_position": position,
-            "reference_velocity": velocity,
-            "reference_acceleration": acceleration,
-            "reference_heading": heading,
-            "disturbance_force": core.disturbance_force[0].copy(),
-            "disturbance_torque": core.disturbance_torque[0].copy(),
-            "applied_thrust": float(applied.thrust[0]),
-            "applied_moment": applied.moment[0].copy(),
-            "rotor_thrusts": applied.rotor_thrusts[0].copy(),
-            "actuator_saturated": bool(applied.saturated[0]),
-        }
+        info = {name: value[0] for name, value in core.info_arrays().items()}
+        for name, kind in (("time", float), ("applied_thrust", float),
+                           ("actuator_saturated", bool)):
+            info[name] = kind(info[name])
         reason = core.termination_reason(0)
         if reason:
             info["termination_reason"] = reason

@@ -152,9 +152,11 @@ class ResidualCommand:
     def info(self) -> dict[str, NDArray]:
         """``base_thrust`` (N,), ``base_moment`` and the observer's ``force_estimate`` and
         ``torque_estimate`` (N, 3; zero without an observer), for the coming step."""
-        return {"base_thrust": self.base_thrust.copy(), "base_moment": self.base_moment.copy(),
-                "force_estimate": self.force_estimate.copy(),
-                "torque_estimate": self.torque_estimate.copy()}
+        arrays = {"base_thrust": self.base_thrust, "base_moment": self.base_moment,
+                  "force_estimate": self.force_estimate, "torque_estimate": self.torque_estimate}
+        if self._fused is not None:  # it plans into new arrays every step: nothing to copy
+            return arrays
+        return {name: value.copy() for name, value in arrays.items()}
 
     def observation(self, core_observation: NDArray[np.float32]) -> NDArray[np.float32]:
         return np.concatenate([core_observation, self.extra_observation], axis=1)

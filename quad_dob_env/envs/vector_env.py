@@ -19,7 +19,7 @@ from quad_dob_env.envs.core import (
     RewardWeights,
     screen_actions,
 )
-from quad_dob_env.envs.kernels import OBSERVATION_BOUND
+from quad_dob_env.envs.kernels import OBSERVATION_BOUND, episode_ends_kernel
 from quad_dob_env.envs.rendering import FlightRenderer
 from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
 from quad_dob_env.scenarios import Scenario, make_scenario
@@ -91,6 +91,8 @@ class QuadrotorVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._generators: list[np.random.Generator] = []
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+        self._ended_count = 0
+        self._no_reasons = np.full(self.num_envs, "", dtype=object)
         self._renderer = None if render_mode is None else FlightRenderer(self.core)
         self._rendered = range(min(self.num_envs, RENDERED_VEHICLES))
 
@@ -107,28 +109,28 @@ class QuadrotorVectorEnv(VectorEnv):
         self.restart(np.arange(n))
         self.record_paths()
         self._needs_reset[:] = False
-        info = self._info()
+        self._ended_count = 0
+        info = self._info(np.zeros(n, dtype=bool), 0)
         info["sampled"] = [dict(sampled) for sampled in self.core.sampled]
         return self.observations(), info
 
     def step(self, actions: Any) -> tuple[NDArray[np.float32], NDArray, NDArray, NDArray, dict]:
         if not self._generators:
             raise gym.error.ResetNeeded("call reset() before step()")
-        core = self.core
         self.fly(actions)
-        restarting = np.flatnonzero(self._needs_reset)
-        if restarting.size:
-            self.restart(restarting)
+        restarted = self._needs_reset
+        if self._ended_count:
+            self.restart(np.flatnonzero(restarted))
         self.record_paths()
-        rewards = self.rewards().copy()
-        terminated = core.terminated
-        truncated = core.truncated
-        if restarting.size:
-            rewards[restarting] = 0.0
-            terminated[restarting] = truncated[restarting] = False
-        self._needs_reset = terminated | truncated
+        n = self.num_envs
+        rewards, ended = np.empty(n), np.empty(n, dtype=bool)
+        terminated, truncated = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        self._ended_count = episode_ends_kernel(
+            self.core.termination_code, self.core.step_count, self.scenario.steps, restarted,
+            self.rewards(), rewards, terminated, truncated, ended)
+        self._needs_reset = ended
         return (self.observations(), rewards, terminated, truncated,
-                self._info(self._needs_reset))
+                self._info(ended, self._ended_count))
 
     # --- the stages, shared with training.vec_env's SB3 adapter -------------------------
     def restart(self, indices: NDArray[np.intp]) -> None:
@@ -175,34 +177,18 @@ class QuadrotorVectorEnv(VectorEnv):
             return self.core.obs.copy()
         return self.residual.observation(self.core.obs)
 
-    def _info(self, ended: NDArray[np.bool_] | None = None) -> dict[str, Any]:
+    def _info(self, ended: NDArray[np.bool_], ended_count: int) -> dict[str, Any]:
         core = self.core
-        reference = core.reference
-        state, applied = core.state, core.applied
-        if ended is None:
-            ended = core.terminated | core.truncated
-        reasons = np.full(self.num_envs, "", dtype=object)
-        if ended.any():
+        reasons = self._no_reasons.copy()
+        if ended_count:
             for i in np.flatnonzero(ended):
                 reasons[i] = core.termination_reason(i)
-        return {
-            "time": core.time,
-            "position_error": state.position - reference.position,
-            "velocity_error": state.velocity - reference.velocity,
-            "reference_position": reference.position,
-            "reference_velocity": reference.velocity,
-            "reference_acceleration": reference.acceleration,
-            "reference_heading": reference.heading,
-            "disturbance_force": core.disturbance_force.copy(),
-            "disturbance_torque": core.disturbance_torque.copy(),
-            "applied_thrust": applied.thrust.copy(),
-            "applied_moment": applied.moment.copy(),
-            "rotor_thrusts": applied.rotor_thrusts.copy(),
-            "actuator_saturated": applied.saturated.copy(),
-            "termination_reason": reasons,
-            "_termination_reason": ended,
-            **({} if self.residual is None else self.residual.info()),
-        }
+        info = core.info_arrays()
+        info["termination_reason"] = reasons
+        info["_termination_reason"] = ended.copy()  # ours decides the next autoreset
+        if self.residual is not None:
+            info.update(self.residual.info())
+        return info
 
 
 __all__ = ["TERMINATION_REASONS", "QuadrotorVectorEnv"]
