@@ -7,9 +7,11 @@ so the result is bit for bit the one of a single serial call.
 
 Why not numba's ``parallel=True``: its ``prange`` version of the environment step compiled
 to code twice as slow per vehicle as the serial one, so two cores only matched one (and a
-refactor of the loop body could make it fail to compile at all). Why not a
-``ThreadPoolExecutor``: its futures cost ~40 µs a hand-over; the daemon workers here take
-their slice from a ``SimpleQueue`` and answer on another, a few microseconds each way.
+refactor of the loop body could make it fail to compile at all; its parfors take no tuples
+of arrays, which the kernels are given). Why not a ``ThreadPoolExecutor``: its futures cost
+~40 µs a hand-over; the daemon workers here take their slice from a ``SimpleQueue`` and
+answer on another, a few microseconds each way. A forked child (Gymnasium's
+``AsyncVectorEnv`` and SB3's ``SubprocVecEnv`` can fork) starts its own workers.
 """
 
 from __future__ import annotations
@@ -55,6 +57,17 @@ class _Worker:
 
 _workers: list[_Worker] = []
 _lock = threading.Lock()  # one batch at a time uses the workers
+
+
+def _forget_workers() -> None:
+    """In a forked child: the parent's worker threads were not copied, so start afresh."""
+    global _lock
+    _workers.clear()
+    _lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):  # POSIX; elsewhere there is no fork
+    os.register_at_fork(after_in_child=_forget_workers)
 # Extra vehicles the calling thread takes, per kernel: a worker starts late (it is woken,
 # then waits for the GIL to unpack its arguments while the caller unpacks its own), so equal
 # slices leave the caller idle. Learnt from when each slice ends; the split never changes
