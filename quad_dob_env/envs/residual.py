@@ -3,6 +3,10 @@
 ``ResidualCommand`` does it for a whole ``QuadrotorBatch`` (one controller call for all N
 vehicles); ``quad_dob_env.wrappers.ResidualActionWrapper`` is its single-env face and
 ``QuadrotorVectorEnv(..., base_controller=...)`` its vector face, so both run this code.
+Two ways to run a step, with the same per-vehicle equations: the stages ``command`` ->
+``core.step`` -> ``record`` -> ``plan`` work with any controller (the wrapper, whose env
+steps itself, always uses them); ``fly`` runs the step in one compiled pass when the
+controller offers one (``fused_residual``: the geometric controller, ``baselines.fused``).
 
 Applied command (before the actuators' own limits):
 ``thrust = base_thrust + thrust_scale · max_total_thrust · a₀``,
@@ -117,7 +121,7 @@ class ResidualCommand:
     def command(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
         """The env actions (N, 4) for base command + scaled ``residual`` (N, 4)."""
         if not self._started:
-            raise RuntimeError("ResidualCommand.restart and plan must run before command")
+            raise RuntimeError("ResidualCommand.restart must run before command")
         core = self.core
         self._residual = np.clip(residual, -1.0, 1.0)
         offset = self._residual * self._residual_range
