@@ -102,7 +102,7 @@ def run_over_batch(kernel: Callable[..., None], n: int, *args: Any,
         raise errors[0]
     # move a quarter of the caller's idle time's worth of vehicles to it (damped, so it
     # settles; bounded, so a worker slowed by the machine never gets nothing to do)
-    per_vehicle = (finished - started) / max(bounds[1], 1)
+    per_vehicle = max(finished - started, 1e-9) / max(bounds[1], 1)
     idle = max(answers) - finished
     _lead[kernel] = min(max(0.0, _lead.get(kernel, 0.0) + 0.25 * idle / per_vehicle),
                         n / (2 * parts))
