@@ -56,8 +56,9 @@ def plan_kernel(indices, plan):
     (position, velocity, rotation, angular_velocity, reference, step_count, mass, gravity,
      inertia, gains, has_observer, gain, km, z_force, z_torque, fresh, force_estimate,
      torque_estimate, thrust, moment, desired_force, desired_rotation, desired_rate,
-     attitude_error, rate_error, estimate_scale, action_map, mixer, base_action, body_errors,
+     attitude_error, rate_error, estimate_scale, inverse, base_action, body_errors,
      extra) = plan
+    rotor_mode, centre, scale_up, scale_down, mixer = inverse
     inertia_, km_ = square(inertia), square(km)  # 9-tuples, as the equations take them
     gains_ = (vector(gains[0]), vector(gains[1]), vector(gains[2]), vector(gains[3]))
     for i in indices:
@@ -75,7 +76,8 @@ def plan_kernel(indices, plan):
                           rate_error)
         residual_observation_vehicle(i, thrust, moment, force_estimate, torque_estimate,
                                      estimate_scale, position, velocity, rotation, reference,
-                                     r, action_map, mixer, base_action, body_errors, extra)
+                                     r, rotor_mode, centre, scale_up, scale_down, mixer,
+                                     base_action, body_errors, extra)
 
 
 @njit(cache=True, nogil=True)
@@ -136,9 +138,9 @@ class FusedResidualStep:
         core, command = self.residual.core, self.residual
         core.prepare_step()
         # this step flies the base command planned last step; the new plan gets new arrays
-        flown = (residual, command._residual_range, command.base_thrust, command.base_moment,
-                 core._action_map, core.vehicle.mixer_matrix, self._clipped,
-                 command.requested_thrust, self._actions)
+        flown = (residual, command.residual_range, command.base_thrust, command.base_moment,
+                 core.action_map.inverse, self._clipped, command.requested_thrust,
+                 self._actions)
         self._new_outputs()
         update = (*self._before, *self._observer_rates, self._clipped, core.rewards,
                   command.effort_weight, command.rewards, core.applied.thrust,
@@ -189,6 +191,5 @@ class FusedResidualStep:
         core, state = self.residual.core, self.residual.core.state
         return (state.position, state.velocity, state.rotation, state.angular_velocity,
                 core._reference_table, core.step_count, *self._law, *self._observer,
-                *self._outputs, self.residual._estimate_scale, core._action_map,
-                core.vehicle.mixer_matrix, self._base_action, self._body_errors,
-                self.residual.extra_observation)
+                *self._outputs, self.residual.estimate_scale, core.action_map.inverse,
+                self._base_action, self._body_errors, self.residual.extra_observation)

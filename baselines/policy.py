@@ -40,4 +40,4 @@ class ReferencePolicy:
                                core.applied.moment.copy())
         thrust, moment = controller.compute(core.time, core.state, core.reference)
         self._last_step, self._last_state = step, core.state.copy()
-        return core.action_from_command(thrust, moment)[0].astype(np.float32), None
+        return core.action_map.to_actions(thrust, moment)[0].astype(np.float32), None

@@ -64,7 +64,7 @@ def test_residual_observation_carries_the_base_command_and_estimates():
     core = env.unwrapped.core
     for _ in range(100):
         obs, _, _, _, info = env.step(np.zeros(4, np.float32))
-    np.testing.assert_allclose(obs[24:28], core.action_from_command(
+    np.testing.assert_allclose(obs[24:28], core.action_map.to_actions(
         info["base_thrust"], info["base_moment"])[0], atol=1e-6)
     vehicle = core.vehicle
     # by 1 s the tuned observer has found paper-II's constant force

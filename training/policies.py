@@ -162,7 +162,7 @@ def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Fli
                      diagnostics.get("torque_estimate", zeros))
         obs, _, terminated, truncated, _ = env.step(actions)
         requested = (residual.requested_thrust if residual is not None
-                     else core.command_from_action(actions)[0])
+                     else core.action_map.to_command(actions)[0])
         if not recorder.add(
                 state, terminated | truncated, core.termination_reason,
                 time=core.time - scenario.dt, reference_position=reference.position,

@@ -127,7 +127,7 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
                                 for f in fields(Reference)))
         thrust, moment = controller.compute(np.full(n, step * dt), state, reference)
         for i, core in enumerate(cores):
-            core.step(core.action_from_command(thrust[i:i + 1], moment[i:i + 1]))
+            core.step(core.action_map.to_actions(thrust[i:i + 1], moment[i:i + 1]))
         applied_thrust = np.concatenate([core.applied.thrust for core in cores])
         applied_moment = np.concatenate([core.applied.moment for core in cores])
         controller.applied(state, applied_thrust, applied_moment)

@@ -1,8 +1,10 @@
 """Gymnasium environments.
 
-- ``core``: ``QuadrotorBatch``, the batched core (N vehicles of one scenario): actions to
-  commands, physics step, observation, reward, termination, sensors, randomisation.
-  Written once for every env.
+- ``core``: ``QuadrotorBatch``, the batched core (N vehicles of one scenario): physics
+  step, observation, reward, termination, ``info``, sensors, randomisation. Written once
+  for every env.
+- ``actions``: ``ActionMap`` (normalised actions <-> commanded thrust and moment, both
+  ways) and ``screen_actions``, the check every env face runs on its actions.
 - ``kernels``: its compiled per-vehicle step, sensing and sensor-noise loops.
 - ``quadrotor_env``: ``QuadrotorEnv(gym.Env)``, its N = 1 view, with the tables of spaces,
   reward, start and end in its docstring.
@@ -14,8 +16,8 @@
 - ``rendering``: ``FlightRenderer``, the frames of ``render_mode="rgb_array"``/``"human"``.
 """
 
+from quad_dob_env.envs.actions import ACTION_MODES, ActionMap
 from quad_dob_env.envs.core import (
-    ACTION_MODES,
     TERMINATION_REASONS,
     EpisodeLimits,
     QuadrotorBatch,
@@ -27,6 +29,7 @@ from quad_dob_env.envs.vector_env import QuadrotorVectorEnv
 __all__ = [
     "ACTION_MODES",
     "TERMINATION_REASONS",
+    "ActionMap",
     "EpisodeLimits",
     "QuadrotorBatch",
     "QuadrotorEnv",

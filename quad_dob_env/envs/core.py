@@ -26,9 +26,8 @@ from quad_dob_env.dynamics import (
     VehicleState,
     physics_arrays,
 )
+from quad_dob_env.envs.actions import ActionMap
 from quad_dob_env.envs.kernels import (
-    action_from_command_batch,
-    command_from_action_batch,
     info_kernel,
     sense_kernel,
     sensor_kernel,
@@ -40,12 +39,10 @@ from quad_dob_env.threads import run_over_batch
 from quad_dob_env.trajectories import Reference
 from quad_dob_env.validation import as_finite, unknown_name_error
 
-ACTION_MODES = ("thrust_moments", "rotor_thrusts")
 ROTATION_REPRESENTATIONS = {"matrix": 9, "6d": 6}
 # Index 0 means "still flying"; the rest are info["termination_reason"] values.
 TERMINATION_REASONS = ("", "crashed", "out_of_bounds", "attitude_lost", "non_finite_state",
                        "invalid_action")
-INVALID_ACTION_MODES = ("raise", "terminate")
 TIME_LIMIT = "time_limit"
 _REFERENCE_FIELDS = [f.name for f in fields(Reference)]
 # info entries per vehicle, as columns of one block (kernels.info_kernel writes them)
@@ -86,39 +83,6 @@ class RewardWeights:
         as_finite(self.effort_weight, "reward effort_weight", 0.0)
 
 
-_NO_ROWS = np.zeros(0, dtype=np.intp)
-
-
-def screen_actions(actions: object, shape: tuple[int, ...], invalid_actions: str = "raise"
-                   ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
-    """Actions as float64 of ``shape`` ((4,) or (N, 4)) and the rows that were NaN or
-    infinite. ``invalid_actions="raise"`` raises ValueError on them; ``"terminate"`` sets
-    those rows to 0 (hover) and returns their indices, so the caller ends those episodes.
-    A wrong shape or a non-numeric action always raises. Values outside [-1, 1] pass: the
-    core clips them."""
-    try:
-        array = np.asarray(actions, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"actions must be numeric with shape {shape}, got "
-                         f"{actions!r}") from None
-    if array.shape != shape:
-        raise ValueError(f"actions must have shape {shape}, got {array.shape}")
-    if np.isfinite(array).all():  # the usual case, kept cheap: a step is ~30 µs
-        return array, _NO_ROWS
-    if invalid_actions not in INVALID_ACTION_MODES:
-        raise unknown_name_error("invalid_actions", invalid_actions, INVALID_ACTION_MODES)
-    array = array.copy()  # the caller's array is not ours to change
-    rows = array.reshape(-1, 4)
-    bad = np.flatnonzero(~np.isfinite(rows).all(axis=1))
-    if bad.size and invalid_actions == "raise":
-        where = "" if len(shape) == 1 else f"envs {bad[:10].tolist()} got "
-        raise ValueError(f"actions must be finite; {where}{rows[bad[0]].tolist()} (allowed: "
-                         "[-1, 1], values outside are clipped; invalid_actions='terminate' "
-                         "ends the episode instead)")
-    rows[bad] = 0.0
-    return array, bad
-
-
 # --- the core ----------------------------------------------------------------------------
 
 class QuadrotorBatch:
@@ -127,8 +91,6 @@ class QuadrotorBatch:
     def __init__(self, scenario: Scenario, num_vehicles: int = 1,
                  action_mode: str = "thrust_moments", rotation_representation: str = "matrix",
                  limits: EpisodeLimits | None = None, reward: RewardWeights | None = None) -> None:
-        if action_mode not in ACTION_MODES:
-            raise unknown_name_error("action_mode", action_mode, ACTION_MODES)
         if rotation_representation not in ROTATION_REPRESENTATIONS:
             raise unknown_name_error("rotation_representation", rotation_representation,
                                      ROTATION_REPRESENTATIONS)
@@ -136,12 +98,12 @@ class QuadrotorBatch:
             raise ValueError(f"num_vehicles must be an integer >= 1, got {num_vehicles!r}")
         self.scenario = scenario
         self.n = n = int(num_vehicles)
-        self.action_mode = action_mode
         self.rotation_representation = rotation_representation
         self.limits = limits or EpisodeLimits()
         self.reward_weights = reward or RewardWeights()
         self.vehicle = scenario.vehicle
         self.actuator = Actuator(self.vehicle, scenario.actuation)
+        self.action_map = ActionMap(self.vehicle, self.actuator, action_mode)
         self.observation_size = 3 + 3 + ROTATION_REPRESENTATIONS[rotation_representation] + 3 + 6
         self.thrust_law = (NO_GROUND_EFFECT if scenario.ground_effect is None
                            else scenario.ground_effect.law(self.vehicle, scenario.floor_height))
@@ -168,7 +130,6 @@ class QuadrotorBatch:
         self.sampled: list[dict[str, float]] = [{} for _ in range(n)]
         self._setup_sensors(scenario.sensors)
         self.actuator_state = np.zeros((n, 4))
-        self._action_scales()
         self._actuation = self.actuator.kernel_arguments()
         time_constant = self.vehicle.motor_time_constant if scenario.motor_lag else 0.0
         self._actuator = (self.actuator.to_wrench, self.actuator.to_rotors, float(time_constant),
@@ -243,41 +204,6 @@ class QuadrotorBatch:
                 total += channel
         self._tables = tuple(channels)
 
-    def _action_scales(self) -> None:
-        """Piecewise-linear maps with action 0 at hover: [-1, 0, 1] -> [0, hover, max]."""
-        v = self.vehicle
-        if self.action_mode == "thrust_moments":
-            moment = self.actuator.moment_limit
-            self._centre = np.array([v.hover_thrust, 0.0, 0.0, 0.0])
-            self._scale_up = np.concatenate([[v.max_total_thrust - v.hover_thrust], moment])
-            self._scale_down = np.concatenate([[v.hover_thrust], moment])
-        else:
-            per_rotor = v.hover_thrust / 4
-            self._centre = np.full(4, per_rotor)
-            self._scale_up = np.full(4, v.max_rotor_thrust - per_rotor)
-            self._scale_down = np.full(4, per_rotor)
-        self._action_map = (self.action_mode == "rotor_thrusts", self._centre, self._scale_up,
-                            self._scale_down, v.allocation_matrix)
-
-    def action_from_command(self, thrust: NDArray, moment: NDArray) -> NDArray[np.float64]:
-        """The normalised actions (N, 4) that command ``thrust`` and ``moment``: the inverse
-        of the action map, clipped to [-1, 1] (so beyond the limits it saturates)."""
-        thrust = np.ascontiguousarray(thrust, dtype=np.float64).reshape(-1)
-        moment = np.ascontiguousarray(moment, dtype=np.float64).reshape(-1, 3)
-        actions = np.empty((len(thrust), 4))
-        rotor_mode, centre, scale_up, scale_down, _ = self._action_map
-        action_from_command_batch(thrust, moment, rotor_mode, centre, scale_up, scale_down,
-                                  self.vehicle.mixer_matrix, actions)
-        return actions
-
-    def command_from_action(self, actions: NDArray) -> tuple[NDArray, NDArray]:
-        """Thrust (N,) and moment (N, 3) that normalised ``actions`` (N, 4) command, before
-        the actuators' limits (the action map, clipped to [-1, 1])."""
-        actions = np.ascontiguousarray(actions, dtype=np.float64).reshape(-1, 4)
-        thrust, moment = np.empty(len(actions)), np.empty((len(actions), 3))
-        command_from_action_batch(actions, *self._action_map, thrust, moment)
-        return thrust, moment
-
     # --- time and reference ---------------------------------------------------------------
     @property
     def time(self) -> NDArray[np.float64]:
@@ -293,10 +219,6 @@ class QuadrotorBatch:
             rows.flags.writeable = False
             self._reference_now = Reference(*(rows[:, j] for j in range(len(_REFERENCE_FIELDS))))
         return self._reference_now
-
-    def reference_row(self, index: int) -> NDArray[np.float64]:
-        """(8, 3) reference of vehicle ``index`` now, rows in ``Reference`` field order."""
-        return self._reference_table[self.step_count[index]]
 
     # --- reset ----------------------------------------------------------------------------
     def reset(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
@@ -384,7 +306,7 @@ class QuadrotorBatch:
     def step_arguments(self) -> tuple:
         """What ``kernels.step_kernel`` takes after the slice and the actions."""
         s, sc = self.state, self.scenario
-        return (self._action_map, self._actuation, self._actuator, s.position, s.velocity,
+        return (self.action_map.forward, self._actuation, self._actuator, s.position, s.velocity,
                 s.rotation, s.angular_velocity, self.step_count, self._tables, self._own,
                 self._reference_table,
                 (self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse, self.drag),

@@ -76,9 +76,10 @@ def action_from_command_vehicle(i, thrust, moment, rotor_mode, centre, scale_up,
 
 
 @njit(cache=True)
-def action_from_command_batch(thrust, moment, rotor_mode, centre, scale_up, scale_down,
-                              mixer, out):
-    """``action_from_command_vehicle`` for every row of ``thrust`` (N,), ``moment`` (N, 3)."""
+def action_from_command_batch(thrust, moment, inverse, out):
+    """``action_from_command_vehicle`` for every row of ``thrust`` (N,), ``moment`` (N, 3);
+    ``inverse`` is ``ActionMap.inverse``."""
+    rotor_mode, centre, scale_up, scale_down, mixer = inverse
     for i in range(thrust.shape[0]):
         action_from_command_vehicle(i, thrust[i], (moment[i, 0], moment[i, 1], moment[i, 2]),
                                     rotor_mode, centre, scale_up, scale_down, mixer, out)
@@ -260,10 +261,10 @@ def sense_kernel(indices, position, velocity, rotation, angular_velocity, step_c
 
 @njit(cache=True)
 def residual_command_kernel(start, stop, residual, residual_range, base_thrust, base_moment,
-                            action_map, mixer, clipped, requested_thrust, actions):
+                            inverse, clipped, requested_thrust, actions):
     """Base command + ``residual_range ·`` clipped residual, as the env actions that command
-    it (clipped to [-1, 1] by the inverse action map)."""
-    rotor_mode, centre, scale_up, scale_down, _ = action_map
+    it (clipped to [-1, 1] by the inverse action map, ``ActionMap.inverse``)."""
+    rotor_mode, centre, scale_up, scale_down, mixer = inverse
     for i in range(start, stop):
         for k in range(4):
             clipped[i, k] = min(max(residual[i, k], -1.0), 1.0)
@@ -288,10 +289,10 @@ def residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, re
 @njit(cache=True, inline="always")
 def residual_observation_vehicle(i, base_thrust, base_moment, force_estimate, torque_estimate,
                                  estimate_scale, position, velocity, rotation, reference,
-                                 row_index, action_map, mixer, base_action, body_errors,
-                                 extra):
-    """Vehicle i's 16 extra observation entries (table in ``envs.residual``)."""
-    rotor_mode, centre, scale_up, scale_down, _ = action_map
+                                 row_index, rotor_mode, centre, scale_up, scale_down, mixer,
+                                 base_action, body_errors, extra):
+    """Vehicle i's 16 extra observation entries (table in ``envs.residual``); the action
+    map's inverse comes unpacked (``ActionMap.inverse``)."""
     action_from_command_vehicle(i, base_thrust[i], (base_moment[i, 0], base_moment[i, 1],
                                                     base_moment[i, 2]),
                                 rotor_mode, centre, scale_up, scale_down, mixer, base_action)

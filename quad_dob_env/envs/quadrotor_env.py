@@ -8,13 +8,8 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.envs.core import (
-    INVALID_ACTION_MODES,
-    EpisodeLimits,
-    QuadrotorBatch,
-    RewardWeights,
-    screen_actions,
-)
+from quad_dob_env.envs.actions import INVALID_ACTION_MODES, screen_actions
+from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
 from quad_dob_env.envs.rendering import (
     RENDER_MODES,

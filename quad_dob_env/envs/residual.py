@@ -75,9 +75,9 @@ class ResidualCommand:
                              f"limits in (0, 1], got {thrust_scale}, {moment_scale}")
         self.effort_weight = as_finite(residual_effort_weight, "residual_effort_weight", 0.0)
         vehicle, limit = core.vehicle, core.actuator.moment_limit
-        self._residual_range = np.concatenate([[self.thrust_scale * vehicle.max_total_thrust],
+        self.residual_range = np.concatenate([[self.thrust_scale * vehicle.max_total_thrust],
                                                self.moment_scale * limit])
-        self._estimate_scale = np.concatenate([np.full(3, 1.0 / (vehicle.mass * vehicle.gravity)),
+        self.estimate_scale = np.concatenate([np.full(3, 1.0 / (vehicle.mass * vehicle.gravity)),
                                                1.0 / limit])
         n = core.n
         self.base_thrust, self.base_moment = np.zeros(n), np.zeros((n, 3))
@@ -124,10 +124,10 @@ class ResidualCommand:
             raise RuntimeError("ResidualCommand.restart must run before command")
         core = self.core
         self._residual = np.clip(residual, -1.0, 1.0)
-        offset = self._residual * self._residual_range
+        offset = self._residual * self.residual_range
         self._state_before = core.state.copy()
         self.requested_thrust = self.base_thrust + offset[:, 0]
-        return core.action_from_command(self.requested_thrust, self.base_moment + offset[:, 1:])
+        return core.action_map.to_actions(self.requested_thrust, self.base_moment + offset[:, 1:])
 
     def record(self) -> None:
         """After the core flew ``command``'s actions: tell the controller what was applied
@@ -142,12 +142,12 @@ class ResidualCommand:
         self.base_thrust, self.base_moment = controller.compute(core.time, core.state,
                                                                 core.reference)
         extra = self.extra_observation
-        extra[:, :4] = core.action_from_command(self.base_thrust, self.base_moment)
+        extra[:, :4] = core.action_map.to_actions(self.base_thrust, self.base_moment)
         zeros = np.zeros((core.n, 3))
         self.force_estimate = controller.diagnostics.get("force_estimate", zeros)
         self.torque_estimate = controller.diagnostics.get("torque_estimate", zeros)
         estimates = np.concatenate([self.force_estimate, self.torque_estimate], 1)
-        extra[:, 4:10] = np.clip(estimates * self._estimate_scale, -1e3, 1e3)
+        extra[:, 4:10] = np.clip(estimates * self.estimate_scale, -1e3, 1e3)
         state, reference = core.state, core.reference
         body_frame_errors(state.position, state.velocity, state.rotation, reference.position,
                           reference.velocity, self._body_errors)

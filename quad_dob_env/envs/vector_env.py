@@ -11,13 +11,12 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
+from quad_dob_env.envs.actions import INVALID_ACTION_MODES, screen_actions
 from quad_dob_env.envs.core import (
-    INVALID_ACTION_MODES,
     TERMINATION_REASONS,
     EpisodeLimits,
     QuadrotorBatch,
     RewardWeights,
-    screen_actions,
 )
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND, episode_ends_kernel
 from quad_dob_env.envs.rendering import FlightRenderer

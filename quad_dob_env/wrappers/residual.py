@@ -11,7 +11,7 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.envs.core import screen_actions
+from quad_dob_env.envs.actions import screen_actions
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
 from quad_dob_env.envs.quadrotor_env import QuadrotorEnv
 from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
