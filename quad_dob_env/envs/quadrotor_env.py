@@ -148,8 +148,7 @@ class QuadrotorEnv(gym.Env):
         core.step(actions[None])
         if invalid.size:
             core.end_for_invalid_actions(invalid)
-        terminated = bool(core.termination_code[0])
-        truncated = not terminated and int(core.step_count[0]) >= self.scenario.steps
+        terminated, truncated = bool(core.terminated[0]), bool(core.truncated[0])
         self._after_step(reset=False)
         return core.obs[0].copy(), float(core.rewards[0]), terminated, truncated, self._info()
 
