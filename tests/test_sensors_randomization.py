@@ -58,6 +58,21 @@ def test_randomization_draws_within_ranges_changes_the_physics_and_is_seeded():
     assert QuadrotorEnv("hover-calm", options).reset(seed=5)[1]["sampled"] != sampled
 
 
+def test_randomized_physics_is_the_nominal_scaled_by_the_reported_draws():
+    options = {"randomization": {"mass": (0.8, 1.2), "inertia": (0.7, 1.3), "drag": (0.5, 2.0)}}
+    env = QuadrotorEnv("dryden-helix-gusts", options)  # a scenario with linear + quadratic drag
+    for seed in (0, 1):
+        _, info = env.reset(seed=seed)
+        core, sampled = env.core, info["sampled"]
+        _, inertia, inertia_inverse, drag = core._nominal
+        assert np.all(drag[0] > 0)
+        np.testing.assert_array_equal(core.mass, [sampled["mass"]])
+        np.testing.assert_array_equal(core.inertia, inertia * sampled["inertia_scale"])
+        np.testing.assert_array_equal(core.inertia_inverse,
+                                      inertia_inverse / sampled["inertia_scale"])
+        np.testing.assert_array_equal(core.drag, drag * sampled["drag_scale"])  # every column
+
+
 def test_random_wind_draws_are_reported():
     env = QuadrotorEnv("gusty-hover")
     _, info = env.reset(seed=0)

@@ -29,8 +29,8 @@ from quad_dob_env.dynamics import (
 from quad_dob_env.envs.actions import ActionMap
 from quad_dob_env.envs.kernels import (
     info_kernel,
-    sense_kernel,
     sensor_kernel,
+    start_kernel,
     step_kernel,
 )
 from quad_dob_env.scenarios import Scenario
@@ -142,6 +142,12 @@ class QuadrotorBatch:
         self._reward = (float(self.reward_weights.position_scale),
                         float(self.reward_weights.effort_weight))
         self._rotation_mode = 0 if rotation_representation == "matrix" else 1
+        # what a reset writes, looked up once: a reset of a few vehicles is mostly fixed cost
+        self._start = tuple(np.asarray(value, dtype=float) for value in (
+            scenario.initial_position, scenario.initial_velocity,
+            scenario.initial_angular_velocity))
+        self._initial_rotation = scenario.initial_rotation_matrix()
+        self._hover_output = self.actuator.hover_output()
 
     def _setup_sensors(self, sensors) -> None:
         """Without sensor noise or delay the kernel writes the observation itself; with them
@@ -229,51 +235,47 @@ class QuadrotorBatch:
                              f"{len(rngs)} generators")
         sc = self.scenario
         count = len(indices)
-        position_offset = np.zeros((count, 3))
-        attitude_offset = np.zeros((count, 3))
+        offsets = np.empty((count, 3))  # position offsets
+        tilts = np.empty((count, 3))  # attitude offsets, rotation vectors
         scales = np.ones((count, 3))  # mass, inertia, drag
+        randomization = sc.randomization
         for j, rng in enumerate(rngs):
             # fixed draw order per vehicle: position, attitude, randomisation, sensor key,
             # then the disturbance
-            position_offset[j] = rng.uniform(-1.0, 1.0, 3) * sc.initial_position_noise
-            attitude_offset[j] = rng.uniform(-1.0, 1.0, 3) * sc.initial_attitude_noise
-            if sc.randomization is not None:
-                r = sc.randomization
+            offsets[j] = rng.uniform(-1.0, 1.0, 3)
+            tilts[j] = rng.uniform(-1.0, 1.0, 3)
+            if randomization is not None:
+                r = randomization
                 scales[j] = [rng.uniform(*r.mass), rng.uniform(*r.inertia), rng.uniform(*r.drag)]
             if self.sensors is not None:
                 self._sensor_keys[indices[j]] = rng.integers(0, 2**63, dtype=np.uint64)
                 self._sensor_counters[indices[j]] = 0
-        self.state.assign(VehicleState(
-            position=np.asarray(sc.initial_position) + position_offset,
-            velocity=np.broadcast_to(np.asarray(sc.initial_velocity), (count, 3)),
-            rotation=sc.initial_rotation_matrix() @ so3_exp(attitude_offset),
-            angular_velocity=np.broadcast_to(np.asarray(sc.initial_angular_velocity), (count, 3)),
-        ), indices)
-        mass, inertia, inertia_inverse, drag = self._nominal
-        self.mass[indices] = mass[0] * scales[:, 0]
-        self.inertia[indices] = inertia[0] * scales[:, 1, None, None]
-        self.inertia_inverse[indices] = inertia_inverse[0] / scales[:, 1, None, None]
-        self.drag[indices] = drag[0] * scales[:, 2, None]
-        if self.random_disturbance is not None:
-            self.random_disturbance.resample(indices, rngs)
-        for j, index in enumerate(indices):
-            self.sampled[index] = {
-                **({} if sc.randomization is None else {
-                    "mass": float(self.mass[index]), "inertia_scale": float(scales[j, 1]),
-                    "drag_scale": float(scales[j, 2])}),
-                **({} if self.random_disturbance is None
-                   else self.random_disturbance.sampled_parameters(index)),
-            }
-        self.step_count[indices] = 0
+        offsets *= sc.initial_position_noise
+        rotations = self._initial_rotation @ so3_exp(tilts * sc.initial_attitude_noise)
+        s, applied = self.state, self.applied
+        start_kernel(indices, offsets, rotations, scales, self._start, self._nominal,
+                     s.position, s.velocity, s.rotation, s.angular_velocity,
+                     (self.mass, self.inertia, self.inertia_inverse, self.drag),
+                     (applied.thrust, applied.moment, applied.rotor_thrusts, applied.saturated),
+                     self.disturbance_force, self.disturbance_torque, self.rewards,
+                     self.step_count, self.actuator_state, self._hover_output,
+                     self._reference_table, self._rotation_mode, self._limits, self._clean_obs,
+                     self.termination_code)
+        random = self.random_disturbance
+        if random is not None:
+            random.resample(indices, rngs)
+        if randomization is None and random is None:
+            for index in indices:
+                self.sampled[index] = {}
+        else:
+            for j, index in enumerate(indices):
+                self.sampled[index] = {
+                    **({} if randomization is None else {
+                        "mass": float(self.mass[index]), "inertia_scale": float(scales[j, 1]),
+                        "drag_scale": float(scales[j, 2])}),
+                    **({} if random is None else random.sampled_parameters(index)),
+                }
         self._reference_now = None
-        for array in (*self.applied, self.disturbance_force, self.disturbance_torque,
-                      self.rewards):
-            array[indices] = 0
-        self.actuator_state[indices] = self.actuator.hover_output()
-        s = self.state
-        sense_kernel(indices, s.position, s.velocity, s.rotation, s.angular_velocity,
-                      self.step_count, self._reference_table, self._rotation_mode, self._limits,
-                      self._clean_obs, self.termination_code)
         self._measure(indices, reset=True)
 
     # --- step -----------------------------------------------------------------------------

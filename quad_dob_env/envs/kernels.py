@@ -250,11 +250,43 @@ def sensor_kernel(indices, clean, rotation, keys, counters, stds, rotation_mode,
 
 
 @njit(cache=True)
-def sense_kernel(indices, position, velocity, rotation, angular_velocity, step_count,
-                  reference, rotation_mode, limits, obs, code):
-    for i in indices:
+def start_kernel(indices, offsets, rotations, scales, start, nominal, position, velocity,
+                 rotation, angular_velocity, physics, applied, disturbance_force,
+                 disturbance_torque, rewards, step_count, actuator_state, hover, reference,
+                 rotation_mode, limits, obs, code):
+    """New episodes for vehicles ``indices`` (``QuadrotorBatch.reset``): the j-th starts at
+    the scenario's state plus ``offsets[j]`` (position, velocity) and ``rotations[j]``, with
+    the nominal physics times ``scales[j]`` (mass, inertia, drag), nothing applied yet, the
+    rotors at hover; then its first observation and termination code."""
+    initial_position, initial_velocity, initial_angular_velocity = start
+    mass0, inertia0, inertia_inverse0, drag0 = nominal
+    mass, inertia, inertia_inverse, drag = physics
+    applied_thrust, applied_moment, rotor_thrusts, saturated = applied
+    for j in range(len(indices)):
+        i = indices[j]
+        for k in range(3):
+            position[i, k] = initial_position[k] + offsets[j, k]
+            velocity[i, k] = initial_velocity[k]
+            angular_velocity[i, k] = initial_angular_velocity[k]
+            for c in range(3):
+                rotation[i, k, c] = rotations[j, k, c]
+                inertia[i, k, c] = inertia0[0, k, c] * scales[j, 1]
+                inertia_inverse[i, k, c] = inertia_inverse0[0, k, c] / scales[j, 1]
+            applied_moment[i, k] = 0.0
+            disturbance_force[i, k] = 0.0
+            disturbance_torque[i, k] = 0.0
+        mass[i] = mass0[0] * scales[j, 0]
+        applied_thrust[i] = 0.0
+        saturated[i] = False
+        rewards[i] = 0.0
+        step_count[i] = 0
+        for k in range(drag.shape[1]):  # linear, then quadratic coefficients
+            drag[i, k] = drag0[0, k] * scales[j, 2]
+        for k in range(4):
+            rotor_thrusts[i, k] = 0.0
+            actuator_state[i, k] = hover[k]
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        code[i], _ = _sense(i, x, v, R, w, reference, step_count[i], rotation_mode, limits, obs)
+        code[i], _ = _sense(i, x, v, R, w, reference, 0, rotation_mode, limits, obs)
 
 
 # --- residual control (``quad_dob_env.envs.residual``), per vehicle ------------------------
