@@ -88,21 +88,25 @@ def run_over_batch(kernel: Callable[..., None], n: int, *args: Any,
         while len(_workers) < parts - 1:
             _workers.append(_Worker())
         lead = min(max(round(_lead.get(kernel, 0.0)), 0), n // (2 * parts))
-        bounds = [0, *(lead + (n - lead) * k // parts for k in range(1, parts + 1))]
+        share = n - lead
+        caller_stop = lead + share // parts
+        start = caller_stop
         for k in range(1, parts):
-            _workers[k - 1].jobs.put((kernel, bounds[k], bounds[k + 1], args))
+            stop = lead + share * (k + 1) // parts
+            _workers[k - 1].jobs.put((kernel, start, stop, args))
+            start = stop
         started = time.perf_counter()
-        kernel(bounds[0], bounds[1], *args)
+        kernel(0, caller_stop, *args)
         finished = time.perf_counter()
-        answers = [_workers[k - 1].done.get() for k in range(1, parts)]
+        answers = [_workers[k].done.get() for k in range(parts - 1)]
     finally:
         _lock.release()
-    errors = [answer for answer in answers if not isinstance(answer, float)]
-    if errors:
-        raise errors[0]
+    for answer in answers:
+        if not isinstance(answer, float):
+            raise answer
+    last = max(answers)  # when the slowest worker finished
     # move a quarter of the caller's idle time's worth of vehicles to it (damped, so it
     # settles; bounded, so a worker slowed by the machine never gets nothing to do)
-    per_vehicle = max(finished - started, 1e-9) / max(bounds[1], 1)
-    idle = max(answers) - finished
-    _lead[kernel] = min(max(0.0, _lead.get(kernel, 0.0) + 0.25 * idle / per_vehicle),
+    per_vehicle = max(finished - started, 1e-9) / max(caller_stop, 1)
+    _lead[kernel] = min(max(0.0, _lead.get(kernel, 0.0) + 0.25 * (last - finished) / per_vehicle),
                         n / (2 * parts))

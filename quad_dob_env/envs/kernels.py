@@ -379,3 +379,15 @@ def episode_ends_kernel(termination_code, step_count, max_steps, restarted, sour
         ended[i] = terminated[i] or truncated[i]
         count += ended[i]
     return count
+
+
+@njit(cache=True)
+def join_columns(left, right, out):
+    """``out = [left | right]`` row by row: numpy's concatenate copies each short row
+    separately, ~5 µs for 256 observations."""
+    width = left.shape[1]
+    for i in range(left.shape[0]):
+        for k in range(width):
+            out[i, k] = left[i, k]
+        for k in range(right.shape[1]):
+            out[i, width + k] = right[i, k]

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.envs.kernels import body_frame_errors
+from quad_dob_env.envs.kernels import body_frame_errors, join_columns
 from quad_dob_env.validation import as_finite
 
 if TYPE_CHECKING:  # the layering: quad_dob_env imports baselines only when asked to
@@ -163,4 +163,7 @@ class ResidualCommand:
         return {name: value.copy() for name, value in arrays.items()}
 
     def observation(self, core_observation: NDArray[np.float32]) -> NDArray[np.float32]:
-        return np.concatenate([core_observation, self.extra_observation], axis=1)
+        extra = self.extra_observation
+        joined = np.empty((len(extra), core_observation.shape[1] + extra.shape[1]), np.float32)
+        join_columns(core_observation, extra, joined)
+        return joined
