@@ -118,16 +118,18 @@ def main() -> None:
     print("| N | env-steps/s, bare | env-steps/s, base in the loop | base / bare | "
           "µs per env-step with base |")
     print("|---|---|---|---|---|")
-    per_env = {}
+    per_env, per_env_bare = {}, {}
     for n in args.vector_sizes:
         steps = max(20, min(2000, args.batch_vehicle_steps // n))
         bare = vector_env_steps_per_second(n, steps, with_base=False)
         based = vector_env_steps_per_second(n, steps, with_base=True)
-        per_env[n] = 1e6 / based
+        per_env[n], per_env_bare[n] = 1e6 / based, 1e6 / bare
         print(f"| {n} | {bare:,.0f} | {based:,.0f} | {based / bare:.2f} | {1e6 / based:.3f} |")
-    flat = [cost for n, cost in per_env.items() if n >= 256]
-    if flat:
-        print(f"\nper-env cost with base, N >= 256: max / min = {max(flat) / min(flat):.2f}")
+    print()
+    for label, costs in (("with base", per_env), ("bare", per_env_bare)):
+        flat = [cost for n, cost in costs.items() if n >= 256]
+        if flat:
+            print(f"per-env cost {label}, N >= 256: max / min = {max(flat) / min(flat):.2f}")
     for with_base in (False, True):
         print(f"memory per env ({'base in the loop' if with_base else 'bare'}, N = 4096): "
               f"{memory_per_env(4096, with_base) / 1024:.1f} KiB")

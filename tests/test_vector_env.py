@@ -95,10 +95,12 @@ def test_sb3_adapter_resets_in_the_same_step_and_keeps_the_terminal_observation(
 
 def test_ppo_trains_a_few_thousand_steps_on_the_adapter():
     from stable_baselines3 import PPO
+    from stable_baselines3.common.logger import Logger
 
     venv = QuadrotorSB3VecEnv(8, "hover-calm", seed=0)
     model = PPO("MlpPolicy", venv, n_steps=128, batch_size=256, n_epochs=2, seed=0,
                 device="cpu", verbose=0)
+    model.set_logger(Logger(None, []))  # SB3's default makes an empty /tmp/SB3-* each run
     model.learn(total_timesteps=3072)
     assert model.num_timesteps >= 3072
     action, _ = model.predict(venv.reset(), deterministic=True)
