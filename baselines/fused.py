@@ -11,7 +11,9 @@ slice per core, runs for each vehicle
 
 It calls the same per-vehicle functions as the separate stages (``quad_dob_env.envs.kernels``
 and ``baselines.kernels``), so there is still one source for every equation; a test holds
-it to the separate stages to 1e-12 through autoresets.
+it to the separate stages to 1e-12 through autoresets. From 256 vehicles its slices run on
+workers parked in compiled code (``quad_dob_env.threads.ParkedWorkers``), which is why
+every step runs on the same arrays.
 """
 
 from __future__ import annotations
@@ -39,7 +41,14 @@ from quad_dob_env.envs.kernels import (
     residual_reward_kernel,
     step_kernel,
 )
-from quad_dob_env.threads import run_over_batch
+from quad_dob_env.threads import (
+    ParkedWorkers,
+    await_slice,
+    collect,
+    hand_out,
+    run_over_batch,
+    slice_done,
+)
 
 if TYPE_CHECKING:
     from baselines.geometric import GeometricController
@@ -110,13 +119,52 @@ def fused_residual_kernel(start, stop, command, actions, vehicles, update, plan)
     plan_kernel(np.arange(start, stop), plan)
 
 
+@njit(cache=True, nogil=True)
+def _fused_slice(start, stop, arguments):
+    fused_residual_kernel(start, stop, *arguments)
+
+
+@njit(cache=True, nogil=True)
+def fused_residual_worker(arguments, control, semaphores, k):
+    """Worker k of ``quad_dob_env.threads.ParkedWorkers``: ``fused_residual_kernel`` on each
+    slice it is given, until told to return."""
+    while await_slice(control, semaphores, k):
+        failed = False
+        try:
+            _fused_slice(control[k, 0], control[k, 1], arguments)
+        except Exception:  # the worker must report, or the caller would wait forever
+            failed = True
+        slice_done(control, semaphores, k, failed)
+
+
+@njit(cache=True, nogil=True)
+def fused_residual_launch(arguments, control, semaphores, bounds):
+    """The caller's side of ``fused_residual_worker``: slice 0 here, the rest on them
+    (returns ``collect``'s outcome)."""
+    hand_out(control, semaphores, bounds)
+    failed = False
+    try:
+        _fused_slice(bounds[0], bounds[1], arguments)
+    except Exception:  # the workers' slices must still be collected
+        failed = True
+    return collect(control, semaphores, failed)
+
+
 class FusedResidualStep:
-    """``fused_residual_kernel`` for a ``ResidualCommand`` whose base is ``controller``."""
+    """``fused_residual_kernel`` for a ``ResidualCommand`` whose base is ``controller``.
+
+    Every step runs on the same arrays, so that workers parked in compiled code
+    (``ParkedWorkers``) can keep them: the residual is copied in, and the base command,
+    the observer's estimates and the controller's ``diagnostics`` are overwritten in place
+    each step (``ResidualCommand.info`` hands out copies). A vehicle's slice reads its
+    planned command before it writes the next, so in place is safe.
+    """
 
     def __init__(self, controller: GeometricController, residual: ResidualCommand) -> None:
         self.controller, self.residual = controller, residual
         n = residual.core.n
         self._before = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)))
+        self._residual = np.zeros((n, 4))
         self._actions = np.zeros((n, 4))
         self._clipped = np.zeros((n, 4))
         self._base_action = np.zeros((n, 4))
@@ -125,29 +173,45 @@ class FusedResidualStep:
         self._observer: tuple = ()
         self._observer_rates: tuple = ()
         self._outputs: tuple = ()
+        self._arguments: tuple = ()
+        self._tables = None  # the core's reference table the arguments were made with
+        self._workers: ParkedWorkers | None = None
 
     def restart(self, indices: NDArray[np.intp]) -> None:
         """After the controller's reset of vehicles ``indices``: their first plan."""
         if not self._law or len(indices) == self.residual.core.n:
             self._gather_constants()  # a full reset may have new gains and observer arrays
             self._new_outputs()
+            self._arguments = ()
         plan_kernel(np.asarray(indices, dtype=np.intp), self._plan_arguments())
 
     def fly(self, residual: NDArray[np.float64]) -> None:
         """One step of every vehicle with ``residual`` (N, 4), and the plan for the next."""
-        core, command = self.residual.core, self.residual
+        core = self.residual.core
         core.prepare_step()
-        # this step flies the base command planned last step; the new plan gets new arrays
-        flown = (residual, command.residual_range, command.base_thrust, command.base_moment,
-                 core.action_map.inverse, self._clipped, command.requested_thrust,
-                 self._actions)
-        self._new_outputs()
+        self._residual[...] = residual
+        if not self._arguments or core._reference_table is not self._tables:
+            self._make_arguments()  # first step, full reset, or the tables grew
+        if self._workers is None or not self._workers.run():
+            run_over_batch(fused_residual_kernel, core.n, *self._arguments)
+        core.finish_step()
+
+    def _make_arguments(self) -> None:
+        """What ``fused_residual_kernel`` takes after the slice, and workers that keep it."""
+        core, command = self.residual.core, self.residual
+        flown = (self._residual, command.residual_range, command.base_thrust,
+                 command.base_moment, core.action_map.inverse, self._clipped,
+                 command.requested_thrust, self._actions)
         update = (*self._before, *self._observer_rates, self._clipped, core.rewards,
                   command.effort_weight, command.rewards, core.applied.thrust,
                   core.applied.moment)
-        run_over_batch(fused_residual_kernel, core.n, flown, self._actions,
-                       core.step_arguments(), update, self._plan_arguments())
-        core.finish_step()
+        self._arguments = (flown, self._actions, core.step_arguments(), update,
+                           self._plan_arguments())
+        self._tables = core._reference_table
+        if self._workers is not None:
+            self._workers.close()
+        self._workers = ParkedWorkers(fused_residual_worker, fused_residual_launch, core.n,
+                                      self._arguments)
 
     def _gather_constants(self) -> None:
         controller, vehicle = self.controller, self.controller.vehicle
@@ -168,8 +232,7 @@ class FusedResidualStep:
                                     np.array(observer._alpha_rotation, dtype=float))
 
     def _new_outputs(self) -> None:
-        """Fresh arrays for what this step plans, so what a caller kept from the last step
-        stays as it was."""
+        """The arrays the plan is written to, from now on."""
         n = self.residual.core.n
         force_estimate, torque_estimate = np.empty((n, 3)), np.empty((n, 3))
         thrust, moment = np.empty(n), np.empty((n, 3))

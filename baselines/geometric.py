@@ -102,7 +102,8 @@ class GeometricController(Controller):
 
     def fused_residual(self, residual: ResidualCommand) -> FusedResidualStep:
         """The compiled pass that runs this controller inside a ``ResidualCommand``'s step
-        (``baselines.fused``)."""
+        (``baselines.fused``). In that pass ``diagnostics`` and the observer's estimates are
+        overwritten in place every step: copy what you keep."""
         return FusedResidualStep(self, residual)
 
     def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:

@@ -1,10 +1,14 @@
+import gc
 import multiprocessing
 
 import numpy as np
 import pytest
+from gymnasium.utils import seeding
 
 from quad_dob_env import threads
-from quad_dob_env.envs import QuadrotorVectorEnv
+from quad_dob_env.envs import QuadrotorBatch, QuadrotorVectorEnv
+from quad_dob_env.envs.residual import ResidualCommand
+from quad_dob_env.scenarios import make_scenario
 
 
 def _step_big_batch(queue) -> None:
@@ -49,3 +53,80 @@ def test_slices_and_their_split_never_change_results():
         np.testing.assert_array_equal(obs, expected)
         np.testing.assert_array_equal(rewards, expected_rewards)
     assert threads._lead  # the threaded env did split its batches
+
+
+def _residual_twins(n: int, scenario: str, options: dict) -> list[ResidualCommand]:
+    """The same vehicles flown by the fused pass (parked workers) and by the stages."""
+    twins = []
+    for compiled in (True, False):
+        core = QuadrotorBatch(make_scenario(scenario, **options), n)
+        core.reset(np.arange(n), [seeding.np_random(i)[0] for i in range(n)])
+        twins.append(ResidualCommand(core, "geometric-ndob:tuned", compiled=compiled))
+        twins[-1].restart(np.arange(n))
+    return twins
+
+
+def test_parked_workers_follow_the_tables_and_full_resets():
+    # the parked workers keep the arrays they were started with: when the core's tables
+    # grow (flown past the scenario's end) or a full reset replaces the observer's arrays,
+    # new workers must take over. The separate stages are the reference.
+    n = 512
+    fused, staged = _residual_twins(n, "dryden-helix-gusts", {"duration": 0.2})
+    residuals = np.random.default_rng(2).uniform(-0.3, 0.3, (60, n, 4))
+    tables = set()
+    for step in range(60):
+        if step == 33:  # a full reset, as env.reset() does
+            for twin in (fused, staged):
+                twin.core.reset(np.arange(n), [seeding.np_random(i)[0] for i in range(n)])
+                twin.restart(np.arange(n))
+        fused.fly(residuals[step])
+        staged.fly(residuals[step])
+        tables.add(id(fused.core._reference_table))
+        np.testing.assert_allclose(fused.core.obs, staged.core.obs, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(fused.extra_observation, staged.extra_observation, rtol=0,
+                                   atol=1e-9)
+        np.testing.assert_allclose(fused.force_estimate, staged.force_estimate, rtol=0,
+                                   atol=1e-9)
+    assert len(tables) >= 2  # 20-step tables: they grew
+
+
+@pytest.mark.skipif(threads.worker_count() < 2, reason="needs two cores to park workers")
+def test_parked_workers_return_when_replaced_or_collected():
+    env = QuadrotorVectorEnv(512, "hover-calm", base_controller="geometric-ndob")
+    env.reset(seed=0)
+    env.step(np.zeros((512, 4)))
+    first = env.residual._fused._workers.threads
+    assert len(first) == threads.worker_count() - 1 and all(t.is_alive() for t in first)
+    env.reset(seed=1)  # a full reset: new observer arrays, so new workers
+    env.step(np.zeros((512, 4)))
+    second = env.residual._fused._workers.threads
+    assert second and not set(second) & set(first)
+    del env
+    gc.collect()
+    for thread in first + second:  # they return at their next wake-up
+        thread.join(timeout=5)
+        assert not thread.is_alive()
+
+
+def _step_big_residual_batch(queue) -> None:
+    env = QuadrotorVectorEnv(512, "hover-calm", base_controller="geometric-ndob")
+    env.reset(seed=0)
+    obs, *_ = env.step(np.zeros((512, 4)))
+    queue.put(bool(np.isfinite(obs).all()))
+
+
+@pytest.mark.skipif(threads.worker_count() < 2, reason="needs two cores to park workers")
+def test_a_forked_child_parks_its_own_workers():
+    env = QuadrotorVectorEnv(512, "hover-calm", base_controller="geometric-ndob")
+    env.reset(seed=0)
+    env.step(np.zeros((512, 4)))
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    child = context.Process(target=_step_big_residual_batch, args=(queue,))
+    child.start()
+    child.join(timeout=120)
+    if child.is_alive():
+        child.kill()
+        pytest.fail("the forked child hung on its first big residual batch")
+    assert child.exitcode == 0 and queue.get(timeout=5)
+    env.step(np.zeros((512, 4)))  # and the parent's workers still answer

@@ -13,7 +13,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_env.dynamics import Actuator
-from quad_dob_env.envs.kernels import action_from_command_batch, command_from_action_batch
+from quad_dob_env.envs.kernels import (
+    action_from_command_batch,
+    command_from_action_batch,
+    finite_values,
+)
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.validation import unknown_name_error
 
@@ -84,7 +88,7 @@ def screen_actions(actions: object, shape: tuple[int, ...], invalid_actions: str
                          f"{actions!r}") from None
     if array.shape != shape:
         raise ValueError(f"actions must have shape {shape}, got {array.shape}")
-    if np.isfinite(array).all():  # the usual case, kept cheap: a step is ~30 µs
+    if finite_values(array.reshape(-1)):  # the usual case, kept cheap: one compiled pass
         return array, _NO_ROWS
     if invalid_actions not in INVALID_ACTION_MODES:
         raise unknown_name_error("invalid_actions", invalid_actions, INVALID_ACTION_MODES)

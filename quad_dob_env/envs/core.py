@@ -114,6 +114,7 @@ class QuadrotorBatch:
         self._tabulate(scenario.steps + 1)
         self.state = VehicleState.at_rest(n)
         self.step_count = np.zeros(n, dtype=np.int64)
+        self._most_steps = 0  # at least step_count.max(), kept without a pass over N
         self._reference_now: Reference | None = None
         self.termination_code = np.zeros(n, dtype=np.int8)
         self.obs = np.zeros((n, self.observation_size), dtype=np.float32)
@@ -295,8 +296,11 @@ class QuadrotorBatch:
         disturbances sampled over the step."""
         self._reference_now = None
         rows = self._reference_table.shape[0]
-        if self.step_count.max() + 1 >= rows:  # flown past the scenario's end: extend
-            self._tabulate(2 * rows)
+        if self._most_steps + 1 >= rows:  # maybe flown past the scenario's end
+            self._most_steps = int(self.step_count.max())
+            if self._most_steps + 1 >= rows:
+                self._tabulate(2 * rows)
+        self._most_steps += 1  # every vehicle's count grows by one; a reset only lowers it
         random = self.random_disturbance
         if random is not None:
             for own, written in zip(self._own, random.channels, strict=True):

@@ -391,3 +391,13 @@ def join_columns(left, right, out):
             out[i, k] = left[i, k]
         for k in range(right.shape[1]):
             out[i, width + k] = right[i, k]
+
+
+@njit(cache=True)
+def finite_values(values):
+    """Whether every entry of the 1-D ``values`` is finite (no temporary array, unlike
+    ``np.isfinite(values).all()``)."""
+    for value in values:
+        if not np.isfinite(value):
+            return False
+    return True

@@ -158,8 +158,6 @@ class ResidualCommand:
         ``torque_estimate`` (N, 3; zero without an observer), for the coming step."""
         arrays = {"base_thrust": self.base_thrust, "base_moment": self.base_moment,
                   "force_estimate": self.force_estimate, "torque_estimate": self.torque_estimate}
-        if self._fused is not None:  # it plans into new arrays every step: nothing to copy
-            return arrays
         return {name: value.copy() for name, value in arrays.items()}
 
     def observation(self, core_observation: NDArray[np.float32]) -> NDArray[np.float32]:
