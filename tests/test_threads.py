@@ -12,7 +12,7 @@ from quad_dob_env.scenarios import make_scenario
 
 
 def _step_big_batch(queue) -> None:
-    env = QuadrotorVectorEnv(512, "hover-calm")
+    env = QuadrotorVectorEnv(512, "dryden-helix-gusts")  # the turbulence uses the pool
     env.reset(seed=0)
     obs, *_ = env.step(np.zeros((512, 4)))
     queue.put(bool(np.isfinite(obs).all()))
@@ -22,10 +22,10 @@ def _step_big_batch(queue) -> None:
 def test_a_forked_child_steps_big_batches_after_the_parent_did():
     # the parent's worker threads do not exist in a forked child (AsyncVectorEnv and
     # SubprocVecEnv fork on Linux): the child must start its own instead of waiting forever
-    env = QuadrotorVectorEnv(512, "hover-calm")
+    env = QuadrotorVectorEnv(512, "dryden-helix-gusts")
     env.reset(seed=0)
     env.step(np.zeros((512, 4)))
-    assert threads._workers  # the parent's workers are running
+    assert threads._workers and env.core._parked.threads  # the pool's and the parked
     context = multiprocessing.get_context("fork")
     queue = context.Queue()
     child = context.Process(target=_step_big_batch, args=(queue,))
@@ -88,6 +88,21 @@ def test_parked_workers_follow_the_tables_and_full_resets():
         np.testing.assert_allclose(fused.force_estimate, staged.force_estimate, rtol=0,
                                    atol=1e-9)
     assert len(tables) >= 2  # 20-step tables: they grew
+
+
+def test_the_bare_core_flies_past_its_tables_on_parked_workers_as_serially():
+    n = 512
+    cores = [QuadrotorBatch(make_scenario("gusty-hover", duration=0.2), n) for _ in range(2)]
+    for core in cores:
+        core.reset(np.arange(n), [seeding.np_random(i)[0] for i in range(n)])
+    actions = np.random.default_rng(3).uniform(-0.1, 0.1, (50, n, 4))
+    for step in range(50):  # 20-step tables: they grow twice
+        cores[0].step(actions[step])
+        with threads._lock:
+            cores[1].step(actions[step])
+        np.testing.assert_array_equal(cores[0].obs, cores[1].obs)
+        np.testing.assert_array_equal(cores[0].disturbance_force, cores[1].disturbance_force)
+    assert cores[0]._reference_table.shape[0] > 21
 
 
 @pytest.mark.skipif(threads.worker_count() < 2, reason="needs two cores to park workers")

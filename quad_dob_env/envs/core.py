@@ -32,10 +32,12 @@ from quad_dob_env.envs.kernels import (
     sensor_kernel,
     start_kernel,
     step_kernel,
+    step_launch,
+    step_worker,
 )
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.so3 import exp as so3_exp
-from quad_dob_env.threads import run_over_batch
+from quad_dob_env.threads import PARALLEL_MIN_BATCH, ParkedWorkers, run_over_batch
 from quad_dob_env.trajectories import Reference
 from quad_dob_env.validation import as_finite, unknown_name_error
 
@@ -115,6 +117,9 @@ class QuadrotorBatch:
         self.state = VehicleState.at_rest(n)
         self.step_count = np.zeros(n, dtype=np.int64)
         self._most_steps = 0  # at least step_count.max(), kept without a pass over N
+        self._actions = np.zeros((n, 4))  # a step's actions, where the parked workers read them
+        self._parked: ParkedWorkers | None = None
+        self._parked_tables = None  # the reference table the parked workers keep
         self._reference_now: Reference | None = None
         self.termination_code = np.zeros(n, dtype=np.int8)
         self.obs = np.zeros((n, self.observation_size), dtype=np.float32)
@@ -236,23 +241,21 @@ class QuadrotorBatch:
                              f"{len(rngs)} generators")
         sc = self.scenario
         count = len(indices)
-        offsets = np.empty((count, 3))  # position offsets
-        tilts = np.empty((count, 3))  # attitude offsets, rotation vectors
+        draws = np.empty((count, 6))  # position offset, attitude offset (rotation vector)
         scales = np.ones((count, 3))  # mass, inertia, drag
         randomization = sc.randomization
         for j, rng in enumerate(rngs):
-            # fixed draw order per vehicle: position, attitude, randomisation, sensor key,
-            # then the disturbance
-            offsets[j] = rng.uniform(-1.0, 1.0, 3)
-            tilts[j] = rng.uniform(-1.0, 1.0, 3)
+            # fixed draw order per vehicle: position, attitude (one call, the same numbers
+            # as two), randomisation, sensor key, then the disturbance
+            draws[j] = rng.uniform(-1.0, 1.0, 6)
             if randomization is not None:
                 r = randomization
                 scales[j] = [rng.uniform(*r.mass), rng.uniform(*r.inertia), rng.uniform(*r.drag)]
             if self.sensors is not None:
                 self._sensor_keys[indices[j]] = rng.integers(0, 2**63, dtype=np.uint64)
                 self._sensor_counters[indices[j]] = 0
-        offsets *= sc.initial_position_noise
-        rotations = self._initial_rotation @ so3_exp(tilts * sc.initial_attitude_noise)
+        offsets = draws[:, :3] * sc.initial_position_noise
+        rotations = self._initial_rotation @ so3_exp(draws[:, 3:] * sc.initial_attitude_noise)
         s, applied = self.state, self.applied
         start_kernel(indices, offsets, rotations, scales, self._start, self._nominal,
                      s.position, s.velocity, s.rotation, s.angular_velocity,
@@ -288,7 +291,17 @@ class QuadrotorBatch:
         true ``disturbance_force`` / ``disturbance_torque``.
         """
         self.prepare_step()
-        run_over_batch(step_kernel, self.n, actions, *self.step_arguments())
+        if self.n < PARALLEL_MIN_BATCH:
+            step_kernel(0, self.n, actions, *self.step_arguments())
+        else:
+            if self._parked is None or self._parked_tables is not self._reference_table:
+                # first step, or the tables grew: workers that keep the new arrays
+                self._parked_tables = self._reference_table
+                self._parked = ParkedWorkers(step_worker, step_launch, self.n,
+                                             (self._actions, *self.step_arguments()))
+            self._actions[...] = actions
+            if not self._parked.run():
+                run_over_batch(step_kernel, self.n, self._actions, *self.step_arguments())
         self.finish_step()
 
     def prepare_step(self) -> None:
