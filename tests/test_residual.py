@@ -131,6 +131,21 @@ def test_compiled_residual_pass_equals_the_separate_stages(base):
     assert ended >= n  # the comparison ran through autoresets
 
 
+@pytest.mark.parametrize("n", [4, 300])  # serial, and on parked workers
+def test_what_a_step_returned_stays_as_it_was_after_the_next(n):
+    # the compiled pass writes its plan in place every step: what it hands out are copies
+    env = QuadrotorVectorEnv(n, "gusty-hover", base_controller="geometric-ndob:tuned")
+    env.reset(seed=0)
+    obs, _, _, _, info = env.step(np.zeros((n, 4)))
+    kept = {key: np.copy(info[key]) for key in ("base_thrust", "base_moment", "force_estimate",
+                                                "torque_estimate", "position_error")}
+    kept_obs = obs.copy()
+    env.step(np.full((n, 4), 0.5))
+    np.testing.assert_array_equal(obs, kept_obs)
+    for key, value in kept.items():
+        np.testing.assert_array_equal(info[key], value, err_msg=key)
+
+
 def test_sb3_adapter_runs_in_residual_mode():
     venv = QuadrotorSB3VecEnv(4, "hover-calm", seed=0, base_controller="geometric-ndob",
                               scenario_options=SHORT)

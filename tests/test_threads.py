@@ -10,31 +10,41 @@ from quad_dob_env.envs import QuadrotorBatch, QuadrotorVectorEnv
 from quad_dob_env.envs.residual import ResidualCommand
 from quad_dob_env.scenarios import make_scenario
 
+_BIG_BATCHES = {"bare": ("dryden-helix-gusts", None),  # its turbulence uses the pool
+                "residual": ("hover-calm", "geometric-ndob")}
 
-def _step_big_batch(queue) -> None:
-    env = QuadrotorVectorEnv(512, "dryden-helix-gusts")  # the turbulence uses the pool
+
+def _big_batch(kind: str) -> QuadrotorVectorEnv:
+    scenario, base = _BIG_BATCHES[kind]
+    env = QuadrotorVectorEnv(512, scenario, base_controller=base)
     env.reset(seed=0)
-    obs, *_ = env.step(np.zeros((512, 4)))
+    env.step(np.zeros((512, 4)))
+    return env
+
+
+def _step_big_batch(kind: str, queue) -> None:
+    obs, *_ = _big_batch(kind).step(np.zeros((512, 4)))
     queue.put(bool(np.isfinite(obs).all()))
 
 
 @pytest.mark.skipif(threads.worker_count() < 2, reason="needs two cores to start workers")
-def test_a_forked_child_steps_big_batches_after_the_parent_did():
+@pytest.mark.parametrize("kind", sorted(_BIG_BATCHES))
+def test_a_forked_child_steps_big_batches_after_the_parent_did(kind):
     # the parent's worker threads do not exist in a forked child (AsyncVectorEnv and
     # SubprocVecEnv fork on Linux): the child must start its own instead of waiting forever
-    env = QuadrotorVectorEnv(512, "dryden-helix-gusts")
-    env.reset(seed=0)
-    env.step(np.zeros((512, 4)))
-    assert threads._workers and env.core._parked.threads  # the pool's and the parked
+    env = _big_batch(kind)
+    parked = env.core._parked if kind == "bare" else env.residual._fused._workers
+    assert parked.threads and (kind != "bare" or threads._workers)  # they are running
     context = multiprocessing.get_context("fork")
     queue = context.Queue()
-    child = context.Process(target=_step_big_batch, args=(queue,))
+    child = context.Process(target=_step_big_batch, args=(kind, queue))
     child.start()
     child.join(timeout=120)
     if child.is_alive():
         child.kill()
         pytest.fail("the forked child hung on its first big batch")
     assert child.exitcode == 0 and queue.get(timeout=5)
+    env.step(np.zeros((512, 4)))  # and the parent's workers still answer
 
 
 def test_slices_and_their_split_never_change_results():
@@ -121,27 +131,3 @@ def test_parked_workers_return_when_replaced_or_collected():
     for thread in first + second:  # they return at their next wake-up
         thread.join(timeout=5)
         assert not thread.is_alive()
-
-
-def _step_big_residual_batch(queue) -> None:
-    env = QuadrotorVectorEnv(512, "hover-calm", base_controller="geometric-ndob")
-    env.reset(seed=0)
-    obs, *_ = env.step(np.zeros((512, 4)))
-    queue.put(bool(np.isfinite(obs).all()))
-
-
-@pytest.mark.skipif(threads.worker_count() < 2, reason="needs two cores to park workers")
-def test_a_forked_child_parks_its_own_workers():
-    env = QuadrotorVectorEnv(512, "hover-calm", base_controller="geometric-ndob")
-    env.reset(seed=0)
-    env.step(np.zeros((512, 4)))
-    context = multiprocessing.get_context("fork")
-    queue = context.Queue()
-    child = context.Process(target=_step_big_residual_batch, args=(queue,))
-    child.start()
-    child.join(timeout=120)
-    if child.is_alive():
-        child.kill()
-        pytest.fail("the forked child hung on its first big residual batch")
-    assert child.exitcode == 0 and queue.get(timeout=5)
-    env.step(np.zeros((512, 4)))  # and the parent's workers still answer

@@ -217,27 +217,29 @@ def _step_slice(start, stop, arguments):
 
 
 @njit(cache=True, nogil=True)
+def _step_slice_failed(start, stop, arguments):
+    """Run the slice; whether it raised (parked threads can only report it)."""
+    failed = False
+    try:
+        _step_slice(start, stop, arguments)
+    except Exception:
+        failed = True
+    return failed
+
+
+@njit(cache=True, nogil=True)
 def step_worker(arguments, control, semaphores, k):
     """Worker k of ``quad_dob_env.threads.ParkedWorkers`` for ``step_kernel``."""
     while await_slice(control, semaphores, k):
-        failed = False
-        try:
-            _step_slice(control[k, 0], control[k, 1], arguments)
-        except Exception:  # the worker must report, or the caller would wait forever
-            failed = True
-        slice_done(control, semaphores, k, failed)
+        slice_done(control, semaphores, k,
+                   _step_slice_failed(control[k, 0], control[k, 1], arguments))
 
 
 @njit(cache=True, nogil=True)
 def step_launch(arguments, control, semaphores, bounds):
-    """The caller's side of ``step_worker``: slice 0 here, the rest on the workers."""
+    """The caller's side: slice 0 here, the others on the workers; ``collect``'s outcome."""
     hand_out(control, semaphores, bounds)
-    failed = False
-    try:
-        _step_slice(bounds[0], bounds[1], arguments)
-    except Exception:  # the workers' slices must still be collected
-        failed = True
-    return collect(control, semaphores, failed)
+    return collect(control, semaphores, _step_slice_failed(bounds[0], bounds[1], arguments))
 
 
 @njit(cache=True, inline="always")
