@@ -136,11 +136,12 @@ def run_over_batch(kernel: Callable[..., None], n: int, *args: Any,
 # ``run_over_batch`` pays, every call, a worker's wake-up and the unpacking of the kernel's
 # arguments by both threads, one after the other under the GIL: ~45 µs for the residual
 # pass's ~120 arguments, as much as its first 45 vehicles. A kernel called every step on the
-# same arrays can instead have one worker per core wait inside compiled code on a POSIX
-# semaphore with its arguments unpacked once; the caller posts the slices and sleeps until
-# they are done (a call costs ~20 µs). The semaphore functions are libc's, bound
-# by name for the compiled code so that it stays cacheable; where they are missing (not
-# Linux), ``ParkedWorkers.run`` declines and the caller uses ``run_over_batch``.
+# same arrays can instead have one worker per extra core wait inside compiled code on a
+# POSIX semaphore with its arguments unpacked once; the caller posts the other slices, runs
+# its own and sleeps until the rest are done (a call costs ~20 µs more than half the serial
+# time). The semaphore functions are libc's, bound by name for the compiled code so that it
+# stays cacheable; where they are missing (not Linux), ``ParkedWorkers.run`` declines and
+# the caller uses ``run_over_batch``.
 
 _SEMAPHORE_BYTES = 32  # sizeof(sem_t) on Linux, x86-64 and aarch64 alike
 _LIBC_SYMBOLS = ("sem_init", "sem_wait", "sem_trywait", "sem_post")
