@@ -35,18 +35,17 @@ from baselines.kernels import (
     square,
     vector,
 )
-from quad_dob_env.envs.kernels import (
+from quad_dob_env.envs.kernels import step_kernel
+from quad_dob_env.envs.residual_kernels import (
     residual_command_kernel,
     residual_observation_vehicle,
     residual_reward_kernel,
-    step_kernel,
 )
 from quad_dob_env.threads import (
     ParkedWorkers,
     await_slice,
     collect,
     hand_out,
-    run_over_batch,
     slice_done,
 )
 
@@ -192,8 +191,7 @@ class FusedResidualStep:
         self._residual[...] = residual
         if not self._arguments or core._reference_table is not self._tables:
             self._make_arguments()  # first step, full reset, or the tables grew
-        if self._workers is None or not self._workers.run():
-            run_over_batch(fused_residual_kernel, core.n, *self._arguments)
+        self._workers.run()
         core.finish_step()
 
     def _make_arguments(self) -> None:
@@ -210,8 +208,8 @@ class FusedResidualStep:
         self._tables = core._reference_table
         if self._workers is not None:
             self._workers.close()
-        self._workers = ParkedWorkers(fused_residual_worker, fused_residual_launch, core.n,
-                                      self._arguments)
+        self._workers = ParkedWorkers(fused_residual_kernel, fused_residual_worker,
+                                      fused_residual_launch, core.n, self._arguments)
 
     def _gather_constants(self) -> None:
         controller, vehicle = self.controller, self.controller.vehicle

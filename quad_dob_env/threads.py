@@ -253,17 +253,20 @@ def _stop_workers(control: np.ndarray, semaphores: np.ndarray, pid: int) -> None
 
 
 class ParkedWorkers:
-    """Workers for one kernel called every step on the same arrays: worker k (one per core
-    but the caller's) runs ``serve(args, control, semaphores, k)``, a compiled loop of
-    ``await_slice``, the kernel on ``control[k, 0:2]`` and ``slice_done``; the caller runs
+    """``kernel(start, stop, *args)`` over ``0..n-1`` for a kernel called every step on the
+    same arrays: worker k (one per core but the caller's) runs
+    ``serve(args, control, semaphores, k)``, a compiled loop of ``await_slice``, the kernel
+    on ``control[k, 0:2]`` and ``slice_done``; the caller runs
     ``launch(args, control, semaphores, bounds)``: ``hand_out``, the kernel on slice 0,
-    ``collect`` (``baselines.fused`` has the pair). The owner of ``args`` must make new
-    ``ParkedWorkers`` when one of its arrays is replaced; the workers return when this object
-    is collected or ``close``d. A forked child starts its own."""
+    ``collect``. Each kernel has its own small pair (``envs.kernels.step_worker``/
+    ``step_launch``, ``baselines.fused``'s), because numba cannot cache a function that
+    takes the kernel as an argument (8 s of compilation in every process). The owner of
+    ``args`` must make new ``ParkedWorkers`` when one of its arrays is replaced; the workers
+    return when this object is collected or ``close``d. A forked child starts its own."""
 
-    def __init__(self, serve: Callable[..., None], launch: Callable[..., None], n: int,
-                 args: tuple) -> None:
-        self.serve, self.launch, self.n, self.args = serve, launch, n, args
+    def __init__(self, kernel: Callable[..., None], serve: Callable[..., None],
+                 launch: Callable[..., None], n: int, args: tuple) -> None:
+        self.kernel, self.serve, self.launch, self.n, self.args = kernel, serve, launch, n, args
         self.parts = max(1, min(worker_count(), n // (PARALLEL_MIN_BATCH // 2)))
         self._bounds = np.array([n * k // self.parts for k in range(self.parts + 1)])
         self._equal = int(self._bounds[1])  # the caller's share without a lead
@@ -272,13 +275,16 @@ class ParkedWorkers:
         self._finalizer: Any = None
         self.threads: list[threading.Thread] = []
 
-    def run(self) -> bool:
-        """The kernel over all N vehicles; False (nothing done) when the batch is too small,
-        there is one core, libc's semaphores are missing or another thread is using the
-        workers: the caller then runs the kernel some other way."""
-        if self.n < PARALLEL_MIN_BATCH or self.parts < 2 or _libc is None or not _lock.acquire(
-                blocking=False):
-            return False
+    def run(self) -> None:
+        """The kernel over all N vehicles: on the parked workers, or serially when the batch
+        is too small, there is one core or another thread is using the workers (through
+        ``run_over_batch`` where libc's semaphores are missing)."""
+        if _libc is None:
+            run_over_batch(self.kernel, self.n, *self.args)
+            return
+        if self.parts < 2 or not _lock.acquire(blocking=False):
+            self.kernel(0, self.n, *self.args)
+            return
         try:
             if self._generation != _fork_generation:  # first call, or a forked child
                 self._start()
@@ -294,7 +300,6 @@ class ParkedWorkers:
         if 0 <= lead <= self._most_lead:
             self._lead = lead
             self._bounds[1] = self._equal + lead
-        return True
 
     def close(self) -> None:
         if self._finalizer is not None:

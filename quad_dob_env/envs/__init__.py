@@ -5,7 +5,8 @@
   for every env.
 - ``actions``: ``ActionMap`` (normalised actions <-> commanded thrust and moment, both
   ways) and ``screen_actions``, the check every env face runs on its actions.
-- ``kernels``: its compiled per-vehicle step, sensing and sensor-noise loops.
+- ``kernels``: its compiled per-vehicle step, reset, sensing and sensor-noise loops, and
+  the step's parked workers (``quad_dob_env.threads``).
 - ``quadrotor_env``: ``QuadrotorEnv(gym.Env)``, its N = 1 view, with the tables of spaces,
   reward, start and end in its docstring.
 - ``vector_env``: ``QuadrotorVectorEnv(gymnasium.vector.VectorEnv)``, its N-vehicle view
@@ -13,6 +14,8 @@
 - ``residual``: ``ResidualCommand``, a base controller's command plus a scaled residual for
   the whole batch; the vector env's ``base_controller=`` mode and
   ``quad_dob_env.wrappers.ResidualActionWrapper`` both run it.
+- ``residual_kernels``: the residual's compiled per-vehicle command, reward and extra
+  observation.
 - ``rendering``: ``FlightRenderer``, the frames of ``render_mode="rgb_array"``/``"human"``.
 """
 

@@ -37,7 +37,7 @@ from quad_dob_env.envs.kernels import (
 )
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.so3 import exp as so3_exp
-from quad_dob_env.threads import PARALLEL_MIN_BATCH, ParkedWorkers, run_over_batch
+from quad_dob_env.threads import ParkedWorkers
 from quad_dob_env.trajectories import Reference
 from quad_dob_env.validation import as_finite, unknown_name_error
 
@@ -268,17 +268,13 @@ class QuadrotorBatch:
         random = self.random_disturbance
         if random is not None:
             random.resample(indices, rngs)
-        if randomization is None and random is None:
-            for index in indices:
-                self.sampled[index] = {}
-        else:
-            for j, index in enumerate(indices):
-                self.sampled[index] = {
-                    **({} if randomization is None else {
-                        "mass": float(self.mass[index]), "inertia_scale": float(scales[j, 1]),
-                        "drag_scale": float(scales[j, 2])}),
-                    **({} if random is None else random.sampled_parameters(index)),
-                }
+        for j, index in enumerate(indices):
+            self.sampled[index] = {
+                **({} if randomization is None else {
+                    "mass": float(self.mass[index]), "inertia_scale": float(scales[j, 1]),
+                    "drag_scale": float(scales[j, 2])}),
+                **({} if random is None else random.sampled_parameters(index)),
+            }
         self._reference_now = None
         self._measure(indices, reset=True)
 
@@ -291,17 +287,13 @@ class QuadrotorBatch:
         true ``disturbance_force`` / ``disturbance_torque``.
         """
         self.prepare_step()
-        if self.n < PARALLEL_MIN_BATCH:
-            step_kernel(0, self.n, actions, *self.step_arguments())
-        else:
-            if self._parked is None or self._parked_tables is not self._reference_table:
-                # first step, or the tables grew: workers that keep the new arrays
-                self._parked_tables = self._reference_table
-                self._parked = ParkedWorkers(step_worker, step_launch, self.n,
-                                             (self._actions, *self.step_arguments()))
-            self._actions[...] = actions
-            if not self._parked.run():
-                run_over_batch(step_kernel, self.n, self._actions, *self.step_arguments())
+        if self._parked is None or self._parked_tables is not self._reference_table:
+            # first step, or the tables grew: workers that keep the new arrays
+            self._parked_tables = self._reference_table
+            self._parked = ParkedWorkers(step_kernel, step_worker, step_launch, self.n,
+                                         (self._actions, *self.step_arguments()))
+        self._actions[...] = actions
+        self._parked.run()
         self.finish_step()
 
     def prepare_step(self) -> None:

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.envs.kernels import body_frame_errors, join_columns
+from quad_dob_env.envs.residual_kernels import body_frame_errors, join_columns
 from quad_dob_env.validation import as_finite
 
 if TYPE_CHECKING:  # the layering: quad_dob_env imports baselines only when asked to
