@@ -1,6 +1,7 @@
 """Desired attitude from a thrust vector and a heading, with analytic Ωd and Ω̇d, for batches.
 
-The equations (Lee, Leok, McClamroch 2010, z up) live once, per vehicle, in
+The equations (Lee, Leok, McClamroch 2010, z up) live once, per vehicle: Rd, Ωd, Ω̇d in
+``quad_dob_env.flatness`` (which the scenarios' feasibility check uses too), Lee's errors in
 ``baselines.kernels``; these are their (N, 3) numpy faces for the baselines.
 """
 
@@ -12,28 +13,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from baselines import kernels
+from quad_dob_env.flatness import DesiredAttitude, attitude_from_thrust_vector, flat_inputs
 
 
 def _c(array: NDArray) -> NDArray[np.float64]:
     return np.ascontiguousarray(array, dtype=np.float64)
-
-
-class DesiredAttitude(NamedTuple):
-    rotation: NDArray  # Rd (N, 3, 3)
-    angular_velocity: NDArray  # Ωd (N, 3), body frame of Rd
-    angular_acceleration: NDArray  # Ω̇d (N, 3)
-
-
-def desired_attitude(force: NDArray, force_dot: NDArray, force_ddot: NDArray,
-                     heading: NDArray, heading_rate: NDArray,
-                     heading_acceleration: NDArray) -> DesiredAttitude:
-    """Rd, Ωd, Ω̇d from the desired thrust vector F and heading b1d (each (N, 3)) and their
-    first two time derivatives (``kernels.desired_attitude``)."""
-    n = len(force)
-    out = DesiredAttitude(np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3)))
-    kernels.desired_attitude_batch(_c(force), _c(force_dot), _c(force_ddot), _c(heading),
-                                   _c(heading_rate), _c(heading_acceleration), *out)
-    return out
 
 
 def attitude_errors(rotation: NDArray, angular_velocity: NDArray,
@@ -50,17 +34,13 @@ def attitude_errors(rotation: NDArray, angular_velocity: NDArray,
 def feedforward_attitude(reference, mass: float, gravity: float) -> DesiredAttitude:
     """The attitude that flies the reference exactly (differential flatness): F = m(ẍd + g e3),
     with its derivatives m x⃛d and m x⃜d. Baselines without a model-based F use its Ωd, Ω̇d."""
-    force = mass * reference.acceleration
-    force[:, 2] += mass * gravity
-    return desired_attitude(force, mass * reference.jerk, mass * reference.snap,
-                            reference.heading, reference.heading_rate,
-                            reference.heading_acceleration)
+    return flat_inputs(reference, mass, gravity, np.eye(3)).attitude
 
 
 def attitude_towards(force: NDArray, heading: NDArray) -> NDArray:
     """Rd for thrust direction ``force`` and heading b1d (no derivatives needed)."""
     zeros = np.zeros_like(force)
-    return desired_attitude(force, zeros, zeros, heading, zeros, zeros).rotation
+    return attitude_from_thrust_vector(force, zeros, zeros, heading, zeros, zeros).rotation
 
 
 class ThrustVectorTracking(NamedTuple):

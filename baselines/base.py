@@ -42,13 +42,17 @@ class Controller:
         self.vehicle: VehicleParams | None = None
         self.dt = 0.01
         self.n = 0
+        self.actuation = "rotors"
         self.diagnostics: dict[str, NDArray] = {}
 
     def reset(self, num_vehicles: int, vehicle: VehicleParams, dt: float,
-              indices: NDArray[np.intp] | None = None) -> None:
-        """Start episodes: all vehicles when ``indices`` is None (re-sizing the batch)."""
+              indices: NDArray[np.intp] | None = None, actuation: str = "rotors") -> None:
+        """Start episodes: all vehicles when ``indices`` is None (re-sizing the batch).
+        ``actuation`` names how the vehicle turns a command into thrust and moments
+        (``quad_dob_env.dynamics.Actuator``), for controllers that model their limits."""
         if indices is None:
             self.n, self.vehicle, self.dt = int(num_vehicles), vehicle, float(dt)
+            self.actuation = actuation
 
     def compute(self, time: NDArray, state: VehicleState,
                 reference: Reference) -> tuple[NDArray, NDArray]:

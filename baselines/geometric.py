@@ -63,8 +63,8 @@ class GeometricController(Controller):
             self.name = "geometric-ndob"
 
     def reset(self, num_vehicles: int, vehicle: VehicleParams, dt: float,
-              indices: NDArray[np.intp] | None = None) -> None:
-        super().reset(num_vehicles, vehicle, dt, indices)
+              indices: NDArray[np.intp] | None = None, actuation: str = "rotors") -> None:
+        super().reset(num_vehicles, vehicle, dt, indices, actuation)
         if indices is None:
             self._kx = self.gains["kx_per_mass"] * vehicle.mass
             self._kv = self.gains["kv_per_mass"] * vehicle.mass

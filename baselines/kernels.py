@@ -12,29 +12,10 @@ Vectors are 3-tuples and matrices row-major 9-tuples, as in ``quad_dob_env.so3``
 
 from __future__ import annotations
 
-import math
-
 from numba import njit
 
+from quad_dob_env.flatness import add, combine, desired_attitude, dot
 from quad_dob_env.so3 import cross_tuple, mat_mul_tuple, mat_vec_tuple
-
-TINY = 1e-9  # norms below this are floored so a degenerate command never yields NaN
-
-
-@njit(cache=True, inline="always")
-def dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-@njit(cache=True, inline="always")
-def combine(a, x, b, y):
-    """``a x + b y`` for scalars a, b and 3-tuples x, y."""
-    return (a * x[0] + b * y[0], a * x[1] + b * y[1], a * x[2] + b * y[2])
-
-
-@njit(cache=True, inline="always")
-def add(x, y):
-    return (x[0] + y[0], x[1] + y[1], x[2] + y[2])
 
 
 @njit(cache=True, inline="always")
@@ -67,52 +48,6 @@ def square(a):
 def put(array, i, value):
     for k in range(3):
         array[i, k] = value[k]
-
-
-@njit(cache=True)
-def unit_vector_derivatives(a, a_dot, a_ddot):
-    """``u = a/|a|`` and its first two time derivatives (product rule)."""
-    norm = max(math.sqrt(dot(a, a)), TINY)
-    a_adot = dot(a, a_dot)
-    first = a_adot / norm**3
-    # d²/dt² (a/|a|) = ä/|a| - 2 ȧ (a·ȧ)/|a|³ - a ((ȧ·ȧ + a·ä)/|a|³ - 3 (a·ȧ)²/|a|⁵)
-    second = (dot(a_dot, a_dot) + dot(a, a_ddot)) / norm**3 - 3.0 * a_adot**2 / norm**5
-    u = (a[0] / norm, a[1] / norm, a[2] / norm)
-    u_dot = (a_dot[0] / norm - a[0] * first, a_dot[1] / norm - a[1] * first,
-             a_dot[2] / norm - a[2] * first)
-    u_ddot = (a_ddot[0] / norm - 2.0 * a_dot[0] * first - a[0] * second,
-              a_ddot[1] / norm - 2.0 * a_dot[1] * first - a[1] * second,
-              a_ddot[2] / norm - 2.0 * a_dot[2] * first - a[2] * second)
-    return u, u_dot, u_ddot
-
-
-@njit(cache=True)
-def desired_attitude(force, force_dot, force_ddot, heading, heading_rate, heading_acceleration):
-    """Rd, Ωd, Ω̇d from the thrust vector F and heading b1d with their derivatives.
-
-    Lee 2010 (z up): ``b3d = F/|F|``, ``b2d = b3d × b1d/|b3d × b1d|``, ``b1d' = b2d × b3d``;
-    ``Ωd = vee(RdᵀṘd)`` and ``Ω̇d = vee(RdᵀR̈d - hat(Ωd)²)``, where hat(Ωd)² is symmetric
-    and drops out, so ``(RdᵀṘd)_ij = b_i · ḃ_j`` gives both.
-    """
-    b3, b3_dot, b3_ddot = unit_vector_derivatives(force, force_dot, force_ddot)
-    c = cross_tuple(b3, heading)
-    c_dot = add(cross_tuple(b3_dot, heading), cross_tuple(b3, heading_rate))
-    c_ddot = add(combine(1.0, cross_tuple(b3_ddot, heading), 2.0,
-                         cross_tuple(b3_dot, heading_rate)),
-                 cross_tuple(b3, heading_acceleration))
-    b2, b2_dot, b2_ddot = unit_vector_derivatives(c, c_dot, c_ddot)
-    b1 = cross_tuple(b2, b3)
-    b1_dot = add(cross_tuple(b2_dot, b3), cross_tuple(b2, b3_dot))
-    b1_ddot = add(combine(1.0, cross_tuple(b2_ddot, b3), 2.0, cross_tuple(b2_dot, b3_dot)),
-                  cross_tuple(b2, b3_ddot))
-    rotation = (b1[0], b2[0], b3[0], b1[1], b2[1], b3[1], b1[2], b2[2], b3[2])
-    # vee(S) = ½ (S₃₂ - S₂₃, S₁₃ - S₃₁, S₂₁ - S₁₂)
-    rate = (0.5 * (dot(b3, b2_dot) - dot(b2, b3_dot)), 0.5 * (dot(b1, b3_dot) - dot(b3, b1_dot)),
-            0.5 * (dot(b2, b1_dot) - dot(b1, b2_dot)))
-    acceleration = (0.5 * (dot(b3, b2_ddot) - dot(b2, b3_ddot)),
-                    0.5 * (dot(b1, b3_ddot) - dot(b3, b1_ddot)),
-                    0.5 * (dot(b2, b1_ddot) - dot(b1, b2_ddot)))
-    return rotation, rate, acceleration
 
 
 @njit(cache=True)
@@ -223,19 +158,6 @@ def reference_at(table, r):
             (table[r, 5, 0], table[r, 5, 1], table[r, 5, 2]),
             (table[r, 6, 0], table[r, 6, 1], table[r, 6, 2]),
             (table[r, 7, 0], table[r, 7, 1], table[r, 7, 2]))
-
-
-@njit(cache=True)
-def desired_attitude_batch(force, force_dot, force_ddot, heading, heading_rate,
-                           heading_acceleration, rotation, rate, acceleration):
-    for i in range(force.shape[0]):
-        rd, rate_d, acceleration_d = desired_attitude(
-            row(force, i), row(force_dot, i), row(force_ddot, i), row(heading, i),
-            row(heading_rate, i), row(heading_acceleration, i))
-        for k in range(9):
-            rotation[i, k // 3, k % 3] = rd[k]
-        put(rate, i, rate_d)
-        put(acceleration, i, acceleration_d)
 
 
 @njit(cache=True)

@@ -34,7 +34,8 @@ class ReferencePolicy:
         core, controller = self.core, self.controller
         step = int(core.step_count[0])
         if self._last_step is None or step != self._last_step + 1:
-            controller.reset(1, core.vehicle, core.scenario.dt)
+            controller.reset(1, core.vehicle, core.scenario.dt,
+                             actuation=core.scenario.actuation)
         else:
             controller.applied(self._last_state, core.applied.thrust.copy(),
                                core.applied.moment.copy())

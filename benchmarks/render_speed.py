@@ -21,7 +21,7 @@ from baselines.policy import ReferencePolicy
 
 def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
-        env = gym.make("QuadDOB/Track-v0", scenario="paper-II", render_mode="rgb_array")
+        env = gym.make("QuadDOB/Track-v1", scenario="paper-II", render_mode="rgb_array")
         policy = ReferencePolicy("geometric-ndob:tuned", env)
         env = gym.wrappers.RecordVideo(env, folder, episode_trigger=lambda _: True,
                                        disable_logger=True)

@@ -26,7 +26,7 @@ CALM, WINDY = "paper-none", "dryden-helix-gusts"
 
 def single_env_steps_per_second(steps: int, scenario: str = CALM) -> float:
     """Random actions through ``gym.make`` (its checker wrappers included), resets counted."""
-    env = gym.make("QuadDOB/Track-v0", scenario=scenario)
+    env = gym.make("QuadDOB/Track-v1", scenario=scenario)
     env.reset(seed=0)
     actions = np.random.default_rng(0).uniform(-1, 1, (steps, 4)).astype(np.float32)
     for action in actions[:200]:  # compile and warm up
@@ -54,8 +54,8 @@ def batch_steps_per_second(n: int, steps: int, scenario: str = CALM) -> float:
 
 
 def vector_env(n: int, with_base: bool) -> QuadrotorVectorEnv:
-    """``QuadDOB/Track-v0`` (paper helix) as N vehicles; with the base, the residual twin
-    ``QuadDOB/TrackResidual-v0`` flown by geometric + NDOB (tuned observer)."""
+    """``QuadDOB/Track-v1`` (paper helix) as N vehicles; with the base, the residual twin
+    ``QuadDOB/TrackResidual-v1`` flown by geometric + NDOB (tuned observer)."""
     if with_base:
         return QuadrotorVectorEnv(n, CALM, base_controller="geometric-ndob:tuned")
     return QuadrotorVectorEnv(n, CALM)
@@ -106,7 +106,7 @@ def main() -> None:
     calm, windy = (single_env_steps_per_second(args.single_steps, s) for s in (CALM, WINDY))
     print("| measurement | calm | windy | windy / calm |")
     print("|---|---|---|---|")
-    print(f"| single env (gym.make QuadDOB/Track-v0, random actions, 100 Hz), steps/s | "
+    print(f"| single env (gym.make QuadDOB/Track-v1, random actions, 100 Hz), steps/s | "
           f"{calm:,.0f} | {windy:,.0f} | {windy / calm:.2f} |")
     for n in args.batch_sizes:
         steps = max(10, min(1000, args.batch_vehicle_steps // n))
@@ -114,7 +114,7 @@ def main() -> None:
         print(f"| batched core N = {n}, vehicle-steps/s | {calm:,.0f} | {windy:,.0f} | "
               f"{windy / calm:.2f} |")
     print(f"\nvector env (QuadrotorVectorEnv, {CALM}, next-step autoreset, info included); "
-          "base = geometric-ndob:tuned run inside it for all N (QuadDOB/TrackResidual-v0)\n")
+          "base = geometric-ndob:tuned run inside it for all N (QuadDOB/TrackResidual-v1)\n")
     print("| N | env-steps/s, bare | env-steps/s, base in the loop | base / bare | "
           "µs per env-step with base |")
     print("|---|---|---|---|---|")

@@ -1,7 +1,7 @@
 """How fast PPO (stable-baselines3) learns on the native vector env, residual mode.
 
 Run by hand: ``python benchmarks/training_speed.py [--timesteps 300000]``. Trains the
-``QuadDOB/TrackResidual-v0`` recipe of ``training/hyperparams/ppo.yml`` (dryden-helix-gusts,
+``QuadDOB/TrackResidual-v1`` recipe of ``training/hyperparams/ppo.yml`` (dryden-helix-gusts,
 geometric-ndob:tuned base) without evaluations or checkpoints and prints timesteps/s: the
 environment and the PPO update together, as a user sees it.
 """
@@ -24,7 +24,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--timesteps", type=int, default=300_000)
     args = parser.parse_args()
-    config = resolve_config("ppo", "residual", "QuadDOB/TrackResidual-v0", None,
+    config = resolve_config("ppo", "residual", "QuadDOB/TrackResidual-v1", None,
                             args.timesteps, None, seed=0)
     with tempfile.TemporaryDirectory() as folder:
         model = make_model(config, make_vec_env(config), Path(folder) / "tb")
@@ -34,7 +34,7 @@ def main() -> None:
         rate = args.timesteps / (time.perf_counter() - start)
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, torch {torch.__version__}")
-    print(f"PPO on QuadDOB/TrackResidual-v0 ({config['env_kwargs']['scenario']}, base "
+    print(f"PPO on QuadDOB/TrackResidual-v1 ({config['env_kwargs']['scenario']}, base "
           f"{config['base_controller']}), {config['n_envs']} envs: {rate:,.0f} timesteps/s")
 
 

@@ -7,28 +7,32 @@ matrix functions, counter-based per-vehicle noise, compiled loops split across c
 integrator), ``disturbances`` (forces, torques, wind, ground effect), ``trajectories``,
 ``scenarios``, ``envs``, ``wrappers`` (the residual wrapper).
 
-Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v0`` and
-``QuadDOB/Track-v0`` (direct control), and ``QuadDOB/HoverResidual-v0`` and
-``QuadDOB/TrackResidual-v0`` (a residual on top of ``base_controller``, default
-``geometric-ndob``); ``gym.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")``
-gives the native ``QuadrotorVectorEnv`` for each. ``wrappers`` sits below ``envs``.
+Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v1`` and
+``QuadDOB/Track-v1`` (direct control), and ``QuadDOB/HoverResidual-v1`` and
+``QuadDOB/TrackResidual-v1`` (a residual on top of ``base_controller``, default the
+recommended ``geometric-ndob:tuned``, in wind); ``gym.make_vec(id, num_envs=N,
+vectorization_mode="vector_entry_point")`` gives the native ``QuadrotorVectorEnv`` for each.
+``wrappers`` sits below ``envs``. The envs' version history is in ``QuadrotorEnv``'s
+docstring.
 """
 
 import gymnasium as gym
 
 from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
+from quad_dob_env.envs.residual import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.params import VEHICLES, VehicleParams, get_vehicle
 from quad_dob_env.scenarios import Scenario, list_scenarios, make_scenario
 
 __version__ = "0.1.0"
 
 ENV_IDS = {
-    "QuadDOB/Hover-v0": "hover-calm",
-    "QuadDOB/Track-v0": "paper-none",
-    "QuadDOB/HoverResidual-v0": "hover-calm",
-    "QuadDOB/TrackResidual-v0": "paper-none",
+    "QuadDOB/Hover-v1": "hover-calm",
+    "QuadDOB/Track-v1": "paper-none",
+    # a residual has something to learn only where there is something to reject
+    "QuadDOB/HoverResidual-v1": "gusty-hover",
+    "QuadDOB/TrackResidual-v1": "dryden-helix-gusts",
 }
-DEFAULT_BASE_CONTROLLER = "geometric-ndob"
+
 
 
 def _register() -> None:

@@ -4,6 +4,11 @@ Rotor geometry fixes the allocation matrix that maps the four rotor thrusts to t
 collective thrust and body moments, ``[f, Mx, My, Mz] = A @ rotor_thrusts``: a rotor at
 body position ``(px, py)`` pushing ``t`` along body +z adds ``py t`` to ``Mx``, ``-px t``
 to ``My``, and its drag torque ``spin * c * t`` to ``Mz``.
+
+Every number of every preset has its source in ``VEHICLE_SOURCES`` (the README tabulates
+it): the paper and Lee et al. 2010 for the paper vehicle's mass, inertia and arm; the UIUC
+propeller data of its 10-inch propeller class for its yaw moment per newton of thrust; our
+stated estimates for what the paper does not give (rotor limit, drag, motor lag).
 """
 
 from __future__ import annotations
@@ -50,11 +55,13 @@ class VehicleParams:
     drag_quadratic: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [N/(m/s)²]
     # First-order lag of each rotor's thrust; used where a scenario turns motor lag on.
     motor_time_constant: float = 0.0  # [s]
+    # Largest body rate the vehicle measures: the gyroscope's full-scale range.
+    max_body_rate: float = math.radians(2000.0)  # [rad/s]
     _matrices: dict = field(default=None, init=False, repr=False, compare=False, hash=False)
 
     def __post_init__(self) -> None:
         for name in ("mass", "arm_length", "torque_coefficient", "max_rotor_thrust",
-                     "rotor_radius", "gravity"):
+                     "rotor_radius", "gravity", "max_body_rate"):
             _require_positive(name, getattr(self, name))
         for name in ("drag_linear", "drag_quadratic"):
             values = np.asarray(getattr(self, name), dtype=float)
@@ -169,28 +176,72 @@ def _diagonal(a: float, b: float, c: float) -> tuple[tuple[float, float, float],
     return ((a, 0.0, 0.0), (0.0, b, 0.0), (0.0, 0.0, c))
 
 
+# Yaw moment per newton of thrust of the paper vehicle's propeller class (10-inch, R = 0.127 m):
+# UIUC Propeller Data Site, APC 10x4.7 Slow Flyer, static test (Brandt & Selig, AIAA
+# 2011-1255), C_T = 0.1155 and C_P = 0.0474 at 4319 RPM; Q/T = C_P D / (2π C_T) = 0.0166 m.
+APC_10X47_TORQUE_COEFFICIENT = 0.0474 * 0.254 / (2 * math.pi * 0.1155)
+# Lee, Leok, McClamroch 2010 print c_τf = 8.004e-4 m: 20x less than a 10-inch propeller makes,
+# at most 0.04 N m of yaw on this vehicle. Kept by name to show what it cannot fly.
+LEE_TORQUE_COEFFICIENT = 8.004e-4
+
 VEHICLES: dict[str, VehicleParams] = {
-    # Lee, Leok, McClamroch 2010 and the paper: 4.34 kg, arm 0.315 m, c = 8.004e-4 m.
-    # Rotor thrust limit (thrust/weight 2.35) and 10-inch rotors are our choice; the
-    # paper gives neither.
     "paper": VehicleParams(
         name="paper", mass=4.34, inertia=_diagonal(0.0820, 0.0845, 0.1377), arm_length=0.315,
-        torque_coefficient=8.004e-4, max_rotor_thrust=25.0, rotor_radius=0.127,
-        configuration="plus",
-        # Our estimates for a 4 kg, 0.1 m² frontal-area frame (Cd ≈ 1): ½ ρ Cd A ≈ 0.06, plus
-        # rotor-induced linear drag; 10-inch motors settle in about 40 ms.
+        torque_coefficient=APC_10X47_TORQUE_COEFFICIENT, max_rotor_thrust=25.0,
+        rotor_radius=0.127, configuration="plus",
         drag_linear=(0.3, 0.3, 0.4), drag_quadratic=(0.06, 0.06, 0.1), motor_time_constant=0.04,
     ),
-    # Bitcraze Crazyflie 2.x: 27 g, 46 mm arms in X, thrust/weight 2.25, 23 mm rotors,
-    # drag/thrust ratio 7.94e-12 / 3.16e-10 (as in gym-pybullet-drones).
     "crazyflie": VehicleParams(
         name="crazyflie", mass=0.027, inertia=_diagonal(1.4e-5, 1.4e-5, 2.17e-5),
         arm_length=0.046, torque_coefficient=7.94e-12 / 3.16e-10,
         max_rotor_thrust=2.25 * 0.027 * 9.81 / 4, rotor_radius=0.0231, configuration="x",
-        # rotorpy's Crazyflie drag (c_Dx = c_Dy = 0.5e-2, c_Dz = 1e-2) and rotor drag
-        drag_linear=(0.01, 0.01, 0.015), drag_quadratic=(0.005, 0.005, 0.01),
+        # Förster 2015: F_aero = K Σω (R^T v), K = diag(10.2506, 10.2506, 7.4064)e-7 kg/rad,
+        # at the hover rotor speed Σω = 4 x 1697 rad/s (k_F = 2.3e-8 N/(rad/s)², 27 g)
+        drag_linear=(6.96e-3, 6.96e-3, 5.03e-3), drag_quadratic=(0.0, 0.0, 0.0),
         motor_time_constant=0.015,
     ),
+}
+
+# Where every number of each preset comes from (a test holds every field to a source).
+VEHICLE_SOURCES: dict[str, dict[str, str]] = {
+    "paper": {
+        "mass": "the paper and Lee, Leok, McClamroch 2010 (4.34 kg)",
+        "inertia": "Lee 2010, diag(0.0820, 0.0845, 0.1377) kg m² (the paper prints 0.13377)",
+        "arm_length": "Lee 2010, d = 0.315 m",
+        "torque_coefficient": "UIUC Propeller Data Site, APC 10x4.7 SF static: C_T = 0.1155, "
+                              "C_P = 0.0474 at 4319 RPM, Q/T = C_P D/(2π C_T) = 0.0166 m "
+                              "(Lee 2010's 8.004e-4 m is LEE_TORQUE_COEFFICIENT)",
+        "max_rotor_thrust": "our choice, 25 N (thrust/weight 2.35); the paper gives none",
+        "rotor_radius": "our choice, a 10-inch propeller (0.127 m), the class whose C_T, C_P "
+                        "set torque_coefficient",
+        "configuration": "Lee 2010, plus (rotors on the body axes)",
+        "gravity": "the paper, 9.81 m/s²",
+        "drag_linear": "our estimate: rotor-induced drag of four 10-inch rotors at hover, "
+                       "0.3 N s/m horizontal, 0.4 vertical",
+        "drag_quadratic": "our estimate: ½ ρ C_d A with ρ = 1.2 kg/m³, C_d ≈ 1, A ≈ 0.1 m² "
+                          "frontal (0.06 N s²/m²), 0.17 m² from above (0.1)",
+        "motor_time_constant": "our estimate for 10-inch brushless motors, 40 ms",
+        "max_body_rate": "±2000 °/s, the full-scale range of the MPU-6000 / ICM-20602 "
+                         "gyroscopes autopilots fly with (InvenSense datasheets)",
+    },
+    "crazyflie": {
+        "mass": "Bitcraze Crazyflie 2.x, 27 g",
+        "inertia": "Förster 2015 (System identification of the Crazyflie 2.0), "
+                   "diag(1.4e-5, 1.4e-5, 2.17e-5) kg m², as in gym-pybullet-drones",
+        "arm_length": "Bitcraze, 46 mm from centre to motor",
+        "torque_coefficient": "gym-pybullet-drones cf2x.urdf, k_M/k_F = 7.94e-12 / 3.16e-10 m",
+        "max_rotor_thrust": "gym-pybullet-drones cf2x, thrust/weight 2.25",
+        "rotor_radius": "Bitcraze 45 mm propellers, 23.1 mm",
+        "configuration": "Bitcraze, X",
+        "gravity": "standard gravity, 9.81 m/s²",
+        "drag_linear": "Förster 2015 rotor drag K = diag(10.2506, 10.2506, 7.4064)e-7 kg/rad "
+                       "times Σω = 6788 rad/s at hover (as rotorpy 3's k_d, k_z)",
+        "drag_quadratic": "zero: rotorpy 3 sets the Crazyflie's parasitic drag c_D to zero",
+        "motor_time_constant": "our estimate, 15 ms for the thrust (rotorpy's tau_m = 72 ms "
+                               "is for the rotor speed)",
+        "max_body_rate": "±2000 °/s, the full-scale range of the Crazyflie 2.x's BMI088 "
+                         "gyroscope (Bosch datasheet)",
+    },
 }
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_env.disturbances import (
+    DRYDEN_INTENSITIES,
     AtanRamp,
     Constant,
     Disturbance,
@@ -25,6 +26,7 @@ from quad_dob_env.disturbances import (
     GroundEffect,
     Gust,
 )
+from quad_dob_env.feasibility import Feasibility, check_reference, refusal
 from quad_dob_env.params import ACTUATIONS, VehicleParams, get_vehicle
 from quad_dob_env.so3 import project_to_so3
 from quad_dob_env.trajectories import Hover, PaperHelix, TakeoffHoverLanding, Trajectory
@@ -36,6 +38,21 @@ PAPER_FORCE = (1.3, 2.0, 2.6)
 # kR = 8.81 cannot hold; the default reads it as d_Ω = 0.6 d_x.
 TORQUE_READINGS: dict[str, float] = {"0.6*dx": 0.6, "dx/0.6": 1 / 0.6}
 
+
+# Wind presets, for a vehicle of the paper's size flown 1-10 m above the ground: the mean
+# wind at the flight altitude [m/s] and the MIL-F-8785C turbulence, given by its wind speed
+# at 20 ft (W20 [m/s]: light 15 kt, moderate 30 kt; "calm" 2 m/s). The spec ties a mean wind
+# of W20 to each turbulence level; a 4 kg multirotor is not flown in 15 m/s of mean wind, so
+# the mean here is set apart and leaves thrust margin (the drag of 6 m/s is 5 N, 12 % of
+# the weight).
+WIND_PRESETS: dict[str, tuple[float, float]] = {
+    "calm": (1.0, 2.0),
+    "light": (3.0, DRYDEN_INTENSITIES["light"]),
+    "moderate": (6.0, DRYDEN_INTENSITIES["moderate"]),
+}
+HELIX_ALTITUDE = 2.0  # [m] centre of the wind helix: it flies 1.4-2.6 m above the floor
+# The landings end at 8 cm: the ground-effect laws are clamped at R/2 = 6.35 cm below that.
+LANDING_HEIGHT = 0.08
 
 # Bounds that keep a typo from asking for an absurd experiment: a control period from
 # 0.1 ms to 0.1 s, at most a million steps per episode (its reference is tabulated), and
@@ -94,6 +111,11 @@ class Randomization:
 class Scenario:
     """Everything but the policy: what the vehicle must track, what disturbs it, for how long.
 
+    Every scenario is checked on construction: its reference's thrust, moments, rotor thrusts
+    and body rate by differential flatness (``quad_dob_env.feasibility``) must fit the
+    vehicle's limits, or it is refused with the axis and the numbers (``allow_infeasible``
+    builds it anyway); ``feasibility`` holds the margins.
+
     Initial state: ``initial_position`` plus a uniform offset in ``±initial_position_noise``
     per axis; ``initial_rotation`` times ``exp`` of a uniform rotation vector in
     ``±initial_attitude_noise`` per axis; the given velocity and body rates.
@@ -121,6 +143,9 @@ class Scenario:
     sensors: SensorNoise | None = None
     randomization: Randomization | None = None
     description: str = field(default="", compare=False)
+    # A reference that needs more than the actuators give is refused unless this is set.
+    allow_infeasible: bool = field(default=False, compare=False)
+    feasibility: Feasibility = field(init=False, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.vehicle, VehicleParams):
@@ -182,6 +207,11 @@ class Scenario:
         object.__setattr__(self, "initial_rotation",
                            tuple(tuple(row) for row in project_to_so3(rotation).tolist()))
         object.__setattr__(self, "duration", duration)
+        feasibility = check_reference(self.trajectory, self.vehicle, self.actuation, duration,
+                                      dt)
+        if not feasibility.feasible and not self.allow_infeasible:
+            raise ValueError(refusal(self.name, self.vehicle, self.actuation, feasibility))
+        object.__setattr__(self, "feasibility", feasibility)
 
     @property
     def steps(self) -> int:
@@ -226,11 +256,13 @@ def _ground_effect_landing(*, vehicle: str | VehicleParams = "paper",
                            model: str = "paper") -> Scenario:
     return Scenario(
         name="ground-effect-landing", vehicle=get_vehicle(vehicle),
-        trajectory=TakeoffHoverLanding(start_height=0.15, hover_height=0.15, end_height=0.05,
-                                       climb_time=0.0, hover_time=2.0, descent_time=3.0),
+        trajectory=TakeoffHoverLanding(start_height=0.15, hover_height=0.15,
+                                       end_height=LANDING_HEIGHT, climb_time=0.0,
+                                       hover_time=2.0, descent_time=3.0),
         duration=8.0, ground_effect=GroundEffect(model), floor_height=0.0,
         initial_position=(0.0, 0.0, 0.15),
-        description=f"Hover at 0.15 m, descend to 0.05 m in ground effect ({model} law)",
+        description=f"Hover at 0.15 m, descend to {LANDING_HEIGHT} m in ground effect "
+                    f"({model} law; it holds down to R/2 = 0.064 m)",
     )
 
 
@@ -251,20 +283,44 @@ def _hover(*, vehicle: str | VehicleParams = "paper", height: float = 1.0,
     )
 
 
-def _dryden_helix(*, vehicle: str | VehicleParams = "paper", intensity: str = "moderate",
-                  gusts: bool = False, wind_scale: float = 1.0) -> Scenario:
-    # wind_scale multiplies the mean wind and the turbulence (for sweeps over intensity)
+def _wind(preset: str, altitude: float, wind_scale: float) -> Dryden:
+    """The preset's mean wind and turbulence for a vehicle flying at ``altitude``, from a
+    direction drawn at reset; ``wind_scale`` multiplies both (for sweeps over intensity)."""
+    if preset not in WIND_PRESETS:
+        raise unknown_name_error("wind preset", preset, WIND_PRESETS)
+    mean_speed, turbulence = WIND_PRESETS[preset]
     scale = as_finite(wind_scale, "wind_scale", 0.0)
-    disturbance: Disturbance = Dryden(intensity, altitude=2.0, direction=None,
-                                      intensity_scale=None if scale == 1.0 else (scale, scale))
-    if gusts:
-        disturbance = disturbance + _gust_pair()
+    return Dryden(wind_speed_6m=turbulence, altitude=altitude, direction=None,
+                  mean_wind_speed=mean_speed,
+                  intensity_scale=None if scale == 1.0 else (scale, scale))
+
+
+def _wind_words(preset: str, dryden: Dryden) -> str:
+    sigma_u, _, sigma_w = dryden.sigmas
+    return (f"{preset} wind at {dryden.altitude:g} m: {dryden.mean_speed:g} m/s mean from a "
+            f"random direction, Dryden turbulence with σ_u = σ_v = {sigma_u:.2f} m/s, "
+            f"σ_w = {sigma_w:.2f} m/s")
+
+
+def _dryden_helix(*, vehicle: str | VehicleParams = "paper", wind: str = "moderate",
+                  gusts: bool = False, wind_scale: float = 1.0,
+                  altitude: float = HELIX_ALTITUDE) -> Scenario:
+    height = as_finite(altitude, "altitude", PaperHelix().terms[1][1], strictly=True)
+    dryden = _wind(wind, height, wind_scale)
+    disturbance: Disturbance = dryden + _gust_pair() if gusts else dryden
+    # the paper's position reference with the heading held along +x: the paper's heading
+    # turning at π rad/s needs more yaw moment than rotor drag gives (quad-dob list)
+    helix = PaperHelix(yaw_rate=0.0, altitude=height)
+    start = helix.evaluate(0.0)
     return Scenario(
         name="dryden-helix-gusts" if gusts else "dryden-helix", vehicle=get_vehicle(vehicle),
-        trajectory=PaperHelix(), duration=10.0, disturbance=disturbance, drag=True,
-        motor_lag=True,
-        description=f"Paper helix in {intensity} Dryden turbulence with its mean wind, from a "
-                    "random direction" + (", plus two 1-cosine gusts" if gusts else "")
+        trajectory=helix, duration=10.0, disturbance=disturbance, drag=True, motor_lag=True,
+        floor_height=0.0, initial_position=tuple(start.position[0]),
+        initial_velocity=tuple(start.velocity[0]),
+        description=f"Paper helix x_d = [0.4t, 0.4 sin πt, {height:g} + 0.6 cos πt] over a "
+                    "floor, heading fixed along +x, started on the reference; "
+                    + _wind_words(wind, dryden)
+                    + ("; two 1-cosine gusts, 4 m/s at 2 s, 4 m/s at 6 s" if gusts else "")
                     + "; drag, motor lag, physical rotors",
     )
 
@@ -274,27 +330,34 @@ def _gust_pair() -> Disturbance:
             + Gust(4.0, direction=(0.0, 1.0, 0.3), start=6.0, length=5.0, speed=10.0))
 
 
-def _gusty_hover(*, vehicle: str | VehicleParams = "paper") -> Scenario:
+def _gusty_hover(*, vehicle: str | VehicleParams = "paper", wind: str = "light",
+                 wind_scale: float = 1.0, height: float = 1.0) -> Scenario:
+    dryden = _wind(wind, as_finite(height, "height", 0.0, strictly=True), wind_scale)
     return Scenario(
-        name="gusty-hover", vehicle=get_vehicle(vehicle), trajectory=Hover((0.0, 0.0, 1.0)),
-        duration=10.0, disturbance=Dryden("light", altitude=1.0, direction=None) + _gust_pair(),
-        floor_height=0.0, initial_position=(0.0, 0.0, 1.0), drag=True, motor_lag=True,
-        description="Hover at 1 m in light Dryden turbulence and two 4 m/s 1-cosine gusts; "
-                    "drag, motor lag, physical rotors",
+        name="gusty-hover", vehicle=get_vehicle(vehicle), trajectory=Hover((0.0, 0.0, height)),
+        duration=10.0, disturbance=dryden + _gust_pair(), floor_height=0.0,
+        initial_position=(0.0, 0.0, height), drag=True, motor_lag=True,
+        description=f"Hover at {height:g} m in " + _wind_words(wind, dryden)
+                    + "; two 1-cosine gusts, 4 m/s at 2 s, 4 m/s at 6 s; drag, motor lag, "
+                      "physical rotors",
     )
 
 
-def _takeoff_landing_wind(*, vehicle: str | VehicleParams = "paper") -> Scenario:
+def _takeoff_landing_wind(*, vehicle: str | VehicleParams = "paper", wind: str = "light",
+                          wind_scale: float = 1.0) -> Scenario:
+    dryden = _wind(wind, 1.0, wind_scale)
     return Scenario(
         name="takeoff-landing-wind", vehicle=get_vehicle(vehicle),
-        trajectory=TakeoffHoverLanding(start_height=0.05, hover_height=1.0, end_height=0.05,
-                                       climb_time=3.0, hover_time=3.0, descent_time=3.0),
-        duration=10.0, disturbance=Dryden("light", altitude=1.0, direction=None) + Gust(
+        trajectory=TakeoffHoverLanding(start_height=LANDING_HEIGHT, hover_height=1.0,
+                                       end_height=LANDING_HEIGHT, climb_time=3.0,
+                                       hover_time=3.0, descent_time=3.0),
+        duration=10.0, disturbance=dryden + Gust(
             3.0, direction=(1.0, 1.0, 0.0), start=4.0, length=10.0, speed=10.0),
         ground_effect=GroundEffect("paper"), floor_height=0.0,
-        initial_position=(0.0, 0.0, 0.05), drag=True, motor_lag=True,
-        description="Take off from 5 cm, hover at 1 m, land to 5 cm through ground effect in "
-                    "light turbulence and a 3 m/s gust; drag, motor lag, physical rotors",
+        initial_position=(0.0, 0.0, LANDING_HEIGHT), drag=True, motor_lag=True,
+        description=f"Take off from {LANDING_HEIGHT} m, hover at 1 m, land to "
+                    f"{LANDING_HEIGHT} m through ground effect in " + _wind_words(wind, dryden)
+                    + "; a 3 m/s 1-cosine gust at 4 s; drag, motor lag, physical rotors",
     )
 
 
@@ -317,10 +380,10 @@ _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "ground-effect-landing": tuple(inspect.signature(_ground_effect_landing).parameters),
     "hover-calm": tuple(inspect.signature(_hover).parameters),
     "hover-step-force": ("vehicle", "height"),
-    "dryden-helix": ("vehicle", "intensity", "wind_scale"),
-    "dryden-helix-gusts": ("vehicle", "intensity", "wind_scale"),
-    "gusty-hover": ("vehicle",),
-    "takeoff-landing-wind": ("vehicle",),
+    "dryden-helix": ("vehicle", "wind", "wind_scale", "altitude"),
+    "dryden-helix-gusts": ("vehicle", "wind", "wind_scale", "altitude"),
+    "gusty-hover": tuple(inspect.signature(_gusty_hover).parameters),
+    "takeoff-landing-wind": tuple(inspect.signature(_takeoff_landing_wind).parameters),
 }
 
 

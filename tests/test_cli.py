@@ -7,7 +7,12 @@ from training.cli import main
 def test_list_names_ids_and_scenarios(capsys):
     assert main(["list"]) == 0
     out = capsys.readouterr().out
-    assert "QuadDOB/Track-v0" in out and "ground-effect-landing" in out
+    assert "QuadDOB/Track-v1" in out and "ground-effect-landing" in out
+    # every scenario's feasibility margins, the controllers and the wind presets
+    assert out.count("margins thrust") == out.count("actuation; margins") >= 11
+    assert "rotors +22%" in out  # the wind helix: its tightest axis
+    assert "Controllers: geometric, geometric-ndob, geometric-ndob:tuned, pid, smc" in out
+    assert "moderate" in out and "Policies:" in out
 
 
 def test_console_script_rejects_an_unknown_command():

@@ -9,7 +9,7 @@ import quad_dob_env  # noqa: F401
 from quad_dob_env.envs import QuadrotorBatch, QuadrotorEnv
 from quad_dob_env.scenarios import make_scenario
 
-IDS = ["QuadDOB/Hover-v0", "QuadDOB/Track-v0"]
+IDS = ["QuadDOB/Hover-v1", "QuadDOB/Track-v1"]
 STILL = {"initial_position_noise": 0.0, "initial_attitude_noise": 0.0}
 
 
@@ -36,10 +36,10 @@ def rollout(env, seed, steps=300, action_seed=1):
 
 
 def test_same_seed_gives_bit_identical_rollouts():
-    first = rollout(gym.make("QuadDOB/Hover-v0"), seed=42)
-    second = rollout(gym.make("QuadDOB/Hover-v0"), seed=42)
+    first = rollout(gym.make("QuadDOB/Hover-v1"), seed=42)
+    second = rollout(gym.make("QuadDOB/Hover-v1"), seed=42)
     assert all(np.array_equal(a, b) for a, b in zip(first, second, strict=True))
-    other = rollout(gym.make("QuadDOB/Hover-v0"), seed=43)
+    other = rollout(gym.make("QuadDOB/Hover-v1"), seed=43)
     assert not np.array_equal(first[0], other[0])
 
 
@@ -209,7 +209,7 @@ def test_bad_env_arguments_are_named(kwargs, message):
 
 
 def test_gym_make_passes_the_scenario_through():
-    env = gym.make("QuadDOB/Track-v0", scenario="paper-II",
+    env = gym.make("QuadDOB/Track-v1", scenario="paper-II",
                    scenario_options={"torque_reading": "dx/0.6"})
     assert env.unwrapped.scenario.name == "paper-II"
     assert env.unwrapped.metadata["render_fps"] == 100

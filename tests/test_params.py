@@ -1,14 +1,33 @@
+import dataclasses
+
 import numpy as np
 import pytest
 
-from quad_dob_env.params import VEHICLES, VehicleParams, get_vehicle
+from quad_dob_env.params import VEHICLE_SOURCES, VEHICLES, VehicleParams, get_vehicle
 
 
 def test_paper_preset_matches_the_paper():
     p = get_vehicle("paper")
     assert p.mass == 4.34
     np.testing.assert_array_equal(np.diag(p.inertia_matrix), [0.0820, 0.0845, 0.1377])
-    assert p.arm_length == 0.315 and p.torque_coefficient == 8.004e-4
+    assert p.arm_length == 0.315
+
+
+def test_paper_yaw_coefficient_is_that_of_a_10_inch_propeller():
+    # UIUC APC 10x4.7 static data: C_T = 0.1155, C_P = 0.0474; Q/T = C_P D / (2 pi C_T)
+    p = get_vehicle("paper")
+    assert p.torque_coefficient == pytest.approx(0.0474 * 0.254 / (2 * np.pi * 0.1155))
+    assert 0.015 < p.torque_coefficient < 0.018
+    assert p.rotor_radius == pytest.approx(0.254 / 2)
+
+
+@pytest.mark.parametrize("name", list(VEHICLES))
+def test_every_preset_number_has_a_source(name):
+    numbers = [f.name for f in dataclasses.fields(VehicleParams)
+               if not f.name.startswith("_") and f.name != "name"]
+    sources = VEHICLE_SOURCES[name]
+    assert sorted(sources) == sorted(numbers)
+    assert all(len(text) > 10 for text in sources.values())
 
 
 @pytest.mark.parametrize("name", list(VEHICLES))

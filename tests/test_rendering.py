@@ -10,7 +10,7 @@ SHORT = {"duration": 0.5}
 
 
 def test_rgb_array_frames_show_the_flight_and_change_as_it_moves():
-    env = gym.make("QuadDOB/TrackResidual-v0", scenario="dryden-helix-gusts",
+    env = gym.make("QuadDOB/TrackResidual-v1", scenario="dryden-helix-gusts",
                    render_mode="rgb_array")
     env.reset(seed=0)
     first = env.render()
@@ -28,7 +28,7 @@ def test_rgb_array_frames_show_the_flight_and_change_as_it_moves():
 
 def test_record_video_writes_a_file(tmp_path):
     env = gym.wrappers.RecordVideo(
-        gym.make("QuadDOB/Hover-v0", scenario="gusty-hover", scenario_options=SHORT,
+        gym.make("QuadDOB/Hover-v1", scenario="gusty-hover", scenario_options=SHORT,
                  render_mode="rgb_array"), str(tmp_path / "videos"), episode_trigger=lambda _: True,
         disable_logger=True)
     env.reset(seed=0)

@@ -18,8 +18,8 @@ SHORT = {"duration": 0.3}
 
 
 def test_zero_residual_flies_exactly_the_base_controller():
-    env = gym.make("QuadDOB/TrackResidual-v0", scenario=SCENARIO, base_controller=BASE)
-    vector = gym.make_vec("QuadDOB/TrackResidual-v0", num_envs=3,
+    env = gym.make("QuadDOB/TrackResidual-v1", scenario=SCENARIO, base_controller=BASE)
+    vector = gym.make_vec("QuadDOB/TrackResidual-v1", num_envs=3,
                           vectorization_mode="vector_entry_point", scenario=SCENARIO,
                           base_controller=BASE)
     env.reset(seed=2)
@@ -38,8 +38,9 @@ def test_zero_residual_flies_exactly_the_base_controller():
 
 def test_residual_adds_its_scaled_share_of_the_limits():
     # wrench actuation: moment limits of 7.9 N m on every axis, far from the base's command
-    env = gym.make("QuadDOB/HoverResidual-v0", base_controller="geometric",
-                   scenario_options={"actuation": "wrench"}, thrust_scale=0.2,
+    env = gym.make("QuadDOB/HoverResidual-v1", base_controller="geometric",
+                   scenario="hover-calm", scenario_options={"actuation": "wrench"},
+                   thrust_scale=0.2,
                    moment_scale=0.05)
     _, info = env.reset(seed=0)
     vehicle = env.unwrapped.core.vehicle
@@ -57,7 +58,7 @@ def test_residual_adds_its_scaled_share_of_the_limits():
 
 
 def test_residual_observation_carries_the_base_command_and_estimates():
-    env = gym.make("QuadDOB/TrackResidual-v0", scenario="paper-II",
+    env = gym.make("QuadDOB/TrackResidual-v1", scenario="paper-II",
                    base_controller=BASE)
     obs, _ = env.reset(seed=0)
     assert obs.shape == (40,) and env.observation_space.contains(obs)
@@ -76,15 +77,16 @@ def test_residual_observation_carries_the_base_command_and_estimates():
 def test_residual_envs_pass_the_checkers():
     with pytest.warns(UserWarning, match="different from the unwrapped"):
         check_env(ResidualActionWrapper(QuadrotorEnv("hover-calm")), skip_render_check=True)
-    sb3_check_env(gym.make("QuadDOB/TrackResidual-v0"), warn=False)
+    sb3_check_env(gym.make("QuadDOB/TrackResidual-v1"), warn=False)
 
 
 def test_vector_residual_equals_single_residual_envs_through_autoresets():
     n, steps = 3, 70
     vector = QuadrotorVectorEnv(n, "gusty-hover", scenario_options=SHORT,
                                 base_controller="geometric-ndob")
-    singles = [gym.make("QuadDOB/HoverResidual-v0", scenario="gusty-hover",
-                        scenario_options=SHORT) for _ in range(n)]
+    singles = [gym.make("QuadDOB/HoverResidual-v1", scenario="gusty-hover",
+                        scenario_options=SHORT, base_controller="geometric-ndob")
+               for _ in range(n)]
     obs, _ = vector.reset(seed=5)
     for i, env in enumerate(singles):
         np.testing.assert_array_equal(obs[i], env.reset(seed=5 + i)[0])
@@ -161,6 +163,15 @@ def test_sb3_adapter_runs_in_residual_mode():
 
 def test_bad_base_controller_is_named():
     with pytest.raises(ValueError, match=r"controller 'geometric-dob'.*valid: geometric"):
-        gym.make("QuadDOB/TrackResidual-v0", base_controller="geometric-dob")
+        gym.make("QuadDOB/TrackResidual-v1", base_controller="geometric-dob")
     with pytest.raises(ValueError, match="thrust_scale"):
-        gym.make("QuadDOB/TrackResidual-v0", thrust_scale=0.0)
+        gym.make("QuadDOB/TrackResidual-v1", thrust_scale=0.0)
+
+
+@pytest.mark.parametrize("env_id", ["QuadDOB/HoverResidual-v1", "QuadDOB/TrackResidual-v1"])
+def test_residual_ids_default_to_the_recommended_base_in_wind(env_id):
+    env = gym.make(env_id)
+    assert env.get_wrapper_attr("residual").controller.name == "geometric-ndob:tuned"
+    scenario = env.unwrapped.core.scenario
+    assert scenario.drag and scenario.disturbance is not None
+    assert "Dryden" in repr(scenario.disturbance)

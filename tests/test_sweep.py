@@ -82,7 +82,7 @@ def test_bad_sweep_configs_are_named(tmp_path):
 
 def test_a_training_sweep_trains_and_scores_each_combination(tmp_path):
     config = tmp_path / "train.yaml"
-    config.write_text("kind: train\nname: tiny\nenv: QuadDOB/HoverResidual-v0\n"
+    config.write_text("kind: train\nname: tiny\nenv: QuadDOB/HoverResidual-v1\n"
                       "scenario: hover-calm\ntimesteps: 256\nn_envs: 8\n"
                       "grid:\n  seed: [0, 1]\n  n_steps: [32]\n  batch_size: [64]\n"
                       "seeds: 7-8\n")

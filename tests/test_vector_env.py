@@ -10,7 +10,7 @@ SHORT = {"duration": 0.3}  # 30 steps, so episodes end and autoreset inside the 
 
 
 def test_make_vec_gives_the_native_vector_env_with_batched_spaces():
-    env = gym.make_vec("QuadDOB/Track-v0", num_envs=6, vectorization_mode="vector_entry_point")
+    env = gym.make_vec("QuadDOB/Track-v1", num_envs=6, vectorization_mode="vector_entry_point")
     assert isinstance(env.unwrapped, QuadrotorVectorEnv)
     assert env.observation_space.shape == (6, 24) and env.action_space.shape == (6, 4)
     obs, info = env.reset(seed=0)
@@ -109,9 +109,9 @@ def test_ppo_trains_a_few_thousand_steps_on_the_adapter():
 
 def test_native_vector_env_matches_gymnasiums_sync_vector_env_through_autoresets():
     kwargs = {"scenario": "gusty-hover", "scenario_options": SHORT}
-    native = gym.make_vec("QuadDOB/Hover-v0", num_envs=3,
+    native = gym.make_vec("QuadDOB/Hover-v1", num_envs=3,
                           vectorization_mode="vector_entry_point", **kwargs)
-    reference = gym.make_vec("QuadDOB/Hover-v0", num_envs=3, vectorization_mode="sync",
+    reference = gym.make_vec("QuadDOB/Hover-v1", num_envs=3, vectorization_mode="sync",
                              **kwargs)
     assert native.observation_space == reference.observation_space
     assert native.action_space == reference.action_space

@@ -119,12 +119,25 @@ def test_drag_opposes_the_air_relative_velocity_and_follows_its_formula():
     relative = state.velocity - wind
     assert np.all(np.einsum("ni,ni->n", drag, relative) < 0)
     body = np.einsum("nji,nj->ni", state.rotation, relative)
+    airspeed = np.linalg.norm(relative, axis=1, keepdims=True)
     expected_body = -(np.array(PAPER.drag_linear)
-                      + np.array(PAPER.drag_quadratic) * np.abs(body)) * body
+                      + np.array(PAPER.drag_quadratic) * airspeed) * body
     np.testing.assert_allclose(drag, np.einsum("nij,nj->ni", state.rotation, expected_body),
                                atol=1e-12)
     still, _ = accelerations(state, 0.0, np.zeros(3), PAPER, wind=state.velocity, drag=True)
     np.testing.assert_allclose(still, np.tile([0, 0, -PAPER.gravity], (20, 1)), atol=1e-12)
+
+
+def test_drag_does_not_depend_on_the_heading_to_the_wind():
+    # a vehicle with equal x and y coefficients is round in the horizontal plane: the same
+    # 5 m/s wind along body x and at 45 degrees to it must push equally hard
+    state = VehicleState.at_rest(2)
+    state.rotation[1] = exp(np.array([[0.0, 0.0, np.pi / 4]]))[0]
+    wind = np.array([[5.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
+    linear, _ = accelerations(state, 0.0, np.zeros(3), PAPER, wind=wind, drag=True)
+    push = np.linalg.norm((linear + np.array([0.0, 0.0, PAPER.gravity])) * PAPER.mass, axis=1)
+    expected = PAPER.drag_linear[0] * 5.0 + PAPER.drag_quadratic[0] * 25.0
+    np.testing.assert_allclose(push, [expected, expected], rtol=1e-12)
 
 
 def test_motor_lag_is_an_exact_first_order_response():

@@ -9,14 +9,24 @@ from pathlib import Path
 
 def _list(_: argparse.Namespace) -> int:
     import quad_dob_env
-    from quad_dob_env.scenarios import make_scenario
+    from baselines import CONTROLLERS
+    from quad_dob_env.scenarios import WIND_PRESETS, make_scenario
 
     print("Environment ids:")
     for env_id, scenario in quad_dob_env.ENV_IDS.items():
-        print(f"  {env_id:<20} default scenario {scenario}")
-    print("Scenarios:")
+        print(f"  {env_id:<26} default scenario {scenario}")
+    print("Scenarios (margins: share of each actuator limit the reference leaves, by "
+          "differential flatness without disturbance):")
     for name in quad_dob_env.list_scenarios():
-        print(f"  {name:<22} {make_scenario(name).description}")
+        scenario = make_scenario(name)
+        print(f"  {name:<22} {scenario.description}")
+        print(f"  {'':<22} {scenario.actuation} actuation; margins "
+              f"{scenario.feasibility.summary()}")
+    print("Wind presets (mean wind at the flight altitude, turbulence W20 of MIL-F-8785C):")
+    for name, (mean, w20) in WIND_PRESETS.items():
+        print(f"  {name:<10} {mean:g} m/s mean, W20 = {w20:.2f} m/s")
+    print("Controllers:", ", ".join(CONTROLLERS))
+    print("Policies: any controller, residual (the shipped policy), residual:PATH, ppo:PATH")
     print("Vehicles:", ", ".join(quad_dob_env.VEHICLES))
     return 0
 
@@ -40,7 +50,13 @@ def _evaluate(args: argparse.Namespace) -> int:
     from training.evaluate import main as evaluate_main
 
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
-                         args.json)
+                         args.json, args.baseline)
+
+
+def _tune(args: argparse.Namespace) -> int:
+    from training.tune import main as tune_main
+
+    return tune_main(_names(args.controllers), args.out)
 
 
 def _replay(args: argparse.Namespace) -> int:
@@ -102,7 +118,7 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--algo", default="ppo", help="algorithm (default: %(default)s)")
     train.add_argument("--mode", default="residual", help="residual or direct "
                        "(default: %(default)s)")
-    train.add_argument("--env", default="QuadDOB/TrackResidual-v0",
+    train.add_argument("--env", default="QuadDOB/TrackResidual-v1",
                        help="env id; its hyperparameters come from "
                        "training/hyperparams/ppo.yml (default: %(default)s)")
     train.add_argument("--scenario", default=None, help="scenario (default: the yml's)")
@@ -131,8 +147,19 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--seeds", default="9001-9020",
                           help="a count N (seeds 0..N-1) or a range A-B (default: %(default)s)")
     evaluate.add_argument("--out", type=Path, default=Path("results/evaluation"))
+    evaluate.add_argument("--baseline", default=None,
+                          help="controller every policy is compared with, paired over the "
+                          "seeds with 95 %% bootstrap intervals; '' for none (default: the "
+                          "recommended base, geometric-ndob:tuned)")
     evaluate.add_argument("--json", action="store_true", help="print the rows as JSON")
     evaluate.set_defaults(handler=_evaluate)
+    tune = commands.add_parser(
+        "tune", help="choose the baselines' gains and the observer rates on tuning seeds "
+        "(100-109), by the procedure in training/tune.py")
+    tune.add_argument("--controllers", default="geometric-ndob,pid,smc",
+                      help="comma-separated: pid, smc, geometric-ndob (default: %(default)s)")
+    tune.add_argument("--out", type=Path, default=Path("results/tuning"))
+    tune.set_defaults(handler=_tune)
     replay = commands.add_parser(
         "replay", help="render one episode of one or more policies (side by side) to a video")
     replay.add_argument("--policy", default="geometric,geometric-ndob:tuned",
@@ -159,7 +186,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="local processes (default: every core); with --ray-address "
                        "local, Ray's CPUs")
     sweep.set_defaults(handler=_sweep)
-    listing = commands.add_parser("list", help="list env ids, scenarios and vehicles")
+    listing = commands.add_parser(
+        "list", help="list env ids, scenarios with their feasibility margins, wind presets, "
+        "controllers, policies and vehicles")
     listing.set_defaults(handler=_list)
     return parser
 

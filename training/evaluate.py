@@ -1,10 +1,16 @@
 """``quad-dob evaluate``: every policy on every scenario over the given seeds.
 
-Scores (``training.metrics``, the code ``quad-dob paper`` uses): RMS position error and RMS
-attitude error after t = 2 s, control effort (RMS applied moment norm), crash rate. Writes
-``evaluation.md``, ``evaluation.csv``, ``evaluation.png`` (bars with ±std) and the
-interactive ``report.html`` (figures of the first seed), or prints the rows as JSON with
-``scenario`` and ``policy`` keys.
+Scores (``training.metrics``, the code ``quad-dob paper`` uses), after t = 2 s: RMS position
+error, RMS geodesic attitude error ‖log RdᵀR‖, RMS tilt error ∠(b3, b3d), RMS heading error,
+control effort (RMS applied moment norm), and the crash rate. Each score gets its mean, std
+and 95 % bootstrap interval over the seeds, and every policy its paired per-seed difference
+to ``baseline`` (default the recommended geometric + NDOB) with a 95 % bootstrap interval
+(``training.statistics``): "better" means that interval lies below zero.
+
+Writes ``evaluation.md``, ``evaluation.csv``, ``evaluation.png`` (bars with their 95 %
+intervals) and the interactive ``report.html`` (figures of the first seed), or prints the
+rows as JSON. JSON and CSV keys: ``{score}_mean``, ``_std``, ``_low``, ``_high`` for each
+score, ``{score}_diff_mean``, ``_diff_low``, ``_diff_high`` against ``baseline``.
 """
 
 from __future__ import annotations
@@ -15,14 +21,20 @@ from pathlib import Path
 
 import numpy as np
 
+from quad_dob_env import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.scenarios import make_scenario
 from training.metrics import flight_metrics
 from training.policies import fly_policy, make_policy
 from training.report import write_report
+from training.statistics import bootstrap_mean, paired_difference
 
-SCORES = (("rms_position_settled", "RMS ‖e_x‖, t≥2 s [m]"),
-          ("rms_attitude_settled", "RMS attitude, t≥2 s [rad]"),
+SCORES = (("rms_position_settled", "RMS ‖e_x‖ [m]"),
+          ("rms_attitude_settled", "RMS ‖log RdᵀR‖ [rad]"),
+          ("rms_tilt_settled", "RMS tilt [rad]"),
+          ("rms_heading_settled", "RMS heading [rad]"),
           ("rms_moment", "effort: RMS ‖M‖ [N m]"))
+# the paired difference to the baseline is reported for these
+COMPARED = ("rms_position_settled", "rms_attitude_settled", "rms_moment")
 
 
 def parse_seeds(text: str) -> list[int]:
@@ -44,27 +56,52 @@ def parse_seeds(text: str) -> list[int]:
 
 
 def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
-             first_flights: dict | None = None) -> list[dict]:
-    """One row per (scenario, policy): mean and std over seeds of each score, crash rate.
-    ``first_flights``, when given, collects each scenario's flights on the first seed."""
-    built = [make_policy(spec) for spec in policies]
+             first_flights: dict | None = None,
+             baseline: str | None = DEFAULT_BASE_CONTROLLER) -> list[dict]:
+    """One row per (scenario, policy): mean, std and 95 % interval over seeds of each score,
+    the crash rate, and the paired difference to ``baseline`` (flown too if not listed;
+    None for no comparison). ``first_flights``, when given, collects each scenario's
+    flights on the first seed."""
+    specs = list(dict.fromkeys(policies))
+    flown = specs if baseline is None or baseline in specs else [*specs, baseline]
+    built = [make_policy(spec) for spec in flown]
     rows = []
     for scenario_name in scenarios:
         scenario = make_scenario(scenario_name)
-        for policy in built:
+        metrics = {}
+        for spec, policy in zip(flown, built, strict=True):
             flights = fly_policy(policy, scenario, seeds)
-            if first_flights is not None:
+            if first_flights is not None and spec in specs:
                 first_flights.setdefault(scenario_name, []).append(flights[0])
-            metrics = [flight_metrics(f) for f in flights]
-            row: dict = {"scenario": scenario_name, "policy": policy.name,
-                         "seeds": f"{seeds[0]}-{seeds[-1]}" if len(seeds) > 1 else str(seeds[0])}
-            for key, _ in SCORES:
-                values = np.array([m[key] for m in metrics], dtype=float)
-                row[f"{key}_mean"] = float(values.mean())
-                row[f"{key}_std"] = float(values.std())
-            row["crash_rate"] = float(np.mean([m["crashed"] for m in metrics]))
-            rows.append(row)
+            metrics[spec] = [flight_metrics(f) for f in flights]
+        reference = None if baseline is None else metrics[baseline]
+        for spec, policy in zip(specs, built, strict=False):
+            rows.append(_row(scenario_name, policy.name, seeds, metrics[spec], baseline,
+                             reference))
     return rows
+
+
+def _row(scenario: str, policy: str, seeds: list[int], metrics: list[dict],
+         baseline: str | None, reference: list[dict] | None) -> dict:
+    row: dict = {"scenario": scenario, "policy": policy,
+                 "seeds": f"{seeds[0]}-{seeds[-1]}" if len(seeds) > 1 else str(seeds[0])}
+    for key, _ in SCORES:
+        values = np.array([m[key] for m in metrics], dtype=float)
+        interval = bootstrap_mean(values)
+        row[f"{key}_mean"] = interval.mean
+        row[f"{key}_std"] = float(values.std())
+        row[f"{key}_low"], row[f"{key}_high"] = interval.low, interval.high
+    row["crash_rate"] = float(np.mean([m["crashed"] for m in metrics]))
+    row["crashes"] = int(np.sum([m["crashed"] for m in metrics]))
+    row["flights"] = len(metrics)
+    row["baseline"] = baseline or ""
+    for key in COMPARED:
+        if reference is None:
+            continue
+        difference = paired_difference([m[key] for m in metrics], [m[key] for m in reference])
+        row[f"{key}_diff_mean"] = difference.mean
+        row[f"{key}_diff_low"], row[f"{key}_diff_high"] = difference.low, difference.high
+    return row
 
 
 def write_tables(rows: list[dict], out: Path) -> None:
@@ -78,13 +115,31 @@ def write_tables(rows: list[dict], out: Path) -> None:
 
 
 def markdown_table(rows: list[dict]) -> str:
-    header = ["scenario", "policy", *(label for _, label in SCORES), "crash rate"]
+    """Mean ± std of each score, crashes, and the position error's paired difference to the
+    baseline: its mean in percent of the baseline's, with its 95 % interval in metres."""
+    baseline = rows[0].get("baseline") if rows else ""
+    header = ["scenario", "policy", *(label for _, label in SCORES), "crashed"]
+    if baseline:
+        header.append(f"Δ RMS ‖e_x‖ vs {baseline} [m] (95 % CI)")
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for row in rows:
         scores = [f"{row[f'{key}_mean']:.4f} ± {row[f'{key}_std']:.4f}" for key, _ in SCORES]
-        lines.append(f"| {row['scenario']} | {row['policy']} | " + " | ".join(scores)
-                     + f" | {row['crash_rate']:.0%} |")
+        cells = [row["scenario"], row["policy"], *scores, f"{row['crashes']}/{row['flights']}"]
+        if baseline:
+            cells.append(_difference_cell(row, baseline))
+        lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _difference_cell(row: dict, baseline: str) -> str:
+    if row["policy"] == baseline or "rms_position_settled_diff_mean" not in row:
+        return "—"
+    key = "rms_position_settled"
+    base_mean = row[f"{key}_mean"] - row[f"{key}_diff_mean"]
+    relative = row[f"{key}_diff_mean"] / base_mean if base_mean > 0 else float("nan")
+    mark = "" if (row[f"{key}_diff_low"] > 0 or row[f"{key}_diff_high"] < 0) else " (n.s.)"
+    return (f"{relative:+.0%}: {row[f'{key}_diff_mean']:+.4f} "
+            f"[{row[f'{key}_diff_low']:+.4f}, {row[f'{key}_diff_high']:+.4f}]{mark}")
 
 
 def _bar_plot(rows: list[dict], path: Path) -> None:
@@ -100,11 +155,12 @@ def _bar_plot(rows: list[dict], path: Path) -> None:
     for j, policy in enumerate(policies):
         mine = {row["scenario"]: row for row in rows if row["policy"] == policy}
         x = np.arange(len(scenarios)) + (j - (len(policies) - 1) / 2) * width
-        axis.bar(x, [mine[s]["rms_position_settled_mean"] for s in scenarios], width,
-                 yerr=[mine[s]["rms_position_settled_std"] for s in scenarios], capsize=3,
-                 label=policy)
+        means = np.array([mine[s]["rms_position_settled_mean"] for s in scenarios])
+        intervals = np.array([[mine[s]["rms_position_settled_low"],
+                               mine[s]["rms_position_settled_high"]] for s in scenarios])
+        axis.bar(x, means, width, yerr=np.abs(intervals.T - means), capsize=3, label=policy)
     axis.set_xticks(np.arange(len(scenarios)), scenarios)
-    axis.set_ylabel("RMS position error, t ≥ 2 s [m]")
+    axis.set_ylabel("RMS position error, t ≥ 2 s [m]\n(mean, 95 % CI over seeds)")
     axis.legend(fontsize=8)
     figure.tight_layout()
     figure.savefig(path, dpi=120)
@@ -112,10 +168,12 @@ def _bar_plot(rows: list[dict], path: Path) -> None:
 
 
 def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
-         as_json: bool) -> int:
+         as_json: bool, baseline: str | None = None) -> int:
+    """``baseline`` None: the recommended base; "": no comparison."""
+    baseline = DEFAULT_BASE_CONTROLLER if baseline is None else baseline
     seed_list = parse_seeds(seeds)
     first_flights: dict = {}
-    rows = evaluate(policies, scenarios, seed_list, first_flights)
+    rows = evaluate(policies, scenarios, seed_list, first_flights, baseline or None)
     if as_json:
         print(json.dumps(rows, indent=1))
         return 0
@@ -123,6 +181,10 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
     columns = [("scenario", "scenario"), ("policy", "policy"), ("seeds", "seeds")]
     for key, label in SCORES:
         columns += [(f"{key}_mean", f"{label} mean"), (f"{key}_std", "± std")]
+    if baseline:
+        columns += [("rms_position_settled_diff_mean", f"Δ RMS ‖e_x‖ vs {baseline} [m]"),
+                    ("rms_position_settled_diff_low", "95 % CI low"),
+                    ("rms_position_settled_diff_high", "high")]
     write_report(out / "report.html", f"quad-dob evaluate (figures: seed {seed_list[0]})",
                  rows, [*columns, ("crash_rate", "crash rate")], first_flights)
     print(markdown_table(rows))

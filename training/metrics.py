@@ -14,7 +14,9 @@ SETTLED_AFTER = 2.0  # [s] the "t >= 2 s" columns skip the initial transient
 
 
 def error_euler_angles(rotation: NDArray, desired_rotation: NDArray) -> NDArray:
-    """Roll, pitch, yaw (ZYX) of the error rotation ``Rdᵀ R``, (T, 3) in radians."""
+    """Roll, pitch, yaw (ZYX) of the error rotation ``Rdᵀ R``, (T, 3) in radians: what the
+    paper's Table I reports. Their norm saturates at π/√3 once yaw wraps: compare
+    controllers with ``attitude_errors`` instead."""
     error = np.swapaxes(desired_rotation, 1, 2) @ rotation
     roll = np.arctan2(error[:, 2, 1], error[:, 2, 2])
     pitch = -np.arcsin(np.clip(error[:, 2, 0], -1.0, 1.0))
@@ -22,16 +24,37 @@ def error_euler_angles(rotation: NDArray, desired_rotation: NDArray) -> NDArray:
     return np.stack([roll, pitch, yaw], axis=1)
 
 
+def attitude_errors(rotation: NDArray, desired_rotation: NDArray) -> dict[str, NDArray]:
+    """Three angles of the error rotation ``E = Rdᵀ R`` (T, 3, 3), each (T,) in radians:
+
+    - ``geodesic``: ‖log E‖ = arccos((tr E − 1)/2), the whole attitude error;
+    - ``tilt``: ∠(b3, b3d) = arccos(E₃₃), how far the thrust points off its command;
+    - ``heading``: the twist of E about body z (swing-twist decomposition),
+      atan2(E₂₁ − E₁₂, E₁₁ + E₂₂) = 2 atan2(q_z, q_w), signed in (−π, π]; zero for a pure tilt.
+
+    Unlike Euler angles of E, none of them saturates or mixes the others when one is large.
+    """
+    error = np.swapaxes(desired_rotation, 1, 2) @ rotation
+    trace = error[:, 0, 0] + error[:, 1, 1] + error[:, 2, 2]
+    return {
+        "geodesic": np.arccos(np.clip((trace - 1.0) / 2.0, -1.0, 1.0)),
+        "tilt": np.arccos(np.clip(error[:, 2, 2], -1.0, 1.0)),
+        "heading": np.arctan2(error[:, 1, 0] - error[:, 0, 1], error[:, 0, 0] + error[:, 1, 1]),
+    }
+
+
 def _rms(values: NDArray, axis: int = 0) -> NDArray:
     return np.sqrt(np.mean(np.square(values), axis=axis))
 
 
 def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
-    """RMS position error (norm and per axis), RMS attitude error (roll, pitch, yaw), the same
-    after t >= 2 s, final errors, peak thrust against the limit, and how the flight ended."""
+    """RMS position error (norm and per axis), RMS attitude errors (geodesic, tilt, heading;
+    roll, pitch, yaw for the paper's table), the same after t >= 2 s, final errors, peak
+    thrust against the limit, and how the flight ended."""
     position_error = flight.position - flight.reference_position
     norm = np.linalg.norm(position_error, axis=1)
     angles = error_euler_angles(flight.rotation, flight.desired_rotation)
+    attitude = attitude_errors(flight.rotation, flight.desired_rotation)
     settled = flight.time >= SETTLED_AFTER
     if not settled.any():
         settled = np.zeros_like(settled)
@@ -47,8 +70,13 @@ def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
         "rms_x": float(axis_rms[0]), "rms_y": float(axis_rms[1]), "rms_z": float(axis_rms[2]),
         "rms_roll": float(angle_rms[0]), "rms_pitch": float(angle_rms[1]),
         "rms_yaw": float(angle_rms[2]),
+        **{f"rms_{name}": float(_rms(attitude[key]))
+           for name, key in (("attitude", "geodesic"), ("tilt", "tilt"),
+                             ("heading", "heading"))},
         "rms_position_settled": float(_rms(norm[settled])),
-        "rms_attitude_settled": float(_rms(np.linalg.norm(angles[settled], axis=1))),
+        **{f"rms_{name}_settled": float(_rms(attitude[key][settled]))
+           for name, key in (("attitude", "geodesic"), ("tilt", "tilt"),
+                             ("heading", "heading"))},
         "final_position_error": float(norm[-1]),
         # None (shown as "—") for controllers that estimate nothing
         "final_estimate_error": float(estimate_error[-1]) if has_observer else None,

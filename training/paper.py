@@ -32,9 +32,9 @@ FIGURE_CONTROLLERS = ("geometric", "geometric-ndob", "geometric-ndob:tuned")
 
 COLUMNS = [
     ("rms_position", "RMS ‖e_x‖ [m]"), ("rms_x", "x"), ("rms_y", "y"), ("rms_z", "z"),
-    ("rms_roll", "RMS roll [rad]"), ("rms_pitch", "pitch"), ("rms_yaw", "yaw"),
+    ("rms_attitude", "RMS ‖log RdᵀR‖ [rad]"), ("rms_tilt", "tilt"), ("rms_heading", "heading"),
     ("rms_position_settled", "RMS ‖e_x‖, t≥2 s [m]"),
-    ("rms_attitude_settled", "RMS attitude, t≥2 s [rad]"),
+    ("rms_attitude_settled", "RMS ‖log RdᵀR‖, t≥2 s [rad]"),
     ("final_position_error", "final ‖e_x‖ [m]"),
     ("final_estimate_error", "final ‖d̂x − d_x‖ [N]"), ("peak_thrust", "peak thrust [N]"),
 ]

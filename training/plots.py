@@ -8,8 +8,9 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+import numpy as np
 
-from training.metrics import error_euler_angles
+from training.metrics import attitude_errors
 from training.rollout import Flight
 
 AXES = ("x", "y", "z")
@@ -74,8 +75,10 @@ def scenario_figures(flights: list[Flight], out_dir: Path) -> list[Path]:
         [f"e_{a} [m]" for a in AXES], f"{scenario}: position error",
         out_dir / f"{scenario}_position_error.png"))
     written.append(_three_panels(
-        flights, lambda f: error_euler_angles(f.rotation, f.desired_rotation),
-        [f"{a} error [rad]" for a in ("roll", "pitch", "yaw")], f"{scenario}: attitude error",
+        flights, lambda f: np.stack(list(attitude_errors(f.rotation,
+                                                          f.desired_rotation).values()), 1),
+        ["geodesic ‖log RdᵀR‖ [rad]", "tilt ∠(b3, b3d) [rad]", "heading [rad]"],
+        f"{scenario}: attitude error",
         out_dir / f"{scenario}_attitude_error.png"))
 
     fig, axes = plt.subplots(3, 2, figsize=(10, 6), sharex=True)

@@ -37,7 +37,7 @@ PRETRAINED = Path(__file__).parent / "pretrained"
 SHIPPED_RESIDUAL = PRETRAINED / "residual_dryden_helix_gusts.zip"
 # sha256 of the shipped zip: SB3 zips hold pickled objects that run code when loaded, so the
 # shipped file is checked before it is opened
-SHIPPED_RESIDUAL_SHA256 = "450680df9137c5ef202517d3df10c2e74b2cad154c02556d66134a0c9b352ff7"
+SHIPPED_RESIDUAL_SHA256 = "e592a1301007e5f726b76d98f6a25c0acc0f75e26b623c33f97fb6d6b1844146"
 
 
 @dataclass

@@ -103,20 +103,33 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
         seed: int = 0) -> list[Flight]:
     """One episode of ``controller`` in each scenario, all flown together.
 
-    Each scenario gets its own core (N = 1) and the controller sees them as one batch, so
-    its numpy overhead is paid once per step for all of them. The scenarios must share the
-    vehicle and dt. A flight's record stops at its scenario's end or its termination.
+    Each scenario gets its own core (N = 1) and the controller sees them as one batch (one
+    per actuation), so its numpy overhead is paid once per step for all of them. The
+    scenarios must share the vehicle and dt. A flight's record stops at its scenario's end
+    or its termination.
     """
     scenarios = [scenarios] if isinstance(scenarios, Scenario) else list(scenarios)
     vehicle, dt = scenarios[0].vehicle, scenarios[0].dt
     if any(s.vehicle != vehicle or s.dt != dt for s in scenarios):
         raise ValueError("fly() needs scenarios with one vehicle and one dt; got "
                          + ", ".join(f"{s.name} ({s.vehicle.name}, dt={s.dt})" for s in scenarios))
+    actuations = list(dict.fromkeys(s.actuation for s in scenarios))
+    if len(actuations) > 1:
+        # a controller that models its actuators (the PID's anti-windup) flies one batch
+        # per actuation
+        flights: list = [None] * len(scenarios)
+        for actuation in actuations:
+            group = [i for i, s in enumerate(scenarios) if s.actuation == actuation]
+            for i, flight in zip(group, fly(controller, [scenarios[i] for i in group], seed),
+                                 strict=True):
+                flights[i] = flight
+        return flights
+    actuation = actuations[0]
     cores = [QuadrotorBatch(s, 1) for s in scenarios]
     for core in cores:
         core.reset(np.zeros(1, dtype=np.intp), [seeding.np_random(seed)[0]])
     n = len(cores)
-    controller.reset(n, vehicle, dt)
+    controller.reset(n, vehicle, dt, actuation=actuation)
     steps = [s.steps for s in scenarios]
     recorder = FlightRecorder(n, vehicle)
     zeros = np.zeros((n, 3))

@@ -80,7 +80,7 @@ def load_config(path: Path) -> dict[str, Any]:
             if key not in grid:
                 raise ValueError(f"{path}: an evaluate sweep needs grid.{key}")
     elif "env" not in config:
-        raise ValueError(f"{path}: a train sweep needs env (e.g. QuadDOB/TrackResidual-v0)")
+        raise ValueError(f"{path}: a train sweep needs env (e.g. QuadDOB/TrackResidual-v1)")
     config["kind"] = kind
     config["seed_list"] = parse_seeds(config.get("seeds", "10"))
     return config

@@ -65,7 +65,7 @@ def resolve_config(algo: str, mode: str, env_id: str, scenario: str | None,
     residual_id = "Residual" in env_id
     if (mode == "residual") != residual_id:
         raise ValueError(f"mode {mode!r} does not fit env {env_id!r}: residual training takes "
-                         "a ...Residual-v0 id, direct training the others")
+                         "a ...Residual-v1 id, direct training the others")
     table = yaml.safe_load(Path(hyperparams).read_text())
     if env_id not in table:
         raise ValueError(f"{hyperparams} has no entry for {env_id}; it has: " + ", ".join(table))

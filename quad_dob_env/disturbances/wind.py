@@ -91,7 +91,10 @@ class Dryden(Disturbance):
     ``H_u = σ_u √(2L_u/πV) / (1 + L_u s/V)``,
     ``H_v,w = σ √(L/πV) (1 + √3 L s/V) / (1 + L s/V)²``, with V the mean wind speed at the
     altitude, ``W20 ln(h/0.15)/ln(20/0.15)`` (floored at 1 m/s), which carries the frozen
-    turbulence past the vehicle. ``wind_speed_6m`` is W20, or named by ``intensity``.
+    turbulence past the vehicle. ``wind_speed_6m`` is W20, or named by ``intensity``: it sets
+    the turbulence. ``mean_wind_speed`` [m/s at the altitude], when given, sets the mean wind
+    apart from it (the spec ties the two; a small vehicle is flown in light mean wind with
+    turbulence of any intensity), else the log profile above gives it.
     u blows along ``direction`` (radians from +x, or None: uniform per vehicle at reset),
     v across it, w up. ``intensity_scale`` (low, high), for domain randomisation, scales
     each vehicle's mean wind and turbulence by a factor drawn uniformly at reset.
@@ -110,7 +113,8 @@ class Dryden(Disturbance):
     def __init__(self, intensity: str = "moderate", wind_speed_6m: float | None = None,
                  altitude: float = 2.0, direction: float | None = 0.0,
                  mean_wind: bool = True,
-                 intensity_scale: tuple[float, float] | None = None) -> None:
+                 intensity_scale: tuple[float, float] | None = None,
+                 mean_wind_speed: float | None = None) -> None:
         if wind_speed_6m is None:
             if intensity not in DRYDEN_INTENSITIES:
                 raise unknown_name_error("Dryden intensity", intensity, DRYDEN_INTENSITIES)
@@ -131,7 +135,9 @@ class Dryden(Disturbance):
         sigma_w = 0.1 * self.w20
         self.sigmas = np.array([sigma_w / scale**0.4, sigma_w / scale**0.4, sigma_w])
         self.lengths = np.array([h / scale**1.2, h / scale**1.2, h]) * FOOT
-        self.mean_speed = self.w20 * math.log(h / 0.15) / math.log(20 / 0.15)
+        self.mean_speed = (self.w20 * math.log(h / 0.15) / math.log(20 / 0.15)
+                           if mean_wind_speed is None
+                           else as_finite(mean_wind_speed, "Dryden.mean_wind_speed", 0.0))
         self.airspeed = max(self.mean_speed, 1.0)
         self.dt = 0.0
 
@@ -195,8 +201,8 @@ class Dryden(Disturbance):
         return channels
 
     def __repr__(self) -> str:
-        return (f"Dryden(W20={self.w20:.2f} m/s, altitude={self.altitude} m, "
-                f"direction={self.direction})")
+        return (f"Dryden(W20={self.w20:.2f} m/s, mean {self.mean_speed:.2f} m/s, "
+                f"altitude={self.altitude} m, direction={self.direction})")
 
 
 __all__ = ["DRYDEN_INTENSITIES", "ZERO", "Dryden", "Gust"]

@@ -70,15 +70,18 @@ def thrust_multiplier(z: ArrayLike, law: ThrustLaw) -> NDArray[np.float64]:
 
 @njit(cache=True, inline="always")
 def body_drag(v, rotation, wind, drag_linear, drag_quadratic):
-    """Body-frame drag ``-(c1 ⊙ u + c2 ⊙ |u| ⊙ u)`` on the air-relative velocity
-    ``u = Rᵀ(v - w)``."""
+    """Body-frame drag ``-(diag(c1) u + ‖u‖ diag(c2) u)`` on the air-relative velocity
+    ``u = Rᵀ(v - w)``: the quadratic term scales with the airspeed, not with each
+    component's, so a body that is round in the horizontal plane feels the same drag at
+    any heading to the wind (DESIGN.md)."""
     r = rotation
     a = (v[0] - wind[0], v[1] - wind[1], v[2] - wind[2])
     u = (r[0] * a[0] + r[3] * a[1] + r[6] * a[2], r[1] * a[0] + r[4] * a[1] + r[7] * a[2],
          r[2] * a[0] + r[5] * a[1] + r[8] * a[2])
-    return (-(drag_linear[0] + drag_quadratic[0] * abs(u[0])) * u[0],
-            -(drag_linear[1] + drag_quadratic[1] * abs(u[1])) * u[1],
-            -(drag_linear[2] + drag_quadratic[2] * abs(u[2])) * u[2])
+    airspeed = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    return (-(drag_linear[0] + drag_quadratic[0] * airspeed) * u[0],
+            -(drag_linear[1] + drag_quadratic[1] * airspeed) * u[1],
+            -(drag_linear[2] + drag_quadratic[2] * airspeed) * u[2])
 
 
 @njit(cache=True, inline="always")

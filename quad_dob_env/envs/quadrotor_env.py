@@ -27,8 +27,8 @@ class QuadrotorEnv(gym.Env):
     ## Description
     Rigid-body dynamics (z up, SI units) integrated with a fourth-order Lie-group
     Runge–Kutta scheme; the reference, disturbances, initial state and duration come from a
-    scenario (``quad_dob_env.scenarios``). ``QuadDOB/Hover-v0`` uses ``hover-calm``,
-    ``QuadDOB/Track-v0`` the paper helix ``paper-none``; ``scenario=`` picks any other.
+    scenario (``quad_dob_env.scenarios``). ``QuadDOB/Hover-v1`` uses ``hover-calm``,
+    ``QuadDOB/Track-v1`` the paper helix ``paper-none``; ``scenario=`` picks any other.
 
     ## Action space
     ``Box(-1, 1, (4,), float32)``; values outside are clipped. NaN or ±inf raise ValueError,
@@ -104,6 +104,18 @@ class QuadrotorEnv(gym.Env):
     ``reward_effort_weight``, ``render_mode`` (``rgb_array``: ``render()`` returns a frame,
     headless; ``human``: a window at the control rate), ``invalid_actions`` (``raise`` or
     ``terminate``).
+
+    ## Version history
+    - v1 (Benchmark v1): every scenario's reference is checked flyable (thrust, moments,
+      rotor thrusts, body rate by differential flatness) or refused; the paper vehicle's
+      yaw moment per newton of thrust is a 10-inch propeller's (0.0166 m, was Lee 2010's
+      8.004e-4 m); drag is rotation-invariant, ``‖u‖ diag(c₂) u`` (was per component);
+      the wind scenarios fly the helix with a fixed heading at 2 m over a floor, with
+      turbulence computed for that altitude and a mean wind set apart from the turbulence
+      (calm / light / moderate presets); landings end at 8 cm, inside the ground-effect
+      law's range; the residual ids default to the recommended ``geometric-ndob:tuned``
+      and to a windy scenario (``gusty-hover``, ``dryden-helix-gusts``).
+    - v0: the first release (the paper's vehicle and scenarios, Dryden wind, residual RL).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": list(RENDER_MODES), "render_fps": 100}

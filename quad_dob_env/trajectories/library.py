@@ -55,14 +55,16 @@ class Harmonic(Trajectory):
 
 
 class PaperHelix(Harmonic):
-    """The paper's reference: ``x_d = [0.4 t, 0.4 sin πt, 0.6 cos πt]``,
-    ``b1d = [cos πt, sin πt, 0]``."""
+    """The paper's reference: ``x_d = [0.4 t, 0.4 sin πt, altitude + 0.6 cos πt]``,
+    ``b1d = [cos ψ't, sin ψ't, 0]`` with ``ψ' = yaw_rate`` (the paper: π rad/s, altitude 0).
+    ``yaw_rate=0`` holds the heading along +x, the direction of travel."""
 
     def __init__(self, forward_speed: float = 0.4, lateral_amplitude: float = 0.4,
                  vertical_amplitude: float = 0.6, angular_frequency: float = math.pi,
-                 yaw_rate: float = math.pi) -> None:
+                 yaw_rate: float = math.pi, altitude: float = 0.0) -> None:
         w = as_finite(angular_frequency, "PaperHelix.angular_frequency", 0.0, strictly=True)
         super().__init__(
+            offset=(0.0, 0.0, as_finite(altitude, "PaperHelix.altitude")),
             drift=(forward_speed, 0.0, 0.0),
             terms=[(1, lateral_amplitude, w, 0.0), (2, vertical_amplitude, w, math.pi / 2)],
             yaw=0.0, yaw_rate=yaw_rate,
