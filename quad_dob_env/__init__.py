@@ -5,7 +5,9 @@ Layers, each importing only from those above it (DESIGN.md):
 matrix functions, counter-based per-vehicle noise, compiled loops split across cores),
 ``params`` (vehicle presets), ``so3`` (rotations), ``dynamics`` (state, actuation,
 integrator), ``disturbances`` (forces, torques, wind, ground effect), ``trajectories``,
-``scenarios``, ``envs``, ``wrappers`` (the residual wrapper).
+``flatness`` (the attitude, rates and inputs that fly a reference), ``feasibility`` (a
+reference's needs against the actuators), ``scenarios``, ``envs``, ``wrappers`` (the
+residual wrapper).
 
 Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v1`` and
 ``QuadDOB/Track-v1`` (direct control), and ``QuadDOB/HoverResidual-v1`` and

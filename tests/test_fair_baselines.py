@@ -11,8 +11,9 @@ from baselines.smc import ETA_MARGIN
 from quad_dob_env.disturbances import Constant
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.params import get_vehicle
-from quad_dob_env.scenarios import make_scenario
+from quad_dob_env.scenarios import list_scenarios, make_scenario
 from quad_dob_env.trajectories import Hover
+from training.evaluate import evaluate
 from training.metrics import flight_metrics
 from training.policies import Policy, fly_policy
 from training.rollout import fly
@@ -88,3 +89,23 @@ def test_smc_keeps_every_flight_of_the_moderate_wind_scenario():
                          list(range(20)))
     ended = [flight_metrics(f)["ended"] for f in flights]
     assert all(reason in ("", "time_limit") for reason in ended), ended
+
+
+PHYSICAL_ROTOR_SCENARIOS = [name for name in list_scenarios()
+                            if make_scenario(name).actuation == "rotors"]
+LIGHT_WIND = ["gusty-hover", "takeoff-landing-wind"]
+
+
+def test_the_recommended_base_holds_heading_and_every_flight_with_physical_rotors():
+    rows = evaluate(["geometric-ndob:tuned"], PHYSICAL_ROTOR_SCENARIOS,
+                    list(range(9001, 9021)), baseline=None)
+    assert len(rows) == len(PHYSICAL_ROTOR_SCENARIOS) >= 7
+    for row in rows:
+        assert row["crashes"] == 0, row["scenario"]
+        assert row["rms_heading_settled_mean"] < 0.3, row["scenario"]
+
+
+def test_pid_and_smc_lose_no_flight_in_light_wind():
+    rows = evaluate(["pid", "smc"], LIGHT_WIND, list(range(9001, 9021)), baseline=None)
+    assert all(row["crashes"] == 0 for row in rows), [(r["scenario"], r["policy"])
+                                                     for r in rows if r["crashes"]]

@@ -1,15 +1,20 @@
 """Training, evaluation, the paper reproduction and the ``quad-dob`` command line.
 
-- ``cli``: ``quad-dob list | paper | train | evaluate | replay | sweep``.
+- ``cli``: ``quad-dob list | paper | train | evaluate | tune | replay | sweep``.
 - ``rollout``: ``Flight`` records and ``fly`` (controllers through scenarios, batched).
-- ``metrics``: the scores every report uses; ``plots``: the paper's PNG figures;
+- ``metrics``: the scores every report uses (position; geodesic, tilt and heading
+  errors); ``statistics``: bootstrap intervals and paired differences over seeds;
+  ``plots``: the paper's PNG figures;
   ``report``: the self-contained interactive ``report.html``.
 - ``paper``: the paper reproduction.
 - ``vec_env``: the stable-baselines3 ``VecEnv`` adapter over the native vector env.
 - ``train``: PPO training (config from ``hyperparams/``, checkpoints, evaluation, resume).
 - ``policies``: policies by name (controllers, ``ppo:PATH``, ``residual``) and flying them
   over many seeds; ``pretrained/`` holds the shipped residual policy.
-- ``evaluate``: every policy on every scenario over seeds: tables, bar plot, JSON.
+- ``evaluate``: every policy on every scenario over seeds: tables with intervals and the
+  paired difference to a baseline, bar plot, JSON.
+- ``tune``: the one procedure that chooses the baselines' gains and the observer rates on
+  tuning seeds.
 - ``replay``: episodes rendered to GIF/MP4, side by side.
 - ``sweep``: grid/random sweeps, resumable, on a process pool or Ray (``sweeps/``).
 """
