@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from baselines import kernels
-from quad_dob_env.flatness import DesiredAttitude, attitude_from_thrust_vector, flat_inputs
+from quad_dob_env.flatness import DesiredAttitude, attitude_from_thrust_vector, flat_attitude
 
 
 def _c(array: NDArray) -> NDArray[np.float64]:
@@ -29,12 +29,6 @@ def attitude_errors(rotation: NDArray, angular_velocity: NDArray,
                                   _c(desired.angular_velocity), attitude_error, rate_error,
                                   r_t_rd)
     return attitude_error, rate_error, r_t_rd
-
-
-def feedforward_attitude(reference, mass: float, gravity: float) -> DesiredAttitude:
-    """The attitude that flies the reference exactly (differential flatness): F = m(ẍd + g e3),
-    with its derivatives m x⃛d and m x⃜d. Baselines without a model-based F use its Ωd, Ω̇d."""
-    return flat_inputs(reference, mass, gravity, np.eye(3)).attitude
 
 
 def attitude_towards(force: NDArray, heading: NDArray) -> NDArray:
@@ -56,7 +50,8 @@ def track_thrust_vector(force: NDArray, rotation: NDArray, angular_velocity: NDA
     """For baselines that choose a thrust vector F without a model of its derivatives:
     collective thrust, Rd towards F with flat feed-forward rates, and Lee's errors."""
     thrust = np.einsum("ni,ni->n", force, rotation[:, :, 2])
-    feedforward = feedforward_attitude(reference, mass, gravity)
+    # baselines without a model of F's derivatives use the reference's flat Ωd, Ω̇d
+    feedforward = flat_attitude(reference, mass, gravity)
     desired = feedforward._replace(rotation=attitude_towards(force, reference.heading))
     attitude_error, rate_error, r_t_rd = attitude_errors(rotation, angular_velocity, desired)
     return ThrustVectorTracking(thrust, desired, attitude_error, rate_error, r_t_rd)

@@ -13,7 +13,7 @@ running. Both integrators are also clamped.
 Outer: ``a = ẍd - Kp ex - Kd ev - Ki ∫ex``, ``F = m (a + g e3)``, ``f = F · R e3``, Rd from
 F and b1d. Middle: ``ω_cmd = RᵀRd Ωd_ff - K_att eR``. Inner: ``e_ω = Ω - ω_cmd``,
 ``M = Ω × JΩ + J (RᵀRd Ω̇d_ff - K_ω e_ω - K_ωi ∫e_ω - K_ωd ė_ω)``, ė_ω by backward difference.
-Ωd_ff, Ω̇d_ff are the reference's flat feed-forward (``feedforward_attitude``).
+Ωd_ff, Ω̇d_ff are the reference's flat feed-forward (``quad_dob_env.flatness.flat_attitude``).
 """
 
 from __future__ import annotations

@@ -137,17 +137,26 @@ class FlatInputs(NamedTuple):
     attitude: DesiredAttitude
 
 
+def flat_attitude(reference, mass: float, gravity: float) -> DesiredAttitude:
+    """Rd, Ωd, Ω̇d that fly ``reference`` (a ``Reference`` of T samples) exactly: the thrust
+    vector F = m(ẍd + g e3) with its derivatives m x⃛d and m x⃜d, and the heading."""
+    force = mass * np.asarray(reference.acceleration, dtype=float)
+    force[:, 2] += mass * gravity
+    return attitude_from_thrust_vector(
+        force, mass * reference.jerk, mass * reference.snap, reference.heading,
+        reference.heading_rate, reference.heading_acceleration)
+
+
 def flat_inputs(reference, mass: float, gravity: float,
                 inertia: NDArray) -> FlatInputs:
     """The thrust, moment and body rates that fly ``reference`` (a ``Reference`` of T
     samples) exactly, by differential flatness."""
-    force = mass * np.asarray(reference.acceleration, dtype=float)
-    force[:, 2] += mass * gravity
-    attitude = attitude_from_thrust_vector(
-        force, mass * reference.jerk, mass * reference.snap, reference.heading,
-        reference.heading_rate, reference.heading_acceleration)
+    attitude = flat_attitude(reference, mass, gravity)
     rate, rate_dot = attitude.angular_velocity, attitude.angular_acceleration
     inertia = np.asarray(inertia, dtype=float)
     # M = J Ω̇d + Ωd × J Ωd (Euler's equation with no disturbance)
     moment = rate_dot @ inertia.T + np.cross(rate, rate @ inertia.T)
-    return FlatInputs(np.linalg.norm(force, axis=1), moment, rate, attitude)
+    # f = F · b3d = ‖F‖ = m ‖ẍd + g e3‖
+    thrust = mass * np.linalg.norm(reference.acceleration + np.array([0.0, 0.0, gravity]),
+                                   axis=1)
+    return FlatInputs(thrust, moment, rate, attitude)

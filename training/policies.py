@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from baselines import CONTROLLERS
 from quad_dob_env.envs import QuadrotorVectorEnv
+from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.validation import unknown_name_error
 from training.rollout import Flight, FlightRecorder
@@ -42,11 +43,12 @@ SHIPPED_RESIDUAL_SHA256 = "e592a1301007e5f726b76d98f6a25c0acc0f75e26b623c33f97fb
 
 @dataclass
 class Policy:
-    """``name`` for tables; ``base`` controller name or None; ``model`` an SB3 model (or None
-    for a controller alone); ``config`` the training config saved beside the model."""
+    """``name`` for tables; ``base`` a controller name, a ``Controller`` (as ``quad-dob tune``
+    flies its candidates) or None; ``model`` an SB3 model (or None for a controller alone);
+    ``config`` the training config saved beside the model."""
 
     name: str
-    base: str | None
+    base: Any
     model: Any = None
     config: dict | None = None
 
@@ -178,7 +180,4 @@ def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Fli
 
 def _flat_attitude(core) -> NDArray:
     """For a policy with no controller: the attitude that flies the reference exactly."""
-    from baselines.attitude import feedforward_attitude
-
-    return feedforward_attitude(core.reference, core.vehicle.mass,
-                                core.vehicle.gravity).rotation
+    return flat_attitude(core.reference, core.vehicle.mass, core.vehicle.gravity).rotation
