@@ -1,5 +1,9 @@
 """Reference controllers, all batched, behind one interface (DESIGN.md principle 2).
 
+The folder ``baselines/`` installs as ``quad_dob_baselines``. It may import the simulator's
+low layers (``quad_dob_env.params``, ``so3``, ``flatness``, ``dynamics``, the reference
+type), never ``quad_dob_training``.
+
 - ``base``: the ``Controller`` template (reset / compute / applied).
 - ``kernels``: the geometric controller's and the observer's equations, once per vehicle,
   compiled (the modules below call them for the batch).
@@ -20,11 +24,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from baselines.base import Controller
-from baselines.geometric import GeometricController
-from baselines.observer import NonlinearDisturbanceObserver
-from baselines.pid import CascadedPID
-from baselines.smc import SlidingModeController
+from quad_dob_baselines.base import Controller
+from quad_dob_baselines.geometric import GeometricController
+from quad_dob_baselines.observer import NonlinearDisturbanceObserver
+from quad_dob_baselines.pid import CascadedPID
+from quad_dob_baselines.smc import SlidingModeController
 from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.validation import unknown_name_error
 

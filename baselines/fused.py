@@ -10,7 +10,7 @@ slice per core, runs for each vehicle
     geometric law for the next step -> extra observation and reward.
 
 It calls the same per-vehicle functions as the separate stages (``quad_dob_env.envs.kernels``
-and ``baselines.kernels``), so there is still one source for every equation; a test holds
+and ``quad_dob_baselines.kernels``), so there is still one source for every equation; a test holds
 it to the separate stages to 1e-12 through autoresets. From 256 vehicles its slices run on
 workers parked in compiled code (``quad_dob_env.threads.ParkedWorkers``), which is why
 every step runs on the same arrays.
@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from baselines.kernels import (
+from quad_dob_baselines.kernels import (
     geometric_vehicle,
     matrix,
     observer_advance_vehicle,
@@ -50,7 +50,7 @@ from quad_dob_env.threads import (
 )
 
 if TYPE_CHECKING:
-    from baselines.geometric import GeometricController
+    from quad_dob_baselines.geometric import GeometricController
     from quad_dob_env.envs.residual import ResidualCommand
 
 _DIAGNOSTICS = ("desired_force", "desired_rotation", "desired_angular_velocity",

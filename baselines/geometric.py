@@ -7,7 +7,7 @@ optional nonlinear disturbance observer.
 Ωd and Ω̇d come from differentiating Rd analytically: F's first two derivatives use the
 trajectory's jerk and snap and the model's prediction of the vehicle's acceleration and
 jerk, ``v̇ = -g e3 + (f R e3 + d̂x)/m`` (the estimate d̂x is held constant in them).
-The equations are written once, per vehicle, in ``baselines.kernels.geometric_law``.
+The equations are written once, per vehicle, in ``quad_dob_baselines.kernels.geometric_law``.
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from baselines.base import Controller
-from baselines.fused import FusedResidualStep
-from baselines.kernels import geometric_batch
-from baselines.observer import NonlinearDisturbanceObserver
+from quad_dob_baselines.base import Controller
+from quad_dob_baselines.fused import FusedResidualStep
+from quad_dob_baselines.kernels import geometric_batch
+from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.threads import PARALLEL_MIN_BATCH, run_over_batch
@@ -102,8 +102,8 @@ class GeometricController(Controller):
 
     def fused_residual(self, residual: ResidualCommand) -> FusedResidualStep:
         """The compiled pass that runs this controller inside a ``ResidualCommand``'s step
-        (``baselines.fused``). In that pass ``diagnostics`` and the observer's estimates are
-        overwritten in place every step: copy what you keep."""
+        (``quad_dob_baselines.fused``). In that pass ``diagnostics`` and the observer's
+        estimates are overwritten in place every step: copy what you keep."""
         return FusedResidualStep(self, residual)
 
     def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:

@@ -17,7 +17,7 @@ the sampling, ``Ks' = m (1 - e^{-L dt}) / dt`` (and ``Km' = (I - e^{-L_Ω dt}) J
 with the thrust direction R e3 and the gyroscopic torque averaged over each step's two ends.
 A constant disturbance is then the fixed point, and the error decays as ``e^{-L t}`` at the
 samples. The observer is fed the thrust and moment actually applied. The per-vehicle
-equations are compiled in ``baselines.kernels`` (``observer_*_batch``).
+equations are compiled in ``quad_dob_baselines.kernels`` (``observer_*_batch``).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from baselines.kernels import observer_advance_batch, observer_estimate_batch
+from quad_dob_baselines.kernels import observer_advance_batch, observer_estimate_batch
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.linalg import expm
 from quad_dob_env.params import VehicleParams

@@ -8,8 +8,8 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from baselines import make_controller
-from baselines.base import Controller
+from quad_dob_baselines import make_controller
+from quad_dob_baselines.base import Controller
 
 
 class ReferencePolicy:

@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from baselines.attitude import track_thrust_vector
-from baselines.base import E3, Controller, validated_gains
+from quad_dob_baselines.attitude import track_thrust_vector
+from quad_dob_baselines.base import E3, Controller, validated_gains
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.so3 import cross, hat
 from quad_dob_env.trajectories import Reference

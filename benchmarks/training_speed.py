@@ -17,7 +17,7 @@ from pathlib import Path
 
 import torch
 
-from training.train import make_model, make_vec_env, resolve_config
+from quad_dob_training.train import make_model, make_vec_env, resolve_config
 
 
 def main() -> None:

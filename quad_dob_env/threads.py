@@ -259,7 +259,7 @@ class ParkedWorkers:
     on ``control[k, 0:2]`` and ``slice_done``; the caller runs
     ``launch(args, control, semaphores, bounds)``: ``hand_out``, the kernel on slice 0,
     ``collect``. Each kernel has its own small pair (``envs.kernels.step_worker``/
-    ``step_launch``, ``baselines.fused``'s), because numba cannot cache a function that
+    ``step_launch``, ``quad_dob_baselines.fused``'s), because numba cannot cache a function that
     takes the kernel as an argument (8 s of compilation in every process). The owner of
     ``args`` must make new ``ParkedWorkers`` when one of its arrays is replaced; the workers
     return when this object is collected or ``close``d. A forked child starts its own."""

@@ -4,20 +4,20 @@ import pytest
 from gymnasium.utils import seeding
 
 import quad_dob_env  # noqa: F401
-from baselines import (
+from quad_dob_baselines import (
     CONTROLLERS,
     GeometricController,
     NonlinearDisturbanceObserver,
     make_controller,
 )
-from baselines.policy import ReferencePolicy
+from quad_dob_baselines.policy import ReferencePolicy
 from quad_dob_env.disturbances import Constant
 from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.flatness import attitude_from_thrust_vector as desired_attitude
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.so3 import vee
-from training.rollout import fly
+from quad_dob_training.rollout import fly
 
 PAPER = get_vehicle("paper")
 FORCE, TORQUE = np.array([1.3, 2.0, 2.6]), np.array([0.78, 1.2, 1.56])

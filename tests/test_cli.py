@@ -1,7 +1,7 @@
 import subprocess
 import sys
 
-from training.cli import main
+from quad_dob_training.cli import main
 
 
 def test_list_names_ids_and_scenarios(capsys):
@@ -16,6 +16,7 @@ def test_list_names_ids_and_scenarios(capsys):
 
 
 def test_console_script_rejects_an_unknown_command():
-    result = subprocess.run([sys.executable, "-m", "training.cli", "fly"], capture_output=True,
+    result = subprocess.run([sys.executable, "-m", "quad_dob_training.cli", "fly"],
+                            capture_output=True,
                             text=True)
     assert result.returncode == 2 and "invalid choice: 'fly'" in result.stderr

@@ -13,7 +13,7 @@ import numpy as np
 SCRIPT = """
 import sys
 import numpy as np
-from baselines import kernels, make_controller
+from quad_dob_baselines import kernels, make_controller
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.so3 import exp

@@ -6,17 +6,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from baselines import make_controller
-from baselines.smc import ETA_MARGIN
+from quad_dob_baselines import make_controller
+from quad_dob_baselines.smc import ETA_MARGIN
 from quad_dob_env.disturbances import Constant
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.scenarios import list_scenarios, make_scenario
 from quad_dob_env.trajectories import Hover
-from training.evaluate import evaluate
-from training.metrics import flight_metrics
-from training.policies import Policy, fly_policy
-from training.rollout import fly
+from quad_dob_training.evaluate import evaluate
+from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.policies import Policy, fly_policy
+from quad_dob_training.rollout import fly
 
 PAPER = get_vehicle("paper")
 

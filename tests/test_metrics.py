@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from quad_dob_env.so3 import exp
-from training.metrics import attitude_errors, error_euler_angles
-from training.statistics import bootstrap_mean, paired_difference
+from quad_dob_training.metrics import attitude_errors, error_euler_angles
+from quad_dob_training.statistics import bootstrap_mean, paired_difference
 
 
 def _rz(angle):
@@ -82,7 +82,7 @@ def test_bootstrap_refuses_empty_or_non_finite_values():
 
 
 def test_evaluation_rows_carry_intervals_and_paired_differences():
-    from training.evaluate import SCORES, evaluate, markdown_table
+    from quad_dob_training.evaluate import SCORES, evaluate, markdown_table
 
     rows = evaluate(["geometric-ndob:tuned", "geometric"], ["hover-step-force"], [0, 1, 2])
     base, plain = rows

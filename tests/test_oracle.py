@@ -11,7 +11,7 @@ import oracle
 import pytest
 from gymnasium.utils import seeding
 
-from baselines import (
+from quad_dob_baselines import (
     TUNED_OBSERVER_RATES,
     GeometricController,
     NonlinearDisturbanceObserver,
@@ -24,7 +24,7 @@ from quad_dob_env.params import get_vehicle
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.so3 import exp
 from quad_dob_env.trajectories import Reference
-from training.rollout import fly
+from quad_dob_training.rollout import fly
 
 PAPER = get_vehicle("paper")
 FORCE, TORQUE, WIND = np.array([1.0, -2.0, 0.5]), np.array([0.05, -0.1, 0.02]), np.array(

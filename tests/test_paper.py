@@ -2,8 +2,8 @@ import json
 
 import pytest
 
-from training.cli import main
-from training.paper import PAPER_CONTROLLERS, run_paper
+from quad_dob_training.cli import main
+from quad_dob_training.paper import PAPER_CONTROLLERS, run_paper
 
 
 def test_paper_writes_tables_and_figures(tmp_path):

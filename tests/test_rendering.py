@@ -62,7 +62,7 @@ def test_vector_env_renders_its_first_vehicles_and_human_mode_runs_headless():
 def test_replay_writes_policies_side_by_side(tmp_path):
     from PIL import Image
 
-    from training import cli
+    from quad_dob_training import cli
 
     out = tmp_path / "flight.gif"
     assert cli.main(["replay", "--policy", "geometric,pid", "--scenario", "hover-step-force",

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from training import cli
+from quad_dob_training import cli
 
 ERROR_MARKS = ("Uncaught", "TypeError", "ReferenceError", "SyntaxError", "Failed to load",
                "net::ERR", "console.error")

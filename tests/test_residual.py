@@ -5,13 +5,13 @@ from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import quad_dob_env  # noqa: F401
-from baselines import make_controller
+from quad_dob_baselines import make_controller
 from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
 from quad_dob_env.envs.residual import ResidualCommand
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.wrappers import ResidualActionWrapper
-from training.rollout import fly
-from training.vec_env import QuadrotorSB3VecEnv
+from quad_dob_training.rollout import fly
+from quad_dob_training.vec_env import QuadrotorSB3VecEnv
 
 SCENARIO, BASE = "dryden-helix-gusts", "geometric-ndob:tuned"
 SHORT = {"duration": 0.3}
@@ -108,7 +108,7 @@ def test_vector_residual_equals_single_residual_envs_through_autoresets():
 
 @pytest.mark.parametrize("base", ["geometric-ndob:tuned", "geometric"])
 def test_compiled_residual_pass_equals_the_separate_stages(base):
-    # the geometric base runs in one compiled pass with the physics (baselines.fused); any
+    # the geometric base runs in one compiled pass with the physics (quad_dob_baselines.fused); any
     # other controller runs as command -> step -> record -> plan. Both must agree.
     n, steps = 4, 75
     compiled = QuadrotorVectorEnv(n, "gusty-hover", scenario_options=SHORT, base_controller=base)

@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from training.sweep import finished, load_config, run_sweep, tasks
+from quad_dob_training.sweep import finished, load_config, run_sweep, tasks
 
 SMALL = """kind: evaluate
 name: small
@@ -45,7 +45,7 @@ def test_a_killed_sweep_resumes_and_runs_every_task_exactly_once(tmp_path):
     config.write_text(SMALL.replace("[2, 10]", "[1, 2, 5, 10, 20, 40]"))
     out = tmp_path / "out"
     results = out / "results.jsonl"
-    process = subprocess.Popen([sys.executable, "-m", "training.cli", "sweep", str(config),
+    process = subprocess.Popen([sys.executable, "-m", "quad_dob_training.cli", "sweep", str(config),
                                 "--out", str(out), "--workers", "1"],
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                start_new_session=True)

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from quad_dob_env.envs import QuadrotorVectorEnv
-from training import cli
-from training.evaluate import evaluate, parse_seeds
-from training.policies import check_spaces, load_model, make_policy, sha256
-from training.train import resolve_config, train
+from quad_dob_training import cli
+from quad_dob_training.evaluate import evaluate, parse_seeds
+from quad_dob_training.policies import check_spaces, load_model, make_policy, sha256
+from quad_dob_training.train import resolve_config, train
 
 
 def _tiny(mode: str, env_id: str, **options):

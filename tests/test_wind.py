@@ -5,15 +5,15 @@ import numpy as np
 import pytest
 from gymnasium.utils import seeding
 
-from baselines import make_controller
+from quad_dob_baselines import make_controller
 from quad_dob_env.disturbances import DRYDEN_INTENSITIES, Dryden, Gust
 from quad_dob_env.dynamics import Actuator, VehicleState, accelerations
 from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.so3 import exp
-from training.metrics import flight_metrics
-from training.rollout import fly
+from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.rollout import fly
 
 PAPER = get_vehicle("paper")
 DT = 0.01

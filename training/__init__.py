@@ -1,5 +1,8 @@
 """Training, evaluation, the paper reproduction and the ``quad-dob`` command line.
 
+The folder ``training/`` installs as ``quad_dob_training``; it sits on top and may import
+``quad_dob_env`` and ``quad_dob_baselines``.
+
 - ``cli``: ``quad-dob list | paper | train | evaluate | tune | replay | sweep``.
 - ``rollout``: ``Flight`` records and ``fly`` (controllers through scenarios, batched).
 - ``metrics``: the scores every report uses (position; geodesic, tilt and heading

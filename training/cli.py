@@ -9,7 +9,7 @@ from pathlib import Path
 
 def _list(_: argparse.Namespace) -> int:
     import quad_dob_env
-    from baselines import CONTROLLERS
+    from quad_dob_baselines import CONTROLLERS
     from quad_dob_env.scenarios import WIND_PRESETS, make_scenario
 
     print("Environment ids:")
@@ -32,14 +32,14 @@ def _list(_: argparse.Namespace) -> int:
 
 
 def _paper(args: argparse.Namespace) -> int:
-    from training.paper import main as paper_main
+    from quad_dob_training.paper import main as paper_main
 
     return paper_main(_names(args.scenarios), _names(args.controllers), args.torque_reading,
                       args.dt, args.substeps, args.out, args.json, not args.no_figures)
 
 
 def _train(args: argparse.Namespace) -> int:
-    from training.train import main as train_main
+    from quad_dob_training.train import main as train_main
 
     return train_main(args.algo, args.mode, args.env, args.scenario, args.timesteps,
                       args.n_envs, args.seed, args.out, args.resume, args.base,
@@ -47,27 +47,27 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from training.evaluate import main as evaluate_main
+    from quad_dob_training.evaluate import main as evaluate_main
 
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
                          args.json, args.baseline)
 
 
 def _tune(args: argparse.Namespace) -> int:
-    from training.tune import main as tune_main
+    from quad_dob_training.tune import main as tune_main
 
     return tune_main(_names(args.controllers), args.out)
 
 
 def _replay(args: argparse.Namespace) -> int:
-    from training.replay import main as replay_main
+    from quad_dob_training.replay import main as replay_main
 
     return replay_main(_names(args.policy), args.scenario, args.seed, args.out, args.fps,
                        args.width)
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from training.sweep import run_sweep
+    from quad_dob_training.sweep import run_sweep
 
     run_sweep(args.config, args.out, args.ray_address, args.workers)
     return 0
@@ -94,7 +94,7 @@ def _positive_int(text: str) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="quad-dob", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
-    from training.paper import PAPER_CONTROLLERS, PAPER_SCENARIOS
+    from quad_dob_training.paper import PAPER_CONTROLLERS, PAPER_SCENARIOS
 
     paper = commands.add_parser(
         "paper", help="reproduce the paper: every controller in its scenarios, table + figures")

@@ -1,11 +1,12 @@
 """``quad-dob evaluate``: every policy on every scenario over the given seeds.
 
-Scores (``training.metrics``, the code ``quad-dob paper`` uses), after t = 2 s: RMS position
-error, RMS geodesic attitude error ‖log RdᵀR‖, RMS tilt error ∠(b3, b3d), RMS heading error,
-control effort (RMS applied moment norm), and the crash rate. Each score gets its mean, std
-and 95 % bootstrap interval over the seeds, and every policy its paired per-seed difference
-to ``baseline`` (default the recommended geometric + NDOB) with a 95 % bootstrap interval
-(``training.statistics``): "better" means that interval lies below zero.
+Scores (``quad_dob_training.metrics``, the code ``quad-dob paper`` uses), after t = 2 s:
+RMS position error, RMS geodesic attitude error ‖log RdᵀR‖, RMS tilt error ∠(b3, b3d), RMS
+heading error, control effort (RMS applied moment norm), and the crash rate. Each score
+gets its mean, std and 95 % bootstrap interval over the seeds, and every policy its paired
+per-seed difference to ``baseline`` (default the recommended geometric + NDOB) with a 95 %
+bootstrap interval (``quad_dob_training.statistics``): "better" means that interval lies
+below zero.
 
 Writes ``evaluation.md``, ``evaluation.csv``, ``evaluation.png`` (bars with their 95 %
 intervals) and the interactive ``report.html`` (figures of the first seed), or prints the
@@ -23,10 +24,10 @@ import numpy as np
 
 from quad_dob_env import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.scenarios import make_scenario
-from training.metrics import flight_metrics
-from training.policies import fly_policy, make_policy
-from training.report import write_report
-from training.statistics import bootstrap_mean, paired_difference
+from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.policies import fly_policy, make_policy
+from quad_dob_training.report import write_report
+from quad_dob_training.statistics import bootstrap_mean, paired_difference
 
 SCORES = (("rms_position_settled", "RMS ‖e_x‖ [m]"),
           ("rms_attitude_settled", "RMS ‖log RdᵀR‖ [rad]"),

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from training.rollout import Flight
+from quad_dob_training.rollout import Flight
 
 SETTLED_AFTER = 2.0  # [s] the "t >= 2 s" columns skip the initial transient
 

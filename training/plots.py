@@ -10,8 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from training.metrics import attitude_errors
-from training.rollout import Flight
+from quad_dob_training.metrics import attitude_errors
+from quad_dob_training.rollout import Flight
 
 AXES = ("x", "y", "z")
 

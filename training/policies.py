@@ -12,8 +12,8 @@ A policy is what ``quad-dob evaluate --policies`` names:
 Every policy flies in a ``QuadrotorVectorEnv`` with one vehicle per seed: a controller is
 the base of a residual env given zero residuals (which flies it exactly), a residual model
 adds its actions to its base, a direct model commands the vehicle itself. The records are
-``training.rollout.Flight``s, so ``quad-dob evaluate`` scores them with the same metric code
-as ``quad-dob paper``.
+``quad_dob_training.rollout.Flight``s, so ``quad-dob evaluate`` scores them with the same
+metric code as ``quad-dob paper``.
 """
 
 from __future__ import annotations
@@ -27,12 +27,12 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from baselines import CONTROLLERS
+from quad_dob_baselines import CONTROLLERS
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.validation import unknown_name_error
-from training.rollout import Flight, FlightRecorder
+from quad_dob_training.rollout import Flight, FlightRecorder
 
 PRETRAINED = Path(__file__).parent / "pretrained"
 SHIPPED_RESIDUAL = PRETRAINED / "residual_dryden_helix_gusts.zip"
@@ -100,7 +100,14 @@ def load_model(path: str | Path, expected_sha256: str | None = None) -> tuple[An
         raise ValueError(f"no training config beside {str(path)!r} (looked for "
                          f"{path.stem}.yaml and config.yaml): cannot tell which env it fits")
     config = yaml.safe_load(config_path.read_text())
-    return PPO.load(path, device="cpu"), config
+    # the schedules are pickled code (by value, tagged with the module that made them);
+    # flying a policy needs none of them, so they are not unpickled
+    schedules = {"learning_rate": 0.0, "lr_schedule": _no_schedule, "clip_range": _no_schedule}
+    return PPO.load(path, device="cpu", custom_objects=schedules), config
+
+
+def _no_schedule(_: float) -> float:
+    return 0.0
 
 
 def make_policy(spec: str) -> Policy:

@@ -16,7 +16,7 @@ from PIL import Image, ImageDraw
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.envs.rendering import FlightRenderer
 from quad_dob_env.scenarios import make_scenario
-from training.policies import check_spaces, make_policy
+from quad_dob_training.policies import check_spaces, make_policy
 
 VIDEO_SUFFIXES = (".gif", ".mp4")
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from training.rollout import Flight
+from quad_dob_training.rollout import Flight
 
 _COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2",
             "#17becf")

@@ -13,7 +13,7 @@ import numpy as np
 from gymnasium.utils import seeding
 from numpy.typing import NDArray
 
-from baselines.base import Controller
+from quad_dob_baselines.base import Controller
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.params import VehicleParams
@@ -57,7 +57,7 @@ _RECORDED = ("time", "position", "velocity", "acceleration", "rotation", "refere
 
 class FlightRecorder:
     """Records of N vehicles, step by step, each stopped at its episode's end (``fly`` and
-    ``training.policies.fly_policy`` both keep theirs here)."""
+    ``quad_dob_training.policies.fly_policy`` both keep theirs here)."""
 
     def __init__(self, n: int, vehicle: VehicleParams) -> None:
         self.rows: list[dict[str, list]] = [{key: [] for key in _RECORDED} for _ in range(n)]

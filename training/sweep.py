@@ -44,7 +44,7 @@ import numpy as np
 import yaml
 
 from quad_dob_env.validation import unknown_name_error
-from training.evaluate import parse_seeds
+from quad_dob_training.evaluate import parse_seeds
 
 KINDS = ("evaluate", "train")
 EVALUATE_AXES = ("policy", "scenario", "wind_scale", "observer_rate")
@@ -117,8 +117,8 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
 
 def _evaluate_task(task: dict[str, Any]) -> dict[str, Any]:
     from quad_dob_env.scenarios import make_scenario
-    from training.metrics import flight_metrics
-    from training.policies import Policy, fly_policy, make_policy
+    from quad_dob_training.metrics import flight_metrics
+    from quad_dob_training.policies import Policy, fly_policy, make_policy
 
     params = task["params"]
     options = {} if params.get("wind_scale") is None else {"wind_scale": params["wind_scale"]}
@@ -134,7 +134,7 @@ def _evaluate_task(task: dict[str, Any]) -> dict[str, Any]:
 
 
 def _observer_controller(name: str, rate: float, vehicle) -> Any:
-    from baselines import GeometricController, NonlinearDisturbanceObserver
+    from quad_dob_baselines import GeometricController, NonlinearDisturbanceObserver
 
     if not name.startswith("geometric-ndob"):
         raise ValueError(f"observer_rate applies to geometric-ndob policies, not {name!r}")
@@ -146,9 +146,9 @@ def _train_task(task: dict[str, Any]) -> dict[str, Any]:
     import tempfile
 
     from quad_dob_env.scenarios import make_scenario
-    from training.metrics import flight_metrics
-    from training.policies import Policy, fly_policy
-    from training.train import resolve_config, train
+    from quad_dob_training.metrics import flight_metrics
+    from quad_dob_training.policies import Policy, fly_policy
+    from quad_dob_training.train import resolve_config, train
 
     params = dict(task["params"])
     seed = int(params.pop("seed", 0))

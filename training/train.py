@@ -26,9 +26,9 @@ from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
 import quad_dob_env
 from quad_dob_env.validation import unknown_name_error
-from training.metrics import flight_metrics
-from training.policies import Policy, fly_policy
-from training.vec_env import QuadrotorSB3VecEnv
+from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.policies import Policy, fly_policy
+from quad_dob_training.vec_env import QuadrotorSB3VecEnv
 
 HYPERPARAMS = Path(__file__).parent / "hyperparams" / "ppo.yml"
 ALGORITHMS = ("ppo",)

@@ -34,19 +34,19 @@ from typing import Any
 
 import numpy as np
 
-from baselines import (
+from quad_dob_baselines import (
     GeometricController,
     NonlinearDisturbanceObserver,
     make_controller,
 )
-from baselines.base import Controller
-from baselines.pid import PID_GAINS
-from baselines.smc import SMC_GAINS
+from quad_dob_baselines.base import Controller
+from quad_dob_baselines.pid import PID_GAINS
+from quad_dob_baselines.smc import SMC_GAINS
 from quad_dob_env.disturbances import Constant
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.scenarios import make_scenario
-from training.metrics import flight_metrics
-from training.policies import Policy, fly_policy
+from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.policies import Policy, fly_policy
 
 TUNING_SEEDS = tuple(range(100, 110))
 TUNING_SCENARIOS = ("dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind",

@@ -6,7 +6,7 @@ vehicles); ``quad_dob_env.wrappers.ResidualActionWrapper`` is its single-env fac
 Two ways to run a step, with the same per-vehicle equations: the stages ``command`` ->
 ``core.step`` -> ``record`` -> ``plan`` work with any controller (the wrapper, whose env
 steps itself, always uses them); ``fly`` runs the step in one compiled pass when the
-controller offers one (``fused_residual``: the geometric controller, ``baselines.fused``).
+controller offers one (``fused_residual``: the geometric controller, ``quad_dob_baselines.fused``).
 
 Applied command (before the actuators' own limits):
 ``thrust = base_thrust + thrust_scale · max_total_thrust · a₀``,
@@ -42,16 +42,16 @@ from quad_dob_env.envs.residual_kernels import body_frame_errors, join_columns
 from quad_dob_env.validation import as_finite
 
 if TYPE_CHECKING:  # the layering: quad_dob_env imports baselines only when asked to
-    from baselines.base import Controller
+    from quad_dob_baselines.base import Controller
     from quad_dob_env.envs.core import QuadrotorBatch
 
 RESIDUAL_OBSERVATION_SIZE = 16
 
 
 def resolve_controller(base: Any, core: QuadrotorBatch) -> Controller:
-    """A controller object, or one built by name with ``baselines.make_controller``."""
+    """A controller object, or one built by name with ``quad_dob_baselines.make_controller``."""
     if isinstance(base, str):
-        from baselines import make_controller  # at run time only: DESIGN.md layering
+        from quad_dob_baselines import make_controller  # at run time only: DESIGN.md layering
 
         return make_controller(base, core.vehicle)
     if not (hasattr(base, "compute") and hasattr(base, "reset") and hasattr(base, "applied")):

@@ -1,6 +1,6 @@
 """The residual's compiled per-vehicle pieces (``quad_dob_env.envs.residual``): the
 command, the reward and the extra observation, written once for the separate stages and
-for ``baselines.fused``'s single pass."""
+for ``quad_dob_baselines.fused``'s single pass."""
 
 from numba import njit
 

@@ -131,7 +131,7 @@ class QuadrotorVectorEnv(VectorEnv):
         return (self.observations(), rewards, terminated, truncated,
                 self._info(ended, self._ended_count))
 
-    # --- the stages, shared with training.vec_env's SB3 adapter -------------------------
+    # --- the stages, shared with quad_dob_training.vec_env's SB3 adapter -------------------------
     def restart(self, indices: NDArray[np.intp]) -> None:
         """New episodes for vehicles ``indices``, from their own generators (residual mode:
         with their first base command planned)."""

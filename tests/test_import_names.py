@@ -1,0 +1,49 @@
+"""Installed import names that cannot collide: a research repo with its own ``baselines/``
+and ``training/`` folders (common, and OpenAI's ``baselines`` is installed the same way)
+must still build every id and run the CLI."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import quad_dob_env
+
+SCRIPT = textwrap.dedent("""
+    import gymnasium as gym
+    import numpy as np
+    import baselines, training  # the user's own folders, imported first
+    import quad_dob_env
+    assert baselines.MINE and training.MINE
+    for env_id in quad_dob_env.ENV_IDS:
+        env = gym.make(env_id)
+        env.reset(seed=0)
+        env.step(np.zeros(4, np.float32))
+        vector = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+        vector.reset(seed=0)
+        vector.step(np.zeros((2, 4)))
+    print("built", len(quad_dob_env.ENV_IDS))
+""")
+
+
+def test_every_id_and_the_cli_work_beside_folders_named_baselines_and_training(tmp_path):
+    for name in ("baselines", "training"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "__init__.py").write_text("MINE = True\n")
+    env = {**os.environ, "PYTHONPATH": ""}
+    built = subprocess.run([sys.executable, "-c", SCRIPT], cwd=tmp_path, env=env,
+                           capture_output=True, text=True, timeout=600)
+    assert built.returncode == 0, built.stderr[-3000:]
+    assert f"built {len(quad_dob_env.ENV_IDS)}" in built.stdout
+    console = Path(sys.executable).with_name("quad-dob")
+    evaluated = subprocess.run(
+        [str(console), "evaluate", "--policies", "geometric-ndob:tuned,pid,residual",
+         "--scenarios", "hover-calm", "--seeds", "2", "--json"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert evaluated.returncode == 0, evaluated.stderr[-3000:]
+    rows = json.loads(evaluated.stdout)
+    assert [row["policy"] for row in rows] == ["geometric-ndob:tuned", "pid", "residual"]
