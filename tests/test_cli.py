@@ -13,6 +13,7 @@ def test_list_names_ids_and_scenarios(capsys):
     assert "rotors +22%" in out  # the wind helix: its tightest axis
     assert "Controllers: geometric, geometric-ndob, geometric-ndob:tuned, pid, smc" in out
     assert "moderate" in out and "Policies:" in out
+    assert "torque_coefficient" in out and "APC 10x4.7" in out  # vehicle numbers, sourced
 
 
 def test_console_script_rejects_an_unknown_command():

@@ -1,27 +1,34 @@
 import numpy as np
 import pytest
+from gymnasium.utils import seeding
 
-from quad_dob_env.dynamics import (
-    Actuator,
-    VehicleState,
-    accelerations,
-    integrate,
-)
+from quad_dob_env.disturbances import Constant
+from quad_dob_env.dynamics import Actuator, VehicleState
+from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.params import get_vehicle
-from quad_dob_env.so3 import exp
-from quad_dob_env.threads import PARALLEL_MIN_BATCH
+from quad_dob_env.scenarios import make_scenario
 
 PAPER = get_vehicle("paper")
 G = PAPER.gravity
 
 
-def fly(state, steps, thrust=0.0, moment=(0.0, 0.0, 0.0), dt=0.01, substeps=1, **kwargs):
+def fly(state, steps, thrust=0.0, moment=(0.0, 0.0, 0.0), dt=0.01, substeps=1,
+        disturbance=None):
+    """Fly ``state`` in place through the package's own step (``QuadrotorBatch``, the kernel
+    every env runs) with the wrench held, directly applied, no floor."""
     n = state.n
-    thrust = np.full(n, thrust)
-    moment = np.tile(moment, (n, 1)).astype(float)
+    scenario = make_scenario("hover-calm", actuation="wrench", floor_height=None,
+                             initial_position_noise=0.0, initial_attitude_noise=0.0, dt=dt,
+                             substeps=substeps, duration=dt, disturbance=disturbance)
+    core = QuadrotorBatch(scenario, n)
+    core.reset(np.arange(n), [seeding.np_random(i)[0] for i in range(n)])
+    core.state.assign(state)
+    actions = core.action_map.to_actions(np.full(n, float(thrust)),
+                                         np.tile(np.asarray(moment, float), (n, 1)))
     for _ in range(steps):
-        diverged = integrate(state, thrust, moment, PAPER, dt, substeps, **kwargs)
-        assert not diverged.any()
+        core.step(actions)
+        assert not np.any(core.termination_code == 4)  # no step diverged
+    state.assign(core.state)
     return state
 
 
@@ -90,62 +97,9 @@ def test_substeps_agree_with_a_finer_step():
 
 def test_constant_disturbance_force_accelerates_by_f_over_m():
     force = np.array([1.3, 2.0, 2.6])
-    samples = np.broadcast_to(force, (1, 3, 3)).copy()
-    state = fly(VehicleState.at_rest(1), 100, thrust=PAPER.hover_thrust, force_samples=samples)
+    state = fly(VehicleState.at_rest(1), 100, thrust=PAPER.hover_thrust,
+                disturbance=Constant(force=force))
     np.testing.assert_allclose(state.velocity[0], force / PAPER.mass * 1.0, rtol=1e-12)
-
-
-def test_accelerations_follow_the_equations_of_motion():
-    rng = np.random.default_rng(3)
-    state = VehicleState.at_rest(4)
-    state.rotation[:] = exp(rng.normal(size=(4, 3)))
-    state.angular_velocity[:] = rng.normal(size=(4, 3))
-    thrust, moment = rng.uniform(0, 60, 4), rng.normal(size=(4, 3))
-    force, torque = rng.normal(size=(4, 3)), rng.normal(size=(4, 3))
-    linear, angular = accelerations(state, thrust, moment, PAPER, force, torque)
-    J = PAPER.inertia_matrix
-    for i in range(4):
-        R, w = state.rotation[i], state.angular_velocity[i]
-        expected_linear = (-PAPER.mass * G * np.array([0, 0, 1.0]) + thrust[i] * R[:, 2]
-                           + force[i]) / PAPER.mass
-        expected_angular = np.linalg.solve(J, -np.cross(w, J @ w) + moment[i] + torque[i])
-        np.testing.assert_allclose(linear[i], expected_linear, atol=1e-12)
-        np.testing.assert_allclose(angular[i], expected_angular, atol=1e-12)
-
-
-def test_a_batch_split_across_threads_equals_single_vehicles_bit_for_bit():
-    rng = np.random.default_rng(7)
-    n = PARALLEL_MIN_BATCH + 5
-    big = VehicleState.at_rest(n)
-    big.rotation[:] = exp(rng.normal(size=(n, 3)))
-    big.angular_velocity[:] = rng.normal(size=(n, 3))
-    thrust, moment = rng.uniform(0, 80, n), rng.normal(size=(n, 3))
-    singles = [VehicleState(big.position[i:i + 1], big.velocity[i:i + 1],
-                            big.rotation[i:i + 1], big.angular_velocity[i:i + 1])
-               for i in range(0, n, 37)]
-    for _ in range(20):
-        integrate(big, thrust, moment, PAPER, 0.01)
-        for k, single in zip(range(0, n, 37), singles, strict=True):
-            integrate(single, thrust[k:k + 1], moment[k:k + 1], PAPER, 0.01)
-    for k, single in zip(range(0, n, 37), singles, strict=True):
-        assert np.array_equal(big.rotation[k], single.rotation[0])
-        assert np.array_equal(big.position[k], single.position[0])
-
-
-def test_a_diverging_vehicle_keeps_its_last_finite_state_and_is_flagged():
-    state = VehicleState.at_rest(2, (0.0, 0.0, 1.0))
-    before = state.copy()
-    diverged = integrate(state, np.array([PAPER.hover_thrust, np.inf]), np.zeros((2, 3)),
-                         PAPER, 0.01)
-    assert diverged.tolist() == [False, True]
-    np.testing.assert_array_equal(state.position[1], before.position[1])
-    assert np.all(np.isfinite(state.position))
-
-
-def test_bad_sample_shape_is_named():
-    with pytest.raises(ValueError, match=r"2\*substeps\+1"):
-        integrate(VehicleState.at_rest(1), np.zeros(1), np.zeros((1, 3)), PAPER, 0.01, 2,
-                  force_samples=np.zeros((1, 3, 3)))
 
 
 def test_state_shapes_are_validated():

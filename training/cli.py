@@ -10,6 +10,7 @@ from pathlib import Path
 def _list(_: argparse.Namespace) -> int:
     import quad_dob_env
     from quad_dob_baselines import CONTROLLERS
+    from quad_dob_env.params import VEHICLE_SOURCES
     from quad_dob_env.scenarios import WIND_PRESETS, make_scenario
 
     print("Environment ids:")
@@ -27,8 +28,22 @@ def _list(_: argparse.Namespace) -> int:
         print(f"  {name:<10} {mean:g} m/s mean, W20 = {w20:.2f} m/s")
     print("Controllers:", ", ".join(CONTROLLERS))
     print("Policies: any controller, residual (the shipped policy), residual:PATH, ppo:PATH")
-    print("Vehicles:", ", ".join(quad_dob_env.VEHICLES))
+    print("Vehicles (every number and its source):")
+    for name, sources in VEHICLE_SOURCES.items():
+        vehicle = quad_dob_env.VEHICLES[name]
+        print(f"  {name}")
+        for field, source in sources.items():
+            print(f"    {field:<20} {_number(getattr(vehicle, field)):<24} {source}")
     return 0
+
+
+def _number(value: object) -> str:
+    """A vehicle field for the listing: 4 significant digits, inertia by its diagonal."""
+    if isinstance(value, tuple) and value and isinstance(value[0], tuple):
+        return "diag(" + ", ".join(f"{value[k][k]:.4g}" for k in range(3)) + ")"
+    if isinstance(value, tuple):
+        return "(" + ", ".join(f"{v:.4g}" for v in value) + ")"
+    return f"{value:.4g}" if isinstance(value, float) else str(value)
 
 
 def _paper(args: argparse.Namespace) -> int:

@@ -18,10 +18,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from quad_dob_env.dynamics.state import VehicleState
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.so3 import cross_tuple, exp_tuple, mat_mul_tuple, mat_vec_tuple
-from quad_dob_env.threads import run_over_batch
 
 
 class ThrustLaw(NamedTuple):
@@ -244,45 +242,6 @@ def vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag):
             (drag[i, 0], drag[i, 1], drag[i, 2]), (drag[i, 3], drag[i, 4], drag[i, 5]))
 
 
-@njit(cache=True, nogil=True)
-def _integrate_kernel(start, stop, position, velocity, rotation, angular_velocity, thrust,
-                      moment, tables, own, mass, gravity, inertia, inertia_inverse, drag, dt,
-                      substeps, law, diverged):
-    """Advance every vehicle in place with the wrench held; a vehicle whose new state is not
-    finite keeps its old state and is flagged in ``diverged``."""
-    identity = np.eye(4)
-    for i in range(start, stop):
-        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        command = (thrust[i], moment[i, 0], moment[i, 1], moment[i, 2])
-        x, v, R, w = advance_vehicle(x, v, R, w, command, command, 0.0, identity, tables, 0,
-                                     own, i, vehicle_physics(i, mass, gravity, inertia,
-                                                             inertia_inverse, drag),
-                                     dt, substeps, law)
-        diverged[i] = not all_finite(x, v, R, w)
-        if not diverged[i]:
-            store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
-
-
-
-
-@njit(cache=True)
-def _derivative_batch(position, velocity, rotation, omega, thrust, moment, force, torque, wind,
-                      mass, gravity, inertia, inertia_inverse, drag, law, linear_out,
-                      angular_out):
-    for i in range(position.shape[0]):
-        x, v, R, w = load_vehicle(i, position, velocity, rotation, omega)
-        m, g, J, J_inverse, drag_linear, drag_quadratic = vehicle_physics(
-            i, mass, gravity, inertia, inertia_inverse, drag)
-        linear, angular = _accelerations(
-            x, v, R, w, thrust[i], (moment[i, 0], moment[i, 1], moment[i, 2]),
-            (force[i, 0], force[i, 1], force[i, 2]), (torque[i, 0], torque[i, 1], torque[i, 2]),
-            (wind[i, 0], wind[i, 1], wind[i, 2]), m, g, J, J_inverse, drag_linear,
-            drag_quadratic, law)
-        for k in range(3):
-            linear_out[i, k] = linear[k]
-            angular_out[i, k] = angular[k]
-
-
 def physics_arrays(params: VehicleParams, n: int, drag: bool = False) -> tuple:
     """Per-vehicle (mass, inertia, inverse inertia, drag) arrays of ``params`` for N vehicles;
     the drag columns are zero unless ``drag``."""
@@ -291,59 +250,3 @@ def physics_arrays(params: VehicleParams, n: int, drag: bool = False) -> tuple:
     return (np.full(n, params.mass), np.broadcast_to(params.inertia_matrix, (n, 3, 3)).copy(),
             np.broadcast_to(params.inertia_inverse, (n, 3, 3)).copy(),
             np.broadcast_to(coefficients, (n, 6)).copy())
-
-
-def _batch(value: ArrayLike | None, n: int, shape: tuple[int, ...]) -> NDArray:
-    if value is None:
-        return np.zeros((n, *shape))
-    return np.ascontiguousarray(np.broadcast_to(np.asarray(value, float), (n, *shape)))
-
-
-def accelerations(state: VehicleState, thrust: ArrayLike, moment: ArrayLike,
-                  params: VehicleParams, force: ArrayLike | None = None,
-                  torque: ArrayLike | None = None, law: ThrustLaw = NO_GROUND_EFFECT,
-                  wind: ArrayLike | None = None, drag: bool = False,
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``(v', Ω')`` for the batch: linear acceleration (world) and angular (body)."""
-    n = state.n
-    linear, angular = np.empty((n, 3)), np.empty((n, 3))
-    mass, inertia, inertia_inverse, coefficients = physics_arrays(params, n, drag)
-    _derivative_batch(state.position, state.velocity, state.rotation, state.angular_velocity,
-                      _batch(thrust, n, ()), _batch(moment, n, (3,)), _batch(force, n, (3,)),
-                      _batch(torque, n, (3,)), _batch(wind, n, (3,)), mass, params.gravity,
-                      inertia, inertia_inverse, coefficients, tuple(float(v) for v in law),
-                      linear, angular)
-    return linear, angular
-
-
-def integrate(state: VehicleState, thrust: NDArray, moment: NDArray, params: VehicleParams,
-              dt: float, substeps: int = 1, force_samples: NDArray | None = None,
-              torque_samples: NDArray | None = None, law: ThrustLaw = NO_GROUND_EFFECT,
-              wind_samples: NDArray | None = None, drag: bool = False) -> NDArray[np.bool_]:
-    """Advance ``state`` in place by ``dt`` with thrust and moment held constant.
-
-    ``force_samples`` / ``torque_samples`` / ``wind_samples`` (N, 2*substeps+1, 3) give the
-    external force (world), torque (body) and wind velocity (world) at the times
-    ``t0 + k dt / (2 substeps)``; None means zero. ``drag`` applies the vehicle's drag
-    coefficients to the air-relative velocity. Returns the mask of vehicles whose step
-    diverged (they keep their old state).
-    """
-    n = state.n
-    samples = 2 * substeps + 1
-    inputs = []
-    for name, value in (("force", force_samples), ("torque", torque_samples),
-                        ("wind", wind_samples)):
-        value = np.zeros((n, samples, 3)) if value is None else np.ascontiguousarray(value)
-        if value.shape != (n, samples, 3):
-            raise ValueError(f"{name} samples must have shape (N={n}, 2*substeps+1={samples}, "
-                             f"3), got {value.shape}")
-        inputs.append(value)
-    no_table = np.zeros((1, samples, 3))
-    mass, inertia, inertia_inverse, coefficients = physics_arrays(params, n, drag)
-    diverged = np.zeros(n, dtype=np.bool_)
-    run_over_batch(_integrate_kernel, n, state.position, state.velocity, state.rotation,
-                   state.angular_velocity, np.ascontiguousarray(thrust, dtype=float),
-                   np.ascontiguousarray(moment, dtype=float), (no_table, no_table, no_table),
-                   tuple(inputs), mass, params.gravity, inertia, inertia_inverse, coefficients,
-                   float(dt), int(substeps), tuple(float(v) for v in law), diverged)
-    return diverged
