@@ -189,7 +189,7 @@ class FusedResidualStep:
         core = self.residual.core
         core.prepare_step()
         self._residual[...] = residual
-        if not self._arguments or core._reference_table is not self._tables:
+        if not self._arguments or core.reference_table is not self._tables:
             self._make_arguments()  # first step, full reset, or the tables grew
         self._workers.run()
         core.finish_step()
@@ -205,7 +205,7 @@ class FusedResidualStep:
                   core.applied.moment)
         self._arguments = (flown, self._actions, core.step_arguments(), update,
                            self._plan_arguments())
-        self._tables = core._reference_table
+        self._tables = core.reference_table
         if self._workers is not None:
             self._workers.close()
         self._workers = ParkedWorkers(fused_residual_kernel, fused_residual_worker,
@@ -213,8 +213,8 @@ class FusedResidualStep:
 
     def _gather_constants(self) -> None:
         controller, vehicle = self.controller, self.controller.vehicle
-        gains = np.stack([controller._kx, controller._kv, controller.gains["kR"],
-                          controller.gains["kOmega"]]).astype(float)
+        kx, kv = controller.position_gains
+        gains = np.stack([kx, kv, controller.gains["kR"], controller.gains["kOmega"]]).astype(float)
         self._law = (float(vehicle.mass), float(vehicle.gravity),
                      np.array(vehicle.inertia_matrix, dtype=float), gains)
         observer = controller.observer
@@ -224,10 +224,10 @@ class FusedResidualStep:
                               np.zeros(n, dtype=np.bool_))
             self._observer_rates = (0.0, np.zeros((3, 3)))
         else:
-            self._observer = (True, float(observer._ks), np.array(observer._km, dtype=float),
-                              observer._z_force, observer._z_torque, observer._fresh)
-            self._observer_rates = (float(observer._alpha),
-                                    np.array(observer._alpha_rotation, dtype=float))
+            state = observer.kernel_state()
+            self._observer = (True, state.translational_gain, state.rotational_gain,
+                              state.z_force, state.z_torque, state.fresh)
+            self._observer_rates = (state.translational_alpha, state.rotational_alpha)
 
     def _new_outputs(self) -> None:
         """The arrays the plan is written to, from now on."""
@@ -251,6 +251,6 @@ class FusedResidualStep:
     def _plan_arguments(self) -> tuple:
         core, state = self.residual.core, self.residual.core.state
         return (state.position, state.velocity, state.rotation, state.angular_velocity,
-                core._reference_table, core.step_count, *self._law, *self._observer,
+                core.reference_table, core.step_count, *self._law, *self._observer,
                 *self._outputs, self.residual.estimate_scale, core.action_map.inverse,
                 self._base_action, self._body_errors, self.residual.extra_observation)

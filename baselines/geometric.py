@@ -71,6 +71,12 @@ class GeometricController(Controller):
         if self.observer is not None:
             self.observer.reset(num_vehicles, vehicle, dt, indices)
 
+    @property
+    def position_gains(self) -> tuple[NDArray, NDArray]:
+        """kx and kv [N/m, N s/m] for the vehicle of the last ``reset`` (per-mass gains times
+        its mass)."""
+        return self._kx, self._kv
+
     def compute(self, time: NDArray, state: VehicleState,
                 reference: Reference) -> tuple[NDArray, NDArray]:
         """One compiled call for the batch (``kernels.geometric_law`` per vehicle)."""

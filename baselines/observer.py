@@ -22,6 +22,8 @@ equations are compiled in ``quad_dob_baselines.kernels`` (``observer_*_batch``).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -43,6 +45,20 @@ def _as_gain_matrix(gain: ArrayLike, name: str) -> NDArray:
     if np.any(np.linalg.eigvals(matrix + matrix.T).real <= 0):
         raise ValueError(f"{name} must be positive definite, got {matrix.tolist()}")
     return matrix
+
+
+class ObserverKernelState(NamedTuple):
+    """What the compiled observer equations (``kernels.observer_*``) take, for a pass that
+    runs them itself: the discrete gains and the per-vehicle state arrays, which it updates
+    in place."""
+
+    translational_gain: float  # Ks' = m (1 - e^{-L dt}) / dt
+    rotational_gain: NDArray  # Km' (3, 3)
+    translational_alpha: float  # 1 - e^{-L dt}
+    rotational_alpha: NDArray  # I - e^{-L_Ω dt} (3, 3)
+    z_force: NDArray  # (N, 3)
+    z_torque: NDArray  # (N, 3)
+    fresh: NDArray  # (N,) bool: the vehicle's next estimate starts its episode at zero
 
 
 class NonlinearDisturbanceObserver:
@@ -94,6 +110,13 @@ class NonlinearDisturbanceObserver:
             self._pending = None
         else:
             self._fresh[indices] = True
+
+    def kernel_state(self) -> ObserverKernelState:
+        """The discrete gains and state arrays of the last ``reset`` (the arrays themselves,
+        not copies: a compiled pass that advances them replaces ``estimate``/``update``)."""
+        return ObserverKernelState(float(self._ks), np.array(self._km, dtype=float),
+                                   float(self._alpha), np.array(self._alpha_rotation, dtype=float),
+                                   self._z_force, self._z_torque, self._fresh)
 
     def estimate(self, state: VehicleState) -> tuple[NDArray, NDArray]:
         """``d̂x = zx + Ks' v``, ``d̂Ω = zΩ + Km' Ω`` for the current state, after finishing the

@@ -13,7 +13,6 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
-from gymnasium.utils import seeding
 from numpy.typing import NDArray
 from stable_baselines3.common.vec_env import VecEnv
 
@@ -37,7 +36,7 @@ class QuadrotorSB3VecEnv(VecEnv):
         n, venv = self.num_envs, self.vector_env
         seeds = [None if self._seed is None else self._seed + i for i in range(n)]
         self._seed = None  # later resets continue each vehicle's generator
-        venv._generators = [seeding.np_random(s)[0] for s in seeds]
+        venv.reseed(seeds)
         venv.restart(np.arange(n))
         self.reset_infos = [{} for _ in range(n)]
         return venv.observations()

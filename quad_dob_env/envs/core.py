@@ -223,6 +223,12 @@ class QuadrotorBatch:
         return self.step_count * self.scenario.dt
 
     @property
+    def reference_table(self) -> NDArray[np.float64]:
+        """The reference on the control grid, (rows, 8, 3) in ``Reference``'s field order;
+        row k is time k dt. It is replaced (not grown in place) when flown past its end."""
+        return self._reference_table
+
+    @property
     def reference(self) -> Reference:
         """The reference at each vehicle's current time, (N, 3) per field (read-only views,
         gathered once per step)."""

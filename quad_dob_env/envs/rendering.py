@@ -61,7 +61,7 @@ class FlightRenderer:
 
     def __init__(self, core, width: int = 480, height: int = 360) -> None:
         self.core, self.width, self.height = core, int(width), int(height)
-        reference = core._reference_table[: core.scenario.steps + 1, 0]
+        reference = core.reference_table[: core.scenario.steps + 1, 0]
         self.reference_path = reference
         low, high = reference.min(axis=0), reference.max(axis=0)
         span = float(np.max(high - low))

@@ -104,7 +104,7 @@ class QuadrotorVectorEnv(VectorEnv):
             seeds = list(seed)
             if len(seeds) != n:
                 raise ValueError(f"reset(seed=...) needs an int or {n} seeds, got {len(seeds)}")
-        self._generators = [seeding.np_random(s)[0] for s in seeds]
+        self.reseed(seeds)
         self.restart(np.arange(n))
         self.record_paths()
         self._needs_reset[:] = False
@@ -112,6 +112,13 @@ class QuadrotorVectorEnv(VectorEnv):
         info = self._info(np.zeros(n, dtype=bool), 0)
         info["sampled"] = [dict(sampled) for sampled in self.core.sampled]
         return self.observations(), info
+
+    def reseed(self, seeds: list[int | None]) -> None:
+        """One generator per vehicle from ``seeds`` (None: fresh entropy); the vehicles'
+        next episodes, and every autoreset after them, draw from these."""
+        if len(seeds) != self.num_envs:
+            raise ValueError(f"reseed needs {self.num_envs} seeds, got {len(seeds)}")
+        self._generators = [seeding.np_random(s)[0] for s in seeds]
 
     def step(self, actions: Any) -> tuple[NDArray[np.float32], NDArray, NDArray, NDArray, dict]:
         if not self._generators:
