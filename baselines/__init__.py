@@ -10,8 +10,6 @@ type), never ``quad_dob_training``.
 - ``attitude``: desired attitude from a thrust vector and heading, with analytic Ωd, Ω̇d.
 - ``geometric``: Lee–Leok–McClamroch 2010 on SE(3); with an observer, geometric + NDOB.
 - ``observer``: the nonlinear disturbance observer (Chen 2000 form).
-- ``fused``: the geometric (+NDOB) base inside a residual env's step, one compiled pass with
-  the physics (what ``ResidualCommand`` runs when the base is the geometric controller).
 - ``pid``: cascaded PID; ``smc``: sliding-mode control.
 - ``policy``: ``ReferencePolicy``, any controller as an SB3-style ``predict`` in an env.
 

@@ -12,13 +12,12 @@ The equations are written once, per vehicle, in ``quad_dob_baselines.kernels.geo
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_baselines.base import Controller
-from quad_dob_baselines.fused import FusedResidualStep
 from quad_dob_baselines.kernels import geometric_batch
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_env.dynamics import VehicleState
@@ -26,9 +25,6 @@ from quad_dob_env.params import VehicleParams
 from quad_dob_env.threads import PARALLEL_MIN_BATCH, run_over_batch
 from quad_dob_env.trajectories import Reference
 from quad_dob_env.validation import as_finite
-
-if TYPE_CHECKING:
-    from quad_dob_env.envs.residual import ResidualCommand
 
 # The paper's (and Lee 2010's) gains; kx and kv scale with the vehicle's mass.
 PAPER_GAINS = {"kx_per_mass": 16.0, "kv_per_mass": 5.6, "kR": 8.81, "kOmega": 2.54}
@@ -105,12 +101,6 @@ class GeometricController(Controller):
                        *(self.diagnostics[key] for key in _DIAGNOSTICS),
                        min_batch=4 * PARALLEL_MIN_BATCH)  # ~1/4 of a physics step's work
         return thrust, moment
-
-    def fused_residual(self, residual: ResidualCommand) -> FusedResidualStep:
-        """The compiled pass that runs this controller inside a ``ResidualCommand``'s step
-        (``quad_dob_baselines.fused``). In that pass ``diagnostics`` and the observer's
-        estimates are overwritten in place every step: copy what you keep."""
-        return FusedResidualStep(self, residual)
 
     def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
         if self.observer is not None:

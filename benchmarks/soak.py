@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from quad_dob_env.envs import QuadrotorVectorEnv
+from quad_dob_composition import ResidualVectorEnv
 
 
 def resident_mib() -> float:
@@ -31,7 +31,7 @@ def main() -> None:
     parser.add_argument("--num-envs", type=int, default=4096)
     args = parser.parse_args()
     n = args.num_envs
-    env = QuadrotorVectorEnv(n, "dryden-helix-gusts", base_controller="geometric-ndob:tuned",
+    env = ResidualVectorEnv(n, "dryden-helix-gusts", base_controller="geometric-ndob:tuned",
                              thrust_scale=0.3, moment_scale=0.3)
     env.reset(seed=0)
     rng = np.random.default_rng(0)

@@ -18,6 +18,7 @@ import numpy as np
 from gymnasium.utils import seeding
 
 import quad_dob_env  # noqa: F401  (registers the ids)
+from quad_dob_composition import ResidualVectorEnv
 from quad_dob_env.envs import QuadrotorBatch, QuadrotorVectorEnv
 from quad_dob_env.scenarios import make_scenario
 
@@ -57,7 +58,7 @@ def vector_env(n: int, with_base: bool) -> QuadrotorVectorEnv:
     """``QuadDOB/Track-v1`` (paper helix) as N vehicles; with the base, the residual twin
     ``QuadDOB/TrackResidual-v1`` flown by geometric + NDOB (tuned observer)."""
     if with_base:
-        return QuadrotorVectorEnv(n, CALM, base_controller="geometric-ndob:tuned")
+        return ResidualVectorEnv(n, CALM, base_controller="geometric-ndob:tuned")
     return QuadrotorVectorEnv(n, CALM)
 
 

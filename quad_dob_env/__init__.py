@@ -6,8 +6,11 @@ matrix functions, counter-based per-vehicle noise, compiled loops split across c
 ``params`` (vehicle presets), ``so3`` (rotations), ``dynamics`` (state, actuation,
 integrator), ``disturbances`` (forces, torques, wind, ground effect), ``trajectories``,
 ``flatness`` (the attitude, rates and inputs that fly a reference), ``feasibility`` (a
-reference's needs against the actuators), ``scenarios``, ``envs``, ``wrappers`` (the
-residual wrapper).
+reference's needs against the actuators), ``variation`` (sensor noise, domain
+randomisation), ``scenarios``, ``envs``, ``wrappers`` (the residual wrapper). None of them
+imports ``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``, not even
+at run time (``tests/test_layering.py``): the residual ids name their composition-layer
+entry points as strings.
 
 Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v1`` and
 ``QuadDOB/Track-v1`` (direct control), and ``QuadDOB/HoverResidual-v1`` and
@@ -42,10 +45,13 @@ def _register() -> None:
         if env_id in gym.registry:
             continue
         residual = "Residual" in env_id
+        # the residual ids compose a controller with the simulator: they are built by the
+        # composition layer, named here only as strings (DESIGN.md layering)
         gym.register(id=env_id,
-                     entry_point=("quad_dob_env.wrappers:make_residual_env" if residual
+                     entry_point=("quad_dob_composition.envs:make_residual_env" if residual
                                   else "quad_dob_env.envs:QuadrotorEnv"),
-                     vector_entry_point="quad_dob_env.envs:QuadrotorVectorEnv",
+                     vector_entry_point=("quad_dob_composition.envs:ResidualVectorEnv"
+                                         if residual else "quad_dob_env.envs:QuadrotorVectorEnv"),
                      kwargs={"scenario": scenario,
                              **({"base_controller": DEFAULT_BASE_CONTROLLER} if residual else {})})
 

@@ -31,6 +31,7 @@ from quad_dob_env.params import ACTUATIONS, VehicleParams, get_vehicle
 from quad_dob_env.so3 import project_to_so3
 from quad_dob_env.trajectories import Hover, PaperHelix, TakeoffHoverLanding, Trajectory
 from quad_dob_env.validation import as_finite, as_vector3, unknown_name_error
+from quad_dob_env.variation import Randomization, SensorNoise
 
 # The paper's translational disturbance magnitudes [N], Scenarios I, II, II-A.
 PAPER_FORCE = (1.3, 2.0, 2.6)
@@ -58,54 +59,6 @@ LANDING_HEIGHT = 0.08
 # 0.1 ms to 0.1 s, at most a million steps per episode (its reference is tabulated), and
 # at most 100 physics substeps per control step.
 MIN_DT, MAX_DT, MAX_STEPS, MAX_SUBSTEPS = 1e-4, 0.1, 1_000_000, 100
-
-@dataclass(frozen=True)
-class SensorNoise:
-    """What the agent observes, optional: Gaussian noise with these standard deviations on
-    the position (m), velocity (m/s), attitude (rad, a random rotation of that size per
-    axis) and body rates (rad/s) in the observation, which arrives ``delay_steps`` control
-    steps late. Reward, termination and ``info`` use the true state."""
-
-    position_std: float = 0.0
-    velocity_std: float = 0.0
-    attitude_std: float = 0.0
-    rate_std: float = 0.0
-    delay_steps: int = 0
-
-    def __post_init__(self) -> None:
-        for name in ("position_std", "velocity_std", "attitude_std", "rate_std"):
-            as_finite(getattr(self, name), f"SensorNoise.{name}", 0.0)
-        if not isinstance(self.delay_steps, (int, np.integer)) or self.delay_steps < 0:
-            raise ValueError(f"SensorNoise.delay_steps must be an integer >= 0, got "
-                             f"{self.delay_steps!r}")
-
-    @property
-    def is_noisy(self) -> bool:
-        return any((self.position_std, self.velocity_std, self.attitude_std, self.rate_std))
-
-
-@dataclass(frozen=True)
-class Randomization:
-    """Domain randomisation, optional: at each reset every vehicle's mass, inertia and drag
-    coefficients are the vehicle's times a factor drawn uniformly from these (low, high)
-    ranges (wind intensity and direction: ``Dryden(intensity_scale=..., direction=None)``).
-    The draws are in the reset ``info["sampled"]``."""
-
-    mass: tuple[float, float] = (1.0, 1.0)
-    inertia: tuple[float, float] = (1.0, 1.0)
-    drag: tuple[float, float] = (1.0, 1.0)
-
-    def __post_init__(self) -> None:
-        for name in ("mass", "inertia", "drag"):
-            value = getattr(self, name)
-            if np.shape(value) != (2,):
-                raise ValueError(f"Randomization.{name} must be a (low, high) pair, got {value!r}")
-            low, high = (as_finite(v, f"Randomization.{name}", 0.0, strictly=True)
-                         for v in value)
-            if high < low:
-                raise ValueError(f"Randomization.{name} needs low <= high, got {value!r}")
-            object.__setattr__(self, name, (low, high))
-
 
 @dataclass(frozen=True)
 class Scenario:

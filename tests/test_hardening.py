@@ -12,6 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from quad_dob_composition import ResidualVectorEnv
 from quad_dob_env import list_scenarios
 from quad_dob_env.envs import TERMINATION_REASONS, QuadrotorEnv, QuadrotorVectorEnv
 from quad_dob_env.params import get_vehicle
@@ -63,7 +64,7 @@ def test_fuzzed_initial_states_upside_down_included_end_with_reasons(scenario, s
     options = {"initial_rotation": exp(np.array(rotation)).tolist(),
                "initial_angular_velocity": rates, "initial_velocity": velocity,
                "initial_position": offset}
-    env = QuadrotorVectorEnv(VEHICLES, scenario, options, base_controller="geometric-ndob")
+    env = ResidualVectorEnv(VEHICLES, scenario, options, base_controller="geometric-ndob")
     env.reset(seed=seed)
     actions = np.random.default_rng(seed).uniform(-1.5, 1.5, (7, VEHICLES, 4))
     _fly_and_check(env, actions)

@@ -6,8 +6,8 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import quad_dob_env  # noqa: F401
 from quad_dob_baselines import make_controller
-from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
-from quad_dob_env.envs.residual import ResidualCommand
+from quad_dob_composition import ResidualVectorEnv, residual_command
+from quad_dob_env.envs import QuadrotorEnv
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.wrappers import ResidualActionWrapper
 from quad_dob_training.rollout import fly
@@ -76,14 +76,16 @@ def test_residual_observation_carries_the_base_command_and_estimates():
 
 def test_residual_envs_pass_the_checkers():
     with pytest.warns(UserWarning, match="different from the unwrapped"):
-        check_env(ResidualActionWrapper(QuadrotorEnv("hover-calm")), skip_render_check=True)
+        check_env(ResidualActionWrapper(QuadrotorEnv("hover-calm"),
+                                        make_controller("geometric-ndob:tuned")),
+                  skip_render_check=True)
     sb3_check_env(gym.make("QuadDOB/TrackResidual-v1"), warn=False)
 
 
 def test_vector_residual_equals_single_residual_envs_through_autoresets():
     n, steps = 3, 70
-    vector = QuadrotorVectorEnv(n, "gusty-hover", scenario_options=SHORT,
-                                base_controller="geometric-ndob")
+    vector = ResidualVectorEnv(n, "gusty-hover", scenario_options=SHORT,
+                               base_controller="geometric-ndob")
     singles = [gym.make("QuadDOB/HoverResidual-v1", scenario="gusty-hover",
                         scenario_options=SHORT, base_controller="geometric-ndob")
                for _ in range(n)]
@@ -108,12 +110,13 @@ def test_vector_residual_equals_single_residual_envs_through_autoresets():
 
 @pytest.mark.parametrize("base", ["geometric-ndob:tuned", "geometric"])
 def test_compiled_residual_pass_equals_the_separate_stages(base):
-    # the geometric base runs in one compiled pass with the physics (quad_dob_baselines.fused); any
-    # other controller runs as command -> step -> record -> plan. Both must agree.
+    # the geometric base runs in one compiled pass with the physics
+    # (quad_dob_composition.fused); any other controller runs as command -> step -> record
+    # -> plan. Both must agree.
     n, steps = 4, 75
-    compiled = QuadrotorVectorEnv(n, "gusty-hover", scenario_options=SHORT, base_controller=base)
-    staged = QuadrotorVectorEnv(n, "gusty-hover", scenario_options=SHORT, base_controller=base)
-    staged.residual = ResidualCommand(staged.core, base, compiled=False)
+    compiled = ResidualVectorEnv(n, "gusty-hover", scenario_options=SHORT, base_controller=base)
+    staged = ResidualVectorEnv(n, "gusty-hover", scenario_options=SHORT, base_controller=base)
+    staged.residual = residual_command(staged.core, base, compiled=False)
     assert compiled.residual._fused is not None and staged.residual._fused is None
     first = [env.reset(seed=3) for env in (compiled, staged)]
     np.testing.assert_array_equal(first[0][0], first[1][0])
@@ -136,7 +139,7 @@ def test_compiled_residual_pass_equals_the_separate_stages(base):
 @pytest.mark.parametrize("n", [4, 300])  # serial, and on parked workers
 def test_what_a_step_returned_stays_as_it_was_after_the_next(n):
     # the compiled pass writes its plan in place every step: what it hands out are copies
-    env = QuadrotorVectorEnv(n, "gusty-hover", base_controller="geometric-ndob:tuned")
+    env = ResidualVectorEnv(n, "gusty-hover", base_controller="geometric-ndob:tuned")
     env.reset(seed=0)
     obs, _, _, _, info = env.step(np.zeros((n, 4)))
     kept = {key: np.copy(info[key]) for key in ("base_thrust", "base_moment", "force_estimate",

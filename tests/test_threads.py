@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from gymnasium.utils import seeding
 
+from quad_dob_composition import make_vector_env, residual_command
 from quad_dob_env import threads
 from quad_dob_env.envs import QuadrotorBatch, QuadrotorVectorEnv
 from quad_dob_env.envs.residual import ResidualCommand
@@ -16,7 +17,7 @@ _BIG_BATCHES = {"bare": ("dryden-helix-gusts", None),  # its turbulence uses the
 
 def _big_batch(kind: str) -> QuadrotorVectorEnv:
     scenario, base = _BIG_BATCHES[kind]
-    env = QuadrotorVectorEnv(512, scenario, base_controller=base)
+    env = make_vector_env(512, scenario, base_controller=base)
     env.reset(seed=0)
     env.step(np.zeros((512, 4)))
     return env
@@ -49,8 +50,8 @@ def test_a_forked_child_steps_big_batches_after_the_parent_did(kind):
 
 def test_slices_and_their_split_never_change_results():
     kwargs = {"base_controller": "geometric-ndob:tuned"}
-    threaded = QuadrotorVectorEnv(600, "dryden-helix-gusts", **kwargs)
-    serial = QuadrotorVectorEnv(600, "dryden-helix-gusts", **kwargs)
+    threaded = make_vector_env(600, "dryden-helix-gusts", **kwargs)
+    serial = make_vector_env(600, "dryden-helix-gusts", **kwargs)
     actions = np.random.default_rng(0).uniform(-0.3, 0.3, (30, 600, 4))
     threaded.reset(seed=1)
     serial.reset(seed=1)
@@ -71,7 +72,7 @@ def _residual_twins(n: int, scenario: str, options: dict) -> list[ResidualComman
     for compiled in (True, False):
         core = QuadrotorBatch(make_scenario(scenario, **options), n)
         core.reset(np.arange(n), [seeding.np_random(i)[0] for i in range(n)])
-        twins.append(ResidualCommand(core, "geometric-ndob:tuned", compiled=compiled))
+        twins.append(residual_command(core, "geometric-ndob:tuned", compiled=compiled))
         twins[-1].restart(np.arange(n))
     return twins
 
@@ -117,7 +118,7 @@ def test_the_bare_core_flies_past_its_tables_on_parked_workers_as_serially():
 
 @pytest.mark.skipif(threads.worker_count() < 2, reason="needs two cores to park workers")
 def test_parked_workers_return_when_replaced_or_collected():
-    env = QuadrotorVectorEnv(512, "hover-calm", base_controller="geometric-ndob")
+    env = make_vector_env(512, "hover-calm", base_controller="geometric-ndob")
     env.reset(seed=0)
     env.step(np.zeros((512, 4)))
     first = env.residual._fused._workers.threads

@@ -3,6 +3,7 @@ import json
 import numpy as np
 import pytest
 
+from quad_dob_composition import make_vector_env
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_training import cli
 from quad_dob_training.evaluate import evaluate, parse_seeds
@@ -68,7 +69,7 @@ def test_a_model_in_an_env_with_other_spaces_fails_before_any_step(residual_run,
 def test_the_shipped_policy_loads_after_its_checksum_and_fits_its_env():
     policy = make_policy("residual")
     assert policy.base == "geometric-ndob:tuned"
-    env = QuadrotorVectorEnv(2, "dryden-helix-gusts", **policy.env_kwargs())
+    env = make_vector_env(2, "dryden-helix-gusts", **policy.env_kwargs())
     check_spaces(policy, env)
     obs, _ = env.reset(seed=0)
     assert policy.act(obs).shape == (2, 4)

@@ -28,6 +28,7 @@ import yaml
 from numpy.typing import NDArray
 
 from quad_dob_baselines import CONTROLLERS
+from quad_dob_composition import make_vector_env
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
@@ -154,7 +155,7 @@ def check_spaces(policy: Policy, env: QuadrotorVectorEnv) -> None:
 def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Flight]:
     """One episode per seed, all flown together; records stop at each episode's end."""
     n = len(seeds)
-    env = QuadrotorVectorEnv(n, scenario, **policy.env_kwargs())
+    env = make_vector_env(n, scenario, **policy.env_kwargs())
     check_spaces(policy, env)
     obs, _ = env.reset(seed=[int(s) for s in seeds])
     core, residual = env.core, env.residual

@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image, ImageDraw
 
-from quad_dob_env.envs import QuadrotorVectorEnv
+from quad_dob_composition import make_vector_env
 from quad_dob_env.envs.rendering import FlightRenderer
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.policies import check_spaces, make_policy
@@ -25,7 +25,7 @@ def fly_frames(spec: str, scenario_name: str, seed: int, every: int, size: tuple
                ) -> list[NDArray[np.uint8]]:
     """Frames of one episode of policy ``spec``, one per ``every`` control steps."""
     policy = make_policy(spec)
-    env = QuadrotorVectorEnv(1, make_scenario(scenario_name), **policy.env_kwargs())
+    env = make_vector_env(1, make_scenario(scenario_name), **policy.env_kwargs())
     check_spaces(policy, env)
     renderer = FlightRenderer(env.core, *size)
     obs, _ = env.reset(seed=[seed])

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 from stable_baselines3.common.vec_env import VecEnv
 
-from quad_dob_env.envs import QuadrotorVectorEnv
+from quad_dob_composition import make_vector_env
 
 
 class QuadrotorSB3VecEnv(VecEnv):
@@ -25,7 +25,7 @@ class QuadrotorSB3VecEnv(VecEnv):
 
     def __init__(self, num_envs: int, scenario: str = "paper-none", seed: int | None = None,
                  **env_kwargs: Any) -> None:
-        self.vector_env = QuadrotorVectorEnv(num_envs, scenario, **env_kwargs)
+        self.vector_env = make_vector_env(num_envs, scenario, **env_kwargs)
         self.core = self.vector_env.core
         super().__init__(num_envs, self.vector_env.single_observation_space,
                          self.vector_env.single_action_space)

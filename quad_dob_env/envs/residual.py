@@ -3,10 +3,13 @@
 ``ResidualCommand`` does it for a whole ``QuadrotorBatch`` (one controller call for all N
 vehicles); ``quad_dob_env.wrappers.ResidualActionWrapper`` is its single-env face and
 ``QuadrotorVectorEnv(..., base_controller=...)`` its vector face, so both run this code.
-Two ways to run a step, with the same per-vehicle equations: the stages ``command`` ->
-``core.step`` -> ``record`` -> ``plan`` work with any controller (the wrapper, whose env
-steps itself, always uses them); ``fly`` runs the step in one compiled pass when the
-controller offers one (``fused_residual``: the geometric controller, ``quad_dob_baselines.fused``).
+The base is a controller *object* (``reset``, ``compute``, ``applied``): the simulator
+knows no controller by name. ``quad_dob_composition`` builds one by name and hands it in,
+which is what the registered residual ids do. Two ways to run a step, with the same
+per-vehicle equations: the stages ``command`` -> ``core.step`` -> ``record`` -> ``plan``
+work with any controller (the wrapper, whose env steps itself, always uses them); ``fly``
+runs the step in one compiled pass when given one (``fused_pass``, which
+``quad_dob_composition`` supplies for the geometric controller).
 
 Applied command (before the actuators' own limits):
 ``thrust = base_thrust + thrust_scale · max_total_thrust · a₀``,
@@ -33,6 +36,7 @@ Reward: the env's reward (built with no effort term) minus
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -41,21 +45,23 @@ from numpy.typing import NDArray
 from quad_dob_env.envs.residual_kernels import body_frame_errors, join_columns
 from quad_dob_env.validation import as_finite
 
-if TYPE_CHECKING:  # the layering: quad_dob_env imports baselines only when asked to
-    from quad_dob_baselines.base import Controller
+if TYPE_CHECKING:
     from quad_dob_env.envs.core import QuadrotorBatch
 
 RESIDUAL_OBSERVATION_SIZE = 16
 
 
-def resolve_controller(base: Any, core: QuadrotorBatch) -> Controller:
-    """A controller object, or one built by name with ``quad_dob_baselines.make_controller``."""
+def check_controller(base: Any) -> Any:
+    """``base`` if it is a controller object; a name or anything else raises, saying where
+    names are resolved."""
     if isinstance(base, str):
-        from quad_dob_baselines import make_controller  # at run time only: DESIGN.md layering
-
-        return make_controller(base, core.vehicle)
+        raise ValueError(
+            f"base_controller {base!r} is a name: the simulator takes a controller object. "
+            "Names are resolved by quad_dob_composition: gym.make / gym.make_vec of a "
+            "QuadDOB/...Residual-v1 id with base_controller=NAME, "
+            "quad_dob_composition.ResidualVectorEnv or make_residual_env")
     if not (hasattr(base, "compute") and hasattr(base, "reset") and hasattr(base, "applied")):
-        raise ValueError(f"base_controller must be a controller name or a baselines Controller, "
+        raise ValueError(f"base_controller must be a controller (reset, compute, applied), "
                          f"got {base!r}")
     return base
 
@@ -68,11 +74,12 @@ DEFAULT_BASE_CONTROLLER = "geometric-ndob:tuned"
 class ResidualCommand:
     """Base controller + residual for every vehicle of ``core``."""
 
-    def __init__(self, core: QuadrotorBatch, base_controller: Any = DEFAULT_BASE_CONTROLLER,
+    def __init__(self, core: QuadrotorBatch, base_controller: Any,
                  thrust_scale: float = 0.1, moment_scale: float = 0.1,
-                 residual_effort_weight: float = 0.01, compiled: bool = True) -> None:
+                 residual_effort_weight: float = 0.01,
+                 fused_pass: Callable[[ResidualCommand], Any] | None = None) -> None:
         self.core = core
-        self.controller = resolve_controller(base_controller, core)
+        self.controller = check_controller(base_controller)
         self.thrust_scale = as_finite(thrust_scale, "residual thrust_scale", 0.0, strictly=True)
         self.moment_scale = as_finite(moment_scale, "residual moment_scale", 0.0, strictly=True)
         if self.thrust_scale > 1 or self.moment_scale > 1:
@@ -94,8 +101,7 @@ class ResidualCommand:
         self.force_estimate, self.torque_estimate = np.zeros((n, 3)), np.zeros((n, 3))
         self._residual = np.zeros((n, 4))
         self._started = False
-        fused = getattr(self.controller, "fused_residual", None) if compiled else None
-        self._fused = None if fused is None else fused(self)
+        self._fused = None if fused_pass is None else fused_pass(self)
 
     def restart(self, indices: NDArray[np.intp]) -> None:
         """After ``core.reset(indices)``: restart those vehicles' controller state (all of
@@ -116,8 +122,8 @@ class ResidualCommand:
 
     def fly(self, residual: NDArray[np.float64]) -> None:
         """Step the core with base + ``residual`` (N, 4) and plan the next base command:
-        one compiled pass when the controller offers one (``fused_residual``, the geometric
-        controller), else ``command``, ``core.step``, ``record`` and ``plan``."""
+        one compiled pass when it was given one (``fused_pass``), else ``command``,
+        ``core.step``, ``record`` and ``plan``."""
         if self._fused is not None:
             self._fused.fly(residual)
             return

@@ -40,11 +40,12 @@ class QuadrotorVectorEnv(VectorEnv):
     ``disturbance_force``, ...); ``termination_reason`` holds strings with the mask
     ``_termination_reason`` where an episode ended.
 
-    Residual mode: with ``base_controller`` (a name such as ``"geometric-ndob"`` or a
-    ``baselines`` controller) every vehicle is flown by that controller, run once per step
-    for the whole batch, plus the action as a residual scaled by ``thrust_scale`` and
-    ``moment_scale`` (``quad_dob_env.envs.residual``: the command, the 16 extra observation
-    entries, the reward). ``info`` then adds ``base_thrust``, ``base_moment``,
+    Residual mode: with ``base_controller`` (a controller object; by name through
+    ``quad_dob_composition.ResidualVectorEnv``, what the residual ids build) every vehicle is
+    flown by that controller, run once per step for the whole batch, plus the action as a
+    residual scaled by ``thrust_scale`` and ``moment_scale`` (``quad_dob_env.envs.residual``:
+    the command, the 16 extra observation entries, the reward); ``fused_pass`` runs it all
+    in one compiled pass per step. ``info`` then adds ``base_thrust``, ``base_moment``,
     ``force_estimate`` and ``torque_estimate``. ``reward_effort_weight`` defaults to 0.01
     without a base and to 0 with one (the residual's own effort is
     ``residual_effort_weight``).
@@ -61,7 +62,7 @@ class QuadrotorVectorEnv(VectorEnv):
                  reward_effort_weight: float | None = None, render_mode: str | None = None,
                  base_controller: Any = None, thrust_scale: float = 0.1,
                  moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
-                 invalid_actions: str = "raise") -> None:
+                 invalid_actions: str = "raise", fused_pass: Any = None) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -78,7 +79,8 @@ class QuadrotorVectorEnv(VectorEnv):
             RewardWeights(reward_position_scale, reward_effort_weight),
         )
         self.residual = None if base_controller is None else ResidualCommand(
-            self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight)
+            self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
+            fused_pass)
         self.num_envs = self.core.n
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.scenario.dt)}
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)

@@ -1,11 +1,14 @@
 """Wrappers over the environments.
 
-- ``residual``: ``ResidualActionWrapper``, a single env flown by a base controller plus the
-  policy's scaled residual (``quad_dob_env.envs.residual.ResidualCommand``, which the vector
-  env's ``base_controller=`` option runs too), and ``make_residual_env``, the entry point
-  of the ``...Residual-v1`` ids.
+- ``residual``: ``ResidualActionWrapper``, a single env flown by a base controller object
+  plus the policy's scaled residual (``quad_dob_env.envs.residual.ResidualCommand``, which
+  the vector env's ``base_controller=`` option runs too). The ``...Residual-v1`` ids build
+  it by name through ``quad_dob_composition.make_residual_env``.
+
+May import the simulator's layers; never ``quad_dob_baselines``, ``quad_dob_composition``
+or ``quad_dob_training``.
 """
 
-from quad_dob_env.wrappers.residual import ResidualActionWrapper, make_residual_env
+from quad_dob_env.wrappers.residual import ResidualActionWrapper
 
-__all__ = ["ResidualActionWrapper", "make_residual_env"]
+__all__ = ["ResidualActionWrapper"]

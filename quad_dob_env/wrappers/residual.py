@@ -13,12 +13,7 @@ from numpy.typing import NDArray
 
 from quad_dob_env.envs.actions import screen_actions
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
-from quad_dob_env.envs.quadrotor_env import QuadrotorEnv
-from quad_dob_env.envs.residual import (
-    DEFAULT_BASE_CONTROLLER,
-    RESIDUAL_OBSERVATION_SIZE,
-    ResidualCommand,
-)
+from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
 
 
 class ResidualActionWrapper(gym.Wrapper):
@@ -29,7 +24,7 @@ class ResidualActionWrapper(gym.Wrapper):
     step), ``force_estimate`` and ``torque_estimate`` (the observer's, zero without one).
     """
 
-    def __init__(self, env: gym.Env, base_controller: Any = DEFAULT_BASE_CONTROLLER,
+    def __init__(self, env: gym.Env, base_controller: Any,
                  thrust_scale: float = 0.1, moment_scale: float = 0.1,
                  residual_effort_weight: float = 0.01) -> None:
         super().__init__(env)
@@ -38,7 +33,7 @@ class ResidualActionWrapper(gym.Wrapper):
             raise ValueError(f"ResidualActionWrapper wraps a single QuadrotorEnv, got {env!r}")
         # the env steps itself, so the residual runs as separate stages around its step
         self.residual = ResidualCommand(core, base_controller, thrust_scale, moment_scale,
-                                        residual_effort_weight, compiled=False)
+                                        residual_effort_weight)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.observation_space = gym.spaces.Box(
             -OBSERVATION_BOUND, OBSERVATION_BOUND,
@@ -69,13 +64,3 @@ class ResidualActionWrapper(gym.Wrapper):
 
     def _info(self, info: dict) -> dict:
         return {**info, **{key: value[0] for key, value in self.residual.info().items()}}
-
-
-def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_scale: float = 0.1,
-                      moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
-                      **env_kwargs: Any) -> ResidualActionWrapper:
-    """``ResidualActionWrapper(QuadrotorEnv(**env_kwargs))``, the env's own effort term off
-    (the entry point of the ``...Residual-v1`` ids)."""
-    env_kwargs.setdefault("reward_effort_weight", 0.0)
-    return ResidualActionWrapper(QuadrotorEnv(**env_kwargs), base_controller, thrust_scale,
-                                 moment_scale, residual_effort_weight)

@@ -2,18 +2,20 @@
 
 ``ResidualCommand`` drives any controller through ``compute`` and ``applied``: a handful of
 batch calls and array operations per step, ~250 µs of Python whatever N is, which at
-N = 256 cost more than the vehicles themselves. For the geometric controller it asks for
-this pass instead (``GeometricController.fused_residual``): one call per step, cut into one
-slice per core, runs for each vehicle
+N = 256 cost more than the vehicles themselves. For the geometric controller it is handed
+this pass instead (``quad_dob_composition.bases.fused_pass_for``): one call per step, cut
+into one slice per core, runs for each vehicle
 
     residual -> command -> physics step -> observer update -> observer estimate ->
     geometric law for the next step -> extra observation and reward.
 
-It calls the same per-vehicle functions as the separate stages (``quad_dob_env.envs.kernels``
-and ``quad_dob_baselines.kernels``), so there is still one source for every equation; a test holds
-it to the separate stages to 1e-12 through autoresets. From 256 vehicles its slices run on
-workers parked in compiled code (``quad_dob_env.threads.ParkedWorkers``), which is why
-every step runs on the same arrays.
+It calls the same per-vehicle functions as the separate stages
+(``quad_dob_env.envs.kernels`` and ``quad_dob_baselines.kernels``), so there is still one
+source for every equation; a test holds it to the separate stages to 1e-12 through
+autoresets. It reads the controller, the observer and the core through their public faces
+only (``position_gains``, ``kernel_state()``, ``reference_table``, ``step_arguments()``).
+From 256 vehicles its slices run on workers parked in compiled code
+(``quad_dob_env.threads.ParkedWorkers``), which is why every step runs on the same arrays.
 """
 
 from __future__ import annotations

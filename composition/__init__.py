@@ -1,0 +1,31 @@
+"""Composition: a controller inside the env's step. The one place that imports both the
+simulator (``quad_dob_env``) and the controllers (``quad_dob_baselines``); the folder
+``composition/`` installs as ``quad_dob_composition``. It never imports
+``quad_dob_training``, which sits above it.
+
+- ``bases``: a base controller by name (or object) for a vehicle, and the compiled pass
+  that runs the geometric controller inside a residual step (``fused_pass_for``).
+- ``fused``: that pass (residual, command, physics, observer, the next base command, the
+  extra observation and reward, per vehicle).
+- ``envs``: what the registered ``QuadDOB/...Residual-v1`` ids build, by string entry
+  point: ``make_residual_env`` (one vehicle) and ``ResidualVectorEnv`` (N vehicles), both
+  taking ``base_controller`` by name; ``make_vector_env`` picks the plain or residual
+  vector env; ``residual_command`` builds a ``ResidualCommand`` for a core.
+"""
+
+from quad_dob_composition.bases import fused_pass_for, make_base
+from quad_dob_composition.envs import (
+    ResidualVectorEnv,
+    make_residual_env,
+    make_vector_env,
+    residual_command,
+)
+
+__all__ = [
+    "ResidualVectorEnv",
+    "fused_pass_for",
+    "make_base",
+    "make_residual_env",
+    "make_vector_env",
+    "residual_command",
+]

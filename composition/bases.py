@@ -1,0 +1,26 @@
+"""Base controllers for residual envs: by name, and with the compiled pass where one exists."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from quad_dob_baselines import GeometricController, make_controller
+from quad_dob_composition.fused import FusedResidualStep
+from quad_dob_env.params import VehicleParams
+
+
+def make_base(base: Any, vehicle: VehicleParams) -> Any:
+    """The controller ``base`` names (``quad_dob_baselines.make_controller``), or ``base``
+    itself when it is already a controller object."""
+    return make_controller(base, vehicle) if isinstance(base, str) else base
+
+
+def fused_pass_for(controller: Any) -> Callable[[Any], FusedResidualStep] | None:
+    """The one compiled pass per step for the geometric controller (with or without its
+    observer); None for any other, which then runs as separate stages. In that pass the
+    controller's ``diagnostics`` and the observer's estimates are overwritten in place
+    every step: copy what you keep."""
+    if not isinstance(controller, GeometricController):
+        return None
+    return lambda residual: FusedResidualStep(controller, residual)

@@ -1,0 +1,53 @@
+"""The residual envs by name: the entry points of the ``QuadDOB/...Residual-v1`` ids."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from quad_dob_composition.bases import fused_pass_for, make_base
+from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
+from quad_dob_env.envs.core import QuadrotorBatch
+from quad_dob_env.envs.residual import DEFAULT_BASE_CONTROLLER, ResidualCommand
+from quad_dob_env.scenarios import make_scenario
+from quad_dob_env.wrappers import ResidualActionWrapper
+
+
+def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_scale: float = 0.1,
+                      moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
+                      **env_kwargs: Any) -> ResidualActionWrapper:
+    """``ResidualActionWrapper(QuadrotorEnv(**env_kwargs))`` flown by ``base_controller``
+    (a name or a controller), the env's own effort term off."""
+    env_kwargs.setdefault("reward_effort_weight", 0.0)
+    env = QuadrotorEnv(**env_kwargs)
+    base = make_base(base_controller, env.unwrapped.core.vehicle)
+    return ResidualActionWrapper(env, base, thrust_scale, moment_scale, residual_effort_weight)
+
+
+class ResidualVectorEnv(QuadrotorVectorEnv):
+    """``QuadrotorVectorEnv`` in residual mode with ``base_controller`` by name (or object);
+    the geometric base runs in one compiled pass per step unless ``compiled=False``."""
+
+    def __init__(self, num_envs: int, scenario: Any = "paper-none",
+                 scenario_options: dict[str, Any] | None = None,
+                 base_controller: Any = DEFAULT_BASE_CONTROLLER, compiled: bool = True,
+                 **kwargs: Any) -> None:
+        vehicle = make_scenario(scenario, **(scenario_options or {})).vehicle
+        base = make_base(base_controller, vehicle)
+        super().__init__(num_envs, scenario, scenario_options, base_controller=base,
+                         fused_pass=fused_pass_for(base) if compiled else None, **kwargs)
+
+
+def make_vector_env(num_envs: int, scenario: Any = "paper-none",
+                    base_controller: Any = None, **kwargs: Any) -> QuadrotorVectorEnv:
+    """The plain vector env without a base, the residual one with it."""
+    if base_controller is None:
+        return QuadrotorVectorEnv(num_envs, scenario, **kwargs)
+    return ResidualVectorEnv(num_envs, scenario, base_controller=base_controller, **kwargs)
+
+
+def residual_command(core: QuadrotorBatch, base_controller: Any = DEFAULT_BASE_CONTROLLER,
+                     compiled: bool = True, **options: Any) -> ResidualCommand:
+    """A ``ResidualCommand`` for ``core`` with ``base_controller`` by name (or object)."""
+    base = make_base(base_controller, core.vehicle)
+    return ResidualCommand(core, base, fused_pass=fused_pass_for(base) if compiled else None,
+                           **options)

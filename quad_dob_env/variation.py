@@ -1,0 +1,58 @@
+"""What varies from episode to episode besides the wind: sensor noise and domain
+randomisation, both optional parts of a ``Scenario``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from quad_dob_env.validation import as_finite
+
+
+@dataclass(frozen=True)
+class SensorNoise:
+    """What the agent observes, optional: Gaussian noise with these standard deviations on
+    the position (m), velocity (m/s), attitude (rad, a random rotation of that size per
+    axis) and body rates (rad/s) in the observation, which arrives ``delay_steps`` control
+    steps late. Reward, termination and ``info`` use the true state."""
+
+    position_std: float = 0.0
+    velocity_std: float = 0.0
+    attitude_std: float = 0.0
+    rate_std: float = 0.0
+    delay_steps: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("position_std", "velocity_std", "attitude_std", "rate_std"):
+            as_finite(getattr(self, name), f"SensorNoise.{name}", 0.0)
+        if not isinstance(self.delay_steps, (int, np.integer)) or self.delay_steps < 0:
+            raise ValueError(f"SensorNoise.delay_steps must be an integer >= 0, got "
+                             f"{self.delay_steps!r}")
+
+    @property
+    def is_noisy(self) -> bool:
+        return any((self.position_std, self.velocity_std, self.attitude_std, self.rate_std))
+
+
+@dataclass(frozen=True)
+class Randomization:
+    """Domain randomisation, optional: at each reset every vehicle's mass, inertia and drag
+    coefficients are the vehicle's times a factor drawn uniformly from these (low, high)
+    ranges (wind intensity and direction: ``Dryden(intensity_scale=..., direction=None)``).
+    The draws are in the reset ``info["sampled"]``."""
+
+    mass: tuple[float, float] = (1.0, 1.0)
+    inertia: tuple[float, float] = (1.0, 1.0)
+    drag: tuple[float, float] = (1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        for name in ("mass", "inertia", "drag"):
+            value = getattr(self, name)
+            if np.shape(value) != (2,):
+                raise ValueError(f"Randomization.{name} must be a (low, high) pair, got {value!r}")
+            low, high = (as_finite(v, f"Randomization.{name}", 0.0, strictly=True)
+                         for v in value)
+            if high < low:
+                raise ValueError(f"Randomization.{name} needs low <= high, got {value!r}")
+            object.__setattr__(self, name, (low, high))
