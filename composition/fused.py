@@ -14,8 +14,7 @@ It calls the same per-vehicle functions as the separate stages
 source for every equation; a test holds it to the separate stages to 1e-12 through
 autoresets. It reads the controller, the observer and the core through their public faces
 only (``position_gains``, ``kernel_state()``, ``reference_table``, ``step_arguments()``).
-From 256 vehicles its slices run on workers parked in compiled code
-(``quad_dob_env.threads.ParkedWorkers``), which is why every step runs on the same arrays.
+From 256 vehicles its slices run on threads at once (``quad_dob_env.threads``).
 """
 
 from __future__ import annotations
@@ -43,13 +42,7 @@ from quad_dob_env.envs.residual_kernels import (
     residual_observation_vehicle,
     residual_reward_kernel,
 )
-from quad_dob_env.threads import (
-    ParkedWorkers,
-    await_slice,
-    collect,
-    hand_out,
-    slice_done,
-)
+from quad_dob_env.threads import run_over_batch
 
 if TYPE_CHECKING:
     from quad_dob_baselines.geometric import GeometricController
@@ -120,45 +113,14 @@ def fused_residual_kernel(start, stop, command, actions, vehicles, update, plan)
     plan_kernel(np.arange(start, stop), plan)
 
 
-@njit(cache=True, nogil=True)
-def _fused_slice(start, stop, arguments):
-    fused_residual_kernel(start, stop, *arguments)
-
-
-@njit(cache=True, nogil=True)
-def _fused_slice_failed(start, stop, arguments):
-    """Run the slice; whether it raised (parked threads can only report it)."""
-    failed = False
-    try:
-        _fused_slice(start, stop, arguments)
-    except Exception:
-        failed = True
-    return failed
-
-
-@njit(cache=True, nogil=True)
-def fused_residual_worker(arguments, control, semaphores, k):
-    """Worker k of ``quad_dob_env.threads.ParkedWorkers`` for ``fused_residual_kernel``."""
-    while await_slice(control, semaphores, k):
-        slice_done(control, semaphores, k,
-                   _fused_slice_failed(control[k, 0], control[k, 1], arguments))
-
-
-@njit(cache=True, nogil=True)
-def fused_residual_launch(arguments, control, semaphores, bounds):
-    """The caller's side: slice 0 here, the others on the workers; ``collect``'s outcome."""
-    hand_out(control, semaphores, bounds)
-    return collect(control, semaphores, _fused_slice_failed(bounds[0], bounds[1], arguments))
-
-
 class FusedResidualStep:
     """``fused_residual_kernel`` for a ``ResidualCommand`` whose base is ``controller``.
 
-    Every step runs on the same arrays, so that workers parked in compiled code
-    (``ParkedWorkers``) can keep them: the residual is copied in, and the base command,
-    the observer's estimates and the controller's ``diagnostics`` are overwritten in place
-    each step (``ResidualCommand.info`` hands out copies). A vehicle's slice reads its
-    planned command before it writes the next, so in place is safe.
+    Every step runs on the same arrays, so the kernel's arguments are gathered once (again
+    only after a full reset or when the core's tables grew): the residual is copied in, and
+    the base command, the observer's estimates and the controller's ``diagnostics`` are
+    overwritten in place each step (``ResidualCommand.info`` hands out copies). A vehicle's
+    slice reads its planned command before it writes the next, so in place is safe.
     """
 
     def __init__(self, controller: GeometricController, residual: ResidualCommand) -> None:
@@ -176,7 +138,6 @@ class FusedResidualStep:
         self._outputs: tuple = ()
         self._arguments: tuple = ()
         self._tables = None  # the core's reference table the arguments were made with
-        self._workers: ParkedWorkers | None = None
 
     def restart(self, indices: NDArray[np.intp]) -> None:
         """After the controller's reset of vehicles ``indices``: their first plan."""
@@ -193,11 +154,11 @@ class FusedResidualStep:
         self._residual[...] = residual
         if not self._arguments or core.reference_table is not self._tables:
             self._make_arguments()  # first step, full reset, or the tables grew
-        self._workers.run()
+        run_over_batch(fused_residual_kernel, core.n, *self._arguments)
         core.finish_step()
 
     def _make_arguments(self) -> None:
-        """What ``fused_residual_kernel`` takes after the slice, and workers that keep it."""
+        """What ``fused_residual_kernel`` takes after the slice."""
         core, command = self.residual.core, self.residual
         flown = (self._residual, command.residual_range, command.base_thrust,
                  command.base_moment, core.action_map.inverse, self._clipped,
@@ -208,10 +169,6 @@ class FusedResidualStep:
         self._arguments = (flown, self._actions, core.step_arguments(), update,
                            self._plan_arguments())
         self._tables = core.reference_table
-        if self._workers is not None:
-            self._workers.close()
-        self._workers = ParkedWorkers(fused_residual_kernel, fused_residual_worker,
-                                      fused_residual_launch, core.n, self._arguments)
 
     def _gather_constants(self) -> None:
         controller, vehicle = self.controller, self.controller.vehicle

@@ -77,3 +77,13 @@ def test_the_scans_catch_what_they_look_for():
     assert "quad_dob_baselines" in _imported(bad_import)
     private = ast.parse("x = observer._ks\ny = self._ks\nz = t._replace(a=1)\n")
     assert [ast.unparse(node) for node in _private_reads(private)] == ["observer._ks"]
+
+
+def test_no_module_leans_on_compiler_internals():
+    # multi-core stepping through public APIs only: no llvmlite symbol binding, no numba.core
+    offences = [f"{path.relative_to(ROOT)} imports {name}"
+                for folder in ("quad_dob_env", "baselines", "composition", "training")
+                for path in _modules(folder)
+                for name in _imported(ast.parse(path.read_text()))
+                if name.split(".")[0] == "llvmlite" or name.startswith("numba.core")]
+    assert not offences, offences

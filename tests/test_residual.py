@@ -136,7 +136,7 @@ def test_compiled_residual_pass_equals_the_separate_stages(base):
     assert ended >= n  # the comparison ran through autoresets
 
 
-@pytest.mark.parametrize("n", [4, 300])  # serial, and on parked workers
+@pytest.mark.parametrize("n", [4, 300])  # serial, and threaded
 def test_what_a_step_returned_stays_as_it_was_after_the_next(n):
     # the compiled pass writes its plan in place every step: what it hands out are copies
     env = ResidualVectorEnv(n, "gusty-hover", base_controller="geometric-ndob:tuned")

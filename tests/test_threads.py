@@ -1,4 +1,3 @@
-import gc
 import multiprocessing
 
 import numpy as np
@@ -34,8 +33,7 @@ def test_a_forked_child_steps_big_batches_after_the_parent_did(kind):
     # the parent's worker threads do not exist in a forked child (AsyncVectorEnv and
     # SubprocVecEnv fork on Linux): the child must start its own instead of waiting forever
     env = _big_batch(kind)
-    parked = env.core._parked if kind == "bare" else env.residual._fused._workers
-    assert parked.threads and (kind != "bare" or threads._workers)  # they are running
+    assert threads._workers  # they are running
     context = multiprocessing.get_context("fork")
     queue = context.Queue()
     child = context.Process(target=_step_big_batch, args=(kind, queue))
@@ -67,7 +65,7 @@ def test_slices_and_their_split_never_change_results():
 
 
 def _residual_twins(n: int, scenario: str, options: dict) -> list[ResidualCommand]:
-    """The same vehicles flown by the fused pass (parked workers) and by the stages."""
+    """The same vehicles flown by the fused pass (threaded) and by the stages."""
     twins = []
     for compiled in (True, False):
         core = QuadrotorBatch(make_scenario(scenario, **options), n)
@@ -77,10 +75,10 @@ def _residual_twins(n: int, scenario: str, options: dict) -> list[ResidualComman
     return twins
 
 
-def test_parked_workers_follow_the_tables_and_full_resets():
-    # the parked workers keep the arrays they were started with: when the core's tables
+def test_the_fused_pass_follows_the_tables_and_full_resets():
+    # the fused pass gathers its arguments once: when the core's tables
     # grow (flown past the scenario's end) or a full reset replaces the observer's arrays,
-    # new workers must take over. The separate stages are the reference.
+    # it must gather them again. The separate stages are the reference.
     n = 512
     fused, staged = _residual_twins(n, "dryden-helix-gusts", {"duration": 0.2})
     residuals = np.random.default_rng(2).uniform(-0.3, 0.3, (60, n, 4))
@@ -92,7 +90,7 @@ def test_parked_workers_follow_the_tables_and_full_resets():
                 twin.restart(np.arange(n))
         fused.fly(residuals[step])
         staged.fly(residuals[step])
-        tables.add(id(fused.core._reference_table))
+        tables.add(id(fused.core.reference_table))
         np.testing.assert_allclose(fused.core.obs, staged.core.obs, rtol=0, atol=1e-12)
         np.testing.assert_allclose(fused.extra_observation, staged.extra_observation, rtol=0,
                                    atol=1e-9)
@@ -101,7 +99,7 @@ def test_parked_workers_follow_the_tables_and_full_resets():
     assert len(tables) >= 2  # 20-step tables: they grew
 
 
-def test_the_bare_core_flies_past_its_tables_on_parked_workers_as_serially():
+def test_the_bare_core_flies_past_its_tables_threaded_as_serially():
     n = 512
     cores = [QuadrotorBatch(make_scenario("gusty-hover", duration=0.2), n) for _ in range(2)]
     for core in cores:
@@ -113,22 +111,6 @@ def test_the_bare_core_flies_past_its_tables_on_parked_workers_as_serially():
             cores[1].step(actions[step])
         np.testing.assert_array_equal(cores[0].obs, cores[1].obs)
         np.testing.assert_array_equal(cores[0].disturbance_force, cores[1].disturbance_force)
-    assert cores[0]._reference_table.shape[0] > 21
+    assert cores[0].reference_table.shape[0] > 21
 
 
-@pytest.mark.skipif(threads.worker_count() < 2, reason="needs two cores to park workers")
-def test_parked_workers_return_when_replaced_or_collected():
-    env = make_vector_env(512, "hover-calm", base_controller="geometric-ndob")
-    env.reset(seed=0)
-    env.step(np.zeros((512, 4)))
-    first = env.residual._fused._workers.threads
-    assert len(first) == threads.worker_count() - 1 and all(t.is_alive() for t in first)
-    env.reset(seed=1)  # a full reset: new observer arrays, so new workers
-    env.step(np.zeros((512, 4)))
-    second = env.residual._fused._workers.threads
-    assert second and not set(second) & set(first)
-    del env
-    gc.collect()
-    for thread in first + second:  # they return at their next wake-up
-        thread.join(timeout=5)
-        assert not thread.is_alive()

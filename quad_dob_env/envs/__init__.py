@@ -5,8 +5,8 @@
   for every env.
 - ``actions``: ``ActionMap`` (normalised actions <-> commanded thrust and moment, both
   ways) and ``screen_actions``, the check every env face runs on its actions.
-- ``kernels``: its compiled per-vehicle step, reset, sensing and sensor-noise loops, and
-  the step's parked workers (``quad_dob_env.threads``).
+- ``kernels``: its compiled per-vehicle step, reset, sensing and sensor-noise loops (cut
+  across the cores by ``quad_dob_env.threads``).
 - ``quadrotor_env``: ``QuadrotorEnv(gym.Env)``, its N = 1 view, with the tables of spaces,
   reward, start and end in its docstring.
 - ``vector_env``: ``QuadrotorVectorEnv(gymnasium.vector.VectorEnv)``, its N-vehicle view

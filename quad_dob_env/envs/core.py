@@ -32,12 +32,10 @@ from quad_dob_env.envs.kernels import (
     sensor_kernel,
     start_kernel,
     step_kernel,
-    step_launch,
-    step_worker,
 )
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.so3 import exp as so3_exp
-from quad_dob_env.threads import ParkedWorkers
+from quad_dob_env.threads import run_over_batch
 from quad_dob_env.trajectories import Reference
 from quad_dob_env.validation import as_finite, unknown_name_error
 
@@ -117,9 +115,7 @@ class QuadrotorBatch:
         self.state = VehicleState.at_rest(n)
         self.step_count = np.zeros(n, dtype=np.int64)
         self._most_steps = 0  # at least step_count.max(), kept without a pass over N
-        self._actions = np.zeros((n, 4))  # a step's actions, where the parked workers read them
-        self._parked: ParkedWorkers | None = None
-        self._parked_tables = None  # the reference table the parked workers keep
+        self._actions = np.zeros((n, 4))  # a step's actions, as the kernel takes them
         self._reference_now: Reference | None = None
         self.termination_code = np.zeros(n, dtype=np.int8)
         self.obs = np.zeros((n, self.observation_size), dtype=np.float32)
@@ -293,13 +289,8 @@ class QuadrotorBatch:
         true ``disturbance_force`` / ``disturbance_torque``.
         """
         self.prepare_step()
-        if self._parked is None or self._parked_tables is not self._reference_table:
-            # first step, or the tables grew: workers that keep the new arrays
-            self._parked_tables = self._reference_table
-            self._parked = ParkedWorkers(step_kernel, step_worker, step_launch, self.n,
-                                         (self._actions, *self.step_arguments()))
         self._actions[...] = actions
-        self._parked.run()
+        run_over_batch(step_kernel, self.n, self._actions, *self.step_arguments())
         self.finish_step()
 
     def prepare_step(self) -> None:

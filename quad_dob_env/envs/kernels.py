@@ -24,7 +24,6 @@ from quad_dob_env.dynamics import (
 )
 from quad_dob_env.rng import gaussian_pair
 from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, mat_vec_tuple
-from quad_dob_env.threads import await_slice, collect, hand_out, slice_done
 
 # Observations are clamped to float32's range, so a huge but finite state never becomes inf.
 OBSERVATION_BOUND = float(np.finfo(np.float32).max)
@@ -187,37 +186,6 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, position,
         for k in range(3):
             disturbance_force[i, k] = external[k] + drag_world[k]
             disturbance_torque[i, k] = torque[k]
-
-
-@njit(cache=True, nogil=True)
-def _step_slice(start, stop, arguments):
-    step_kernel(start, stop, *arguments)
-
-
-@njit(cache=True, nogil=True)
-def _step_slice_failed(start, stop, arguments):
-    """Run the slice; whether it raised (parked threads can only report it)."""
-    failed = False
-    try:
-        _step_slice(start, stop, arguments)
-    except Exception:
-        failed = True
-    return failed
-
-
-@njit(cache=True, nogil=True)
-def step_worker(arguments, control, semaphores, k):
-    """Worker k of ``quad_dob_env.threads.ParkedWorkers`` for ``step_kernel``."""
-    while await_slice(control, semaphores, k):
-        slice_done(control, semaphores, k,
-                   _step_slice_failed(control[k, 0], control[k, 1], arguments))
-
-
-@njit(cache=True, nogil=True)
-def step_launch(arguments, control, semaphores, bounds):
-    """The caller's side: slice 0 here, the others on the workers; ``collect``'s outcome."""
-    hand_out(control, semaphores, bounds)
-    return collect(control, semaphores, _step_slice_failed(bounds[0], bounds[1], arguments))
 
 
 @njit(cache=True, inline="always")
