@@ -2,9 +2,9 @@
 
 These functions are the one source of truth for the equations: ``attitude``, ``geometric``
 and ``observer`` call the batch loops at the bottom, which numba compiles (the geometric
-loop is split across cores by ``quad_dob_env.threads``). Running the same source with
-``NUMBA_DISABLE_JIT=1`` is the plain-Python path; a test asserts both agree to 1e-12.
-Compiled because the numpy version spent ~200 small array operations per step and held a
+loop is split across cores by ``quad_dob_env.threads``); Rd, Ωd, Ω̇d come from
+``quad_dob_env.flatness``. ``tests/test_oracle.py`` holds them to an independent plain-numpy
+oracle written from DESIGN.md's equations. Compiled because the numpy version spent ~200 small array operations per step and held a
 4096-vehicle vector env with the base in the loop to 430,000 env-steps/s.
 
 Vectors are 3-tuples and matrices row-major 9-tuples, as in ``quad_dob_env.so3``.
@@ -15,37 +15,37 @@ from __future__ import annotations
 from numba import njit
 
 from quad_dob_env.flatness import add, combine, desired_attitude, dot
-from quad_dob_env.so3 import cross_tuple, mat_mul_tuple, mat_vec_tuple
+from quad_dob_env.so3 import (
+    cross_tuple,
+    mat_mul_tuple,
+    mat_vec_tuple,
+    matrix_entries,
+    transpose_tuple,
+)
 
 
 @njit(cache=True, inline="always")
-def transpose(m):
-    return (m[0], m[3], m[6], m[1], m[4], m[7], m[2], m[5], m[8])
-
-
-@njit(cache=True, inline="always")
-def row(array, i):
+def vector_at(array, i):
+    """Row i of an (N, 3) array as a 3-tuple."""
     return (array[i, 0], array[i, 1], array[i, 2])
 
 
 @njit(cache=True, inline="always")
-def matrix(array, i):
+def matrix_at(array, i):
+    """Matrix i of an (N, 3, 3) array as a row-major 9-tuple."""
     r = array[i]
     return (r[0, 0], r[0, 1], r[0, 2], r[1, 0], r[1, 1], r[1, 2], r[2, 0], r[2, 1], r[2, 2])
 
 
 @njit(cache=True, inline="always")
-def vector(array):
+def as_vector(array):
+    """A 3-array as a 3-tuple."""
     return (array[0], array[1], array[2])
 
 
 @njit(cache=True, inline="always")
-def square(a):
-    return (a[0, 0], a[0, 1], a[0, 2], a[1, 0], a[1, 1], a[1, 2], a[2, 0], a[2, 1], a[2, 2])
-
-
-@njit(cache=True, inline="always")
-def put(array, i, value):
+def store_vector(array, i, value):
+    """Write the 3-tuple ``value`` into row i of an (N, 3) array."""
     for k in range(3):
         array[i, k] = value[k]
 
@@ -53,10 +53,10 @@ def put(array, i, value):
 @njit(cache=True)
 def attitude_errors(rotation, angular_velocity, desired_rotation, desired_rate):
     """``eR = ½ vee(RdᵀR - RᵀRd)``, ``eΩ = Ω - RᵀRd Ωd`` (Lee 2010), and ``RᵀRd``."""
-    rd_t_r = mat_mul_tuple(transpose(desired_rotation), rotation)
+    rd_t_r = mat_mul_tuple(transpose_tuple(desired_rotation), rotation)
     attitude_error = (0.5 * (rd_t_r[7] - rd_t_r[5]), 0.5 * (rd_t_r[2] - rd_t_r[6]),
                       0.5 * (rd_t_r[3] - rd_t_r[1]))
-    r_t_rd = transpose(rd_t_r)
+    r_t_rd = transpose_tuple(rd_t_r)
     rate_error = combine(1.0, angular_velocity, -1.0, mat_vec_tuple(r_t_rd, desired_rate))
     return attitude_error, rate_error, r_t_rd
 
@@ -119,15 +119,15 @@ def geometric_vehicle(i, x, v, R, w, reference, mass, gravity, inertia, gains, f
     """``geometric_law`` for vehicle i, its outputs written to row i."""
     f, m, force, rd, rate_d, e_r, e_w = geometric_law(
         x, v, R, w, reference, mass, gravity, inertia, gains[0], gains[1], gains[2], gains[3],
-        row(force_estimate, i), row(torque_estimate, i))
+        vector_at(force_estimate, i), vector_at(torque_estimate, i))
     thrust[i] = f
-    put(moment, i, m)
-    put(desired_force, i, force)
+    store_vector(moment, i, m)
+    store_vector(desired_force, i, force)
     for k in range(9):
         desired_rotation[i, k // 3, k % 3] = rd[k]
-    put(desired_rate, i, rate_d)
-    put(attitude_error, i, e_r)
-    put(rate_error, i, e_w)
+    store_vector(desired_rate, i, rate_d)
+    store_vector(attitude_error, i, e_r)
+    store_vector(rate_error, i, e_w)
 
 
 @njit(cache=True, nogil=True)
@@ -135,14 +135,14 @@ def geometric_batch(start, stop, position, velocity, rotation, angular_velocity,
                     mass, gravity, inertia, kx, kv, kR, kOmega, force_estimate,
                     torque_estimate, thrust, moment, desired_force, desired_rotation,
                     desired_rate, attitude_error, rate_error):
-    inertia_tuple = square(inertia)
-    gains = (vector(kx), vector(kv), vector(kR), vector(kOmega))
+    inertia_tuple = matrix_entries(inertia)
+    gains = (as_vector(kx), as_vector(kv), as_vector(kR), as_vector(kOmega))
     for i in range(start, stop):
-        ref = (row(reference[0], i), row(reference[1], i), row(reference[2], i),
-               row(reference[3], i), row(reference[4], i), row(reference[5], i),
-               row(reference[6], i), row(reference[7], i))
-        geometric_vehicle(i, row(position, i), row(velocity, i), matrix(rotation, i),
-                          row(angular_velocity, i), ref, mass, gravity, inertia_tuple, gains,
+        ref = (vector_at(reference[0], i), vector_at(reference[1], i), vector_at(reference[2], i),
+               vector_at(reference[3], i), vector_at(reference[4], i), vector_at(reference[5], i),
+               vector_at(reference[6], i), vector_at(reference[7], i))
+        geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i), matrix_at(rotation, i),
+                          vector_at(angular_velocity, i), ref, mass, gravity, inertia_tuple, gains,
                           force_estimate, torque_estimate, thrust, moment, desired_force,
                           desired_rotation, desired_rate, attitude_error, rate_error)
 
@@ -164,10 +164,10 @@ def reference_at(table, r):
 def attitude_errors_batch(rotation, angular_velocity, desired_rotation, desired_rate,
                           attitude_error, rate_error, r_t_rd):
     for i in range(rotation.shape[0]):
-        e_r, e_w, rt = attitude_errors(matrix(rotation, i), row(angular_velocity, i),
-                                       matrix(desired_rotation, i), row(desired_rate, i))
-        put(attitude_error, i, e_r)
-        put(rate_error, i, e_w)
+        e_r, e_w, rt = attitude_errors(matrix_at(rotation, i), vector_at(angular_velocity, i),
+                                       matrix_at(desired_rotation, i), vector_at(desired_rate, i))
+        store_vector(attitude_error, i, e_r)
+        store_vector(rate_error, i, e_w)
         for k in range(9):
             r_t_rd[i, k // 3, k % 3] = rt[k]
 
@@ -177,20 +177,20 @@ def observer_estimate_vehicle(i, velocity, angular_velocity, gain, km, z_force, 
                               force_estimate, torque_estimate):
     """``d̂x = zx + Ks' v``, ``d̂Ω = zΩ + Km' Ω`` for vehicle i (``km`` a 9-tuple); a fresh
     episode starts at z = -K' x, so its first estimate is zero."""
-    v, w = row(velocity, i), row(angular_velocity, i)
+    v, w = vector_at(velocity, i), vector_at(angular_velocity, i)
     km_w = mat_vec_tuple(km, w)
     if fresh[i]:
-        put(z_force, i, (-gain * v[0], -gain * v[1], -gain * v[2]))
-        put(z_torque, i, (-km_w[0], -km_w[1], -km_w[2]))
+        store_vector(z_force, i, (-gain * v[0], -gain * v[1], -gain * v[2]))
+        store_vector(z_torque, i, (-km_w[0], -km_w[1], -km_w[2]))
         fresh[i] = False
-    put(force_estimate, i, combine(1.0, row(z_force, i), gain, v))
-    put(torque_estimate, i, add(row(z_torque, i), km_w))
+    store_vector(force_estimate, i, combine(1.0, vector_at(z_force, i), gain, v))
+    store_vector(torque_estimate, i, add(vector_at(z_torque, i), km_w))
 
 
 @njit(cache=True)
 def observer_estimate_batch(velocity, angular_velocity, gain, rotational_gain, z_force,
                             z_torque, fresh, force_estimate, torque_estimate):
-    km = square(rotational_gain)
+    km = matrix_entries(rotational_gain)
     for i in range(velocity.shape[0]):
         observer_estimate_vehicle(i, velocity, angular_velocity, gain, km, z_force, z_torque,
                                   fresh, force_estimate, torque_estimate)
@@ -204,27 +204,28 @@ def observer_advance_vehicle(i, start_velocity, start_body_z, start_angular_velo
     direction and the gyroscopic torque averaged over the step's two ends (unbiased to
     second order in dt); ``J``, ``km`` and ``a_rot`` are 9-tuples."""
     end_body_z = (end_rotation[i, 0, 2], end_rotation[i, 1, 2], end_rotation[i, 2, 2])
-    lift = combine(0.5 * thrust[i], row(start_body_z, i), 0.5 * thrust[i], end_body_z)
-    v, z = row(start_velocity, i), row(z_force, i)
+    lift = combine(0.5 * thrust[i], vector_at(start_body_z, i), 0.5 * thrust[i], end_body_z)
+    v, z = vector_at(start_velocity, i), vector_at(z_force, i)
     # żx = -(Ks/m)(zx + Ks v - m g e3 + f R e3)
-    put(z_force, i, (z[0] - alpha * (z[0] + gain * v[0] + lift[0]),
+    store_vector(z_force, i, (z[0] - alpha * (z[0] + gain * v[0] + lift[0]),
                      z[1] - alpha * (z[1] + gain * v[1] + lift[1]),
                      z[2] - alpha * (z[2] + gain * v[2] - mass * gravity + lift[2])))
-    w0, w1 = row(start_angular_velocity, i), row(end_angular_velocity, i)
+    w0, w1 = vector_at(start_angular_velocity, i), vector_at(end_angular_velocity, i)
     gyroscopic = combine(0.5, cross_tuple(w0, mat_vec_tuple(J, w0)),
                          0.5, cross_tuple(w1, mat_vec_tuple(J, w1)))
-    zt = row(z_torque, i)
+    zt = vector_at(z_torque, i)
     # żΩ = -Km J⁻¹(zΩ + Km Ω - Ω × JΩ + M)
     residual = add(combine(1.0, zt, 1.0, mat_vec_tuple(km, w0)),
-                   combine(-1.0, gyroscopic, 1.0, row(moment, i)))
-    put(z_torque, i, combine(1.0, zt, -1.0, mat_vec_tuple(a_rot, residual)))
+                   combine(-1.0, gyroscopic, 1.0, vector_at(moment, i)))
+    store_vector(z_torque, i, combine(1.0, zt, -1.0, mat_vec_tuple(a_rot, residual)))
 
 
 @njit(cache=True)
 def observer_advance_batch(start_velocity, start_body_z, start_angular_velocity, thrust,
                            moment, end_rotation, end_angular_velocity, mass, gravity, inertia,
                            gain, alpha, rotational_gain, alpha_rotation, z_force, z_torque):
-    J, km, a_rot = square(inertia), square(rotational_gain), square(alpha_rotation)
+    J, km = matrix_entries(inertia), matrix_entries(rotational_gain)
+    a_rot = matrix_entries(alpha_rotation)
     for i in range(start_velocity.shape[0]):
         observer_advance_vehicle(i, start_velocity, start_body_z, start_angular_velocity,
                                  thrust, moment, end_rotation, end_angular_velocity, mass,

@@ -26,15 +26,14 @@ from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_baselines.kernels import (
+    as_vector,
     geometric_vehicle,
-    matrix,
+    matrix_at,
     observer_advance_vehicle,
     observer_estimate_vehicle,
-    put,
     reference_at,
-    row,
-    square,
-    vector,
+    store_vector,
+    vector_at,
 )
 from quad_dob_env.envs.kernels import step_kernel
 from quad_dob_env.envs.residual_kernels import (
@@ -42,6 +41,7 @@ from quad_dob_env.envs.residual_kernels import (
     residual_observation_vehicle,
     residual_reward_kernel,
 )
+from quad_dob_env.so3 import matrix_entries
 from quad_dob_env.threads import run_over_batch
 
 if TYPE_CHECKING:
@@ -62,18 +62,19 @@ def plan_kernel(indices, plan):
      attitude_error, rate_error, estimate_scale, inverse, base_action, body_errors,
      extra) = plan
     rotor_mode, centre, scale_up, scale_down, mixer = inverse
-    inertia_, km_ = square(inertia), square(km)  # 9-tuples, as the equations take them
-    gains_ = (vector(gains[0]), vector(gains[1]), vector(gains[2]), vector(gains[3]))
+    # 9-tuples, as the equations take them
+    inertia_, km_ = matrix_entries(inertia), matrix_entries(km)
+    gains_ = (as_vector(gains[0]), as_vector(gains[1]), as_vector(gains[2]), as_vector(gains[3]))
     for i in indices:
         if has_observer:
             observer_estimate_vehicle(i, velocity, angular_velocity, gain, km_, z_force,
                                       z_torque, fresh, force_estimate, torque_estimate)
         else:
-            put(force_estimate, i, (0.0, 0.0, 0.0))
-            put(torque_estimate, i, (0.0, 0.0, 0.0))
+            store_vector(force_estimate, i, (0.0, 0.0, 0.0))
+            store_vector(torque_estimate, i, (0.0, 0.0, 0.0))
         r = step_count[i]
-        geometric_vehicle(i, row(position, i), row(velocity, i), matrix(rotation, i),
-                          row(angular_velocity, i), reference_at(reference, r), mass, gravity,
+        geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i), matrix_at(rotation, i),
+                          vector_at(angular_velocity, i), reference_at(reference, r), mass, gravity,
                           inertia_, gains_, force_estimate, torque_estimate, thrust, moment,
                           desired_force, desired_rotation, desired_rate, attitude_error,
                           rate_error)
@@ -104,7 +105,7 @@ def fused_residual_kernel(start, stop, command, actions, vehicles, update, plan)
     step_kernel(start, stop, actions, *vehicles)
     residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rewards)
     if has_observer:
-        inertia_, km_, a_rot_ = square(inertia), square(km), square(a_rot)
+        inertia_, km_, a_rot_ = matrix_entries(inertia), matrix_entries(km), matrix_entries(a_rot)
         for i in range(start, stop):
             observer_advance_vehicle(i, velocity_before, body_z_before, rate_before,
                                      applied_thrust, applied_moment, rotation,

@@ -86,6 +86,17 @@ def tilt_angle(rotation: ArrayLike) -> NDArray[np.float64]:
 
 
 @njit(cache=True, inline="always")
+def matrix_entries(a):
+    """A 3x3 array as a row-major 9-tuple, the form the compiled equations take."""
+    return (a[0, 0], a[0, 1], a[0, 2], a[1, 0], a[1, 1], a[1, 2], a[2, 0], a[2, 1], a[2, 2])
+
+
+@njit(cache=True, inline="always")
+def transpose_tuple(m: Mat3) -> Mat3:
+    return (m[0], m[3], m[6], m[1], m[4], m[7], m[2], m[5], m[8])
+
+
+@njit(cache=True, inline="always")
 def cross_tuple(a: Vec3, b: Vec3) -> Vec3:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 

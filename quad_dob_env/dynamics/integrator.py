@@ -19,7 +19,13 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_env.params import VehicleParams
-from quad_dob_env.so3 import cross_tuple, exp_tuple, mat_mul_tuple, mat_vec_tuple
+from quad_dob_env.so3 import (
+    cross_tuple,
+    exp_tuple,
+    mat_mul_tuple,
+    mat_vec_tuple,
+    matrix_entries,
+)
 
 
 class ThrustLaw(NamedTuple):
@@ -147,12 +153,6 @@ def sample(table, row, per_vehicle, i, k):
 
 
 @njit(cache=True, inline="always")
-def matrix_tuple(a):
-    """A 3x3 array as a row-major 9-tuple."""
-    return (a[0, 0], a[0, 1], a[0, 2], a[1, 0], a[1, 1], a[1, 2], a[2, 0], a[2, 1], a[2, 2])
-
-
-@njit(cache=True, inline="always")
 def lag_factor(elapsed, time_constant):
     """Share of the old actuator output left after ``elapsed`` s (0: no lag)."""
     return math.exp(-elapsed / time_constant) if time_constant > 0.0 else 0.0
@@ -238,7 +238,7 @@ def all_finite(x, v, R, w) -> bool:
 @njit(cache=True, inline="always")
 def vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag):
     """Vehicle i's (mass, g, J, J⁻¹, linear drag, quadratic drag) as scalars and tuples."""
-    return (mass[i], gravity, matrix_tuple(inertia[i]), matrix_tuple(inertia_inverse[i]),
+    return (mass[i], gravity, matrix_entries(inertia[i]), matrix_entries(inertia_inverse[i]),
             (drag[i, 0], drag[i, 1], drag[i, 2]), (drag[i, 3], drag[i, 4], drag[i, 5]))
 
 

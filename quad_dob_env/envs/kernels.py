@@ -15,7 +15,6 @@ from quad_dob_env.dynamics import (
     body_drag,
     lag_factor,
     load_vehicle,
-    matrix_tuple,
     sample,
     store_applied,
     store_vehicle,
@@ -23,7 +22,7 @@ from quad_dob_env.dynamics import (
     vehicle_physics,
 )
 from quad_dob_env.rng import gaussian_pair
-from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, mat_vec_tuple
+from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, mat_vec_tuple, matrix_entries
 
 # Observations are clamped to float32's range, so a huge but finite state never becomes inf.
 OBSERVATION_BOUND = float(np.finfo(np.float32).max)
@@ -214,7 +213,7 @@ def sensor_kernel(indices, clean, rotation, keys, counters, stds, rotation_mode,
             out[i, k] += position_std * g[k]
             out[i, 3 + k] += velocity_std * g[3 + k]
             out[i, rates + k] += rate_std * g[9 + k]
-        turned = mat_mul_tuple(matrix_tuple(rotation[i]), exp_tuple(
+        turned = mat_mul_tuple(matrix_entries(rotation[i]), exp_tuple(
             (attitude_std * g[6], attitude_std * g[7], attitude_std * g[8])))
         if rotation_mode == 0:
             for k in range(9):
