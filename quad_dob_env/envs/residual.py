@@ -42,7 +42,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.envs.residual_kernels import body_frame_errors, join_columns
+from quad_dob_env.envs.residual_kernels import (
+    join_columns,
+    residual_command_kernel,
+    residual_observation_kernel,
+    residual_reward_kernel,
+)
 from quad_dob_env.validation import as_finite
 
 if TYPE_CHECKING:
@@ -97,6 +102,7 @@ class ResidualCommand:
         self.extra_observation = np.zeros((n, RESIDUAL_OBSERVATION_SIZE), dtype=np.float32)
         self.rewards = np.zeros(n)
         self._body_errors = np.zeros((n, 6))
+        self._base_action = np.zeros((n, 4))
         self._state_before = None
         self.force_estimate, self.torque_estimate = np.zeros((n, 3)), np.zeros((n, 3))
         self._residual = np.zeros((n, 4))
@@ -136,35 +142,40 @@ class ResidualCommand:
         if not self._started:
             raise RuntimeError("ResidualCommand.restart must run before command")
         core = self.core
-        self._residual = np.clip(residual, -1.0, 1.0)
-        offset = self._residual * self.residual_range
         self._state_before = core.state.copy()
-        self.requested_thrust = self.base_thrust + offset[:, 0]
-        return core.action_map.to_actions(self.requested_thrust, self.base_moment + offset[:, 1:])
+        actions = np.empty((core.n, 4))
+        residual_command_kernel(0, core.n, np.ascontiguousarray(residual, dtype=np.float64),
+                                self.residual_range, np.ascontiguousarray(self.base_thrust),
+                                np.ascontiguousarray(self.base_moment), core.action_map.inverse,
+                                self._residual, self.requested_thrust, actions)
+        return actions
 
     def record(self) -> None:
         """After the core flew ``command``'s actions: tell the controller what was applied
         and score the residual's effort."""
         core = self.core
         self.controller.applied(self._state_before, core.applied.thrust, core.applied.moment)
-        self.rewards = core.rewards - self.effort_weight * np.mean(self._residual**2, axis=1)
+        self.rewards = np.empty(core.n)  # a new array: the one handed out stays as it was
+        residual_reward_kernel(0, core.n, self._residual, core.rewards, self.effort_weight,
+                               self.rewards)
 
     def plan(self) -> None:
         """Every vehicle's base command for the coming step, and the extra observation."""
         core, controller = self.core, self.controller
         self.base_thrust, self.base_moment = controller.compute(core.time, core.state,
                                                                 core.reference)
-        extra = self.extra_observation
-        extra[:, :4] = core.action_map.to_actions(self.base_thrust, self.base_moment)
         zeros = np.zeros((core.n, 3))
         self.force_estimate = controller.diagnostics.get("force_estimate", zeros)
         self.torque_estimate = controller.diagnostics.get("torque_estimate", zeros)
-        estimates = np.concatenate([self.force_estimate, self.torque_estimate], 1)
-        extra[:, 4:10] = np.clip(estimates * self.estimate_scale, -1e3, 1e3)
-        state, reference = core.state, core.reference
-        body_frame_errors(state.position, state.velocity, state.rotation, reference.position,
-                          reference.velocity, self._body_errors)
-        extra[:, 10:] = np.clip(self._body_errors, -1e3, 1e3)
+        state = core.state
+        residual_observation_kernel(
+            np.ascontiguousarray(self.base_thrust, dtype=np.float64),
+            np.ascontiguousarray(self.base_moment, dtype=np.float64),
+            np.ascontiguousarray(self.force_estimate, dtype=np.float64),
+            np.ascontiguousarray(self.torque_estimate, dtype=np.float64), self.estimate_scale,
+            state.position, state.velocity, state.rotation, core.reference_table,
+            core.step_count, core.action_map.inverse, self._base_action, self._body_errors,
+            self.extra_observation)
 
     def info(self) -> dict[str, NDArray]:
         """``base_thrust`` (N,), ``base_moment`` and the observer's ``force_estimate`` and

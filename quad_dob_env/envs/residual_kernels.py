@@ -1,6 +1,6 @@
 """The residual's compiled per-vehicle pieces (``quad_dob_env.envs.residual``): the
-command, the reward and the extra observation, written once for the separate stages and
-for ``quad_dob_baselines.fused``'s single pass."""
+command, the reward and the extra observation, written once: the separate stages call them
+over the batch, ``quad_dob_composition.fused``'s single pass per vehicle."""
 
 from numba import njit
 
@@ -18,15 +18,6 @@ def body_frame_errors_vehicle(i, position, velocity, rotation, reference_positio
             velocity_error += rotation[i, j, k] * (velocity[i, j] - reference_velocity[j])
         out[i, k] = position_error
         out[i, 3 + k] = velocity_error
-
-
-@njit(cache=True)
-def body_frame_errors(position, velocity, rotation, reference_position, reference_velocity,
-                      out):
-    """``body_frame_errors_vehicle`` for every vehicle (N, 6)."""
-    for i in range(position.shape[0]):
-        body_frame_errors_vehicle(i, position, velocity, rotation, reference_position[i],
-                                  reference_velocity[i], out)
 
 
 @njit(cache=True)
@@ -75,6 +66,21 @@ def residual_observation_vehicle(i, base_thrust, base_moment, force_estimate, to
         extra[i, 7 + k] = min(max(torque_estimate[i, k] * estimate_scale[3 + k], -1e3), 1e3)
     for k in range(6):
         extra[i, 10 + k] = min(max(body_errors[i, k], -1e3), 1e3)
+
+
+@njit(cache=True)
+def residual_observation_kernel(base_thrust, base_moment, force_estimate, torque_estimate,
+                                estimate_scale, position, velocity, rotation, reference,
+                                step_count, inverse, base_action, body_errors, extra):
+    """``residual_observation_vehicle`` for every vehicle, at its own step's reference row
+    (the separate stages' way to the same entries the fused pass writes)."""
+    rotor_mode, centre, scale_up, scale_down, mixer = inverse
+    for i in range(base_thrust.shape[0]):
+        residual_observation_vehicle(i, base_thrust, base_moment, force_estimate,
+                                     torque_estimate, estimate_scale, position, velocity,
+                                     rotation, reference, step_count[i], rotor_mode, centre,
+                                     scale_up, scale_down, mixer, base_action, body_errors,
+                                     extra)
 
 
 @njit(cache=True)
