@@ -19,7 +19,7 @@ From 256 vehicles its slices run on threads at once (``quad_dob_env.threads``).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -48,40 +48,88 @@ if TYPE_CHECKING:
     from quad_dob_baselines.geometric import GeometricController
     from quad_dob_env.envs.residual import ResidualCommand
 
-_DIAGNOSTICS = ("desired_force", "desired_rotation", "desired_angular_velocity",
-                "attitude_error", "rate_error")
+class PlanArguments(NamedTuple):
+    """What ``plan_kernel`` reads and writes for the whole batch (built by keyword, read by
+    name: a misplaced array cannot pass for another)."""
+
+    position: NDArray  # the state now, (N, 3) and (N, 3, 3)
+    velocity: NDArray
+    rotation: NDArray
+    angular_velocity: NDArray
+    reference: NDArray  # the core's reference table (rows, 8, 3)
+    step_count: NDArray  # (N,) each vehicle's row in it
+    mass: float  # the geometric law's constants
+    gravity: float
+    inertia: NDArray  # (3, 3)
+    gains: NDArray  # (4, 3): kx, kv [N/m, N s/m], kR, kΩ
+    has_observer: bool  # the observer's discrete gains and state (ObserverKernelState)
+    observer_gain: float
+    observer_rotational_gain: NDArray
+    z_force: NDArray
+    z_torque: NDArray
+    fresh: NDArray
+    force_estimate: NDArray  # what the plan writes: estimates, base command, diagnostics
+    torque_estimate: NDArray
+    thrust: NDArray
+    moment: NDArray
+    desired_force: NDArray
+    desired_rotation: NDArray
+    desired_rate: NDArray
+    attitude_error: NDArray
+    rate_error: NDArray
+    estimate_scale: NDArray  # the extra observation's scales and the inverse action map
+    inverse: tuple
+    base_action: NDArray  # scratch rows and the extra observation (N, 16)
+    body_errors: NDArray
+    extra: NDArray
+
+
+class UpdateArguments(NamedTuple):
+    """What the observer's update and the reward need in ``fused_residual_kernel``."""
+
+    velocity_before: NDArray  # the state before the step, (N, 3)
+    body_z_before: NDArray
+    rate_before: NDArray
+    alpha: float  # the observer's discrete rates (ObserverKernelState)
+    rotational_alpha: NDArray
+    clipped: NDArray  # the residual clipped to [-1, 1]
+    core_rewards: NDArray
+    effort_weight: float
+    rewards: NDArray
+    applied_thrust: NDArray
+    applied_moment: NDArray
 
 
 @njit(cache=True)
 def plan_kernel(indices, plan):
     """Each vehicle of ``indices``: its observer estimate, base command and extra
     observation for the coming step, from its state now."""
-    (position, velocity, rotation, angular_velocity, reference, step_count, mass, gravity,
-     inertia, gains, has_observer, gain, km, z_force, z_torque, fresh, force_estimate,
-     torque_estimate, thrust, moment, desired_force, desired_rotation, desired_rate,
-     attitude_error, rate_error, estimate_scale, inverse, base_action, body_errors,
-     extra) = plan
-    rotor_mode, centre, scale_up, scale_down, mixer = inverse
+    p = plan
+    rotor_mode, centre, scale_up, scale_down, mixer = p.inverse
     # 9-tuples, as the equations take them
-    inertia_, km_ = matrix_entries(inertia), matrix_entries(km)
-    gains_ = (as_vector(gains[0]), as_vector(gains[1]), as_vector(gains[2]), as_vector(gains[3]))
+    inertia, km = matrix_entries(p.inertia), matrix_entries(p.observer_rotational_gain)
+    gains = (as_vector(p.gains[0]), as_vector(p.gains[1]), as_vector(p.gains[2]),
+             as_vector(p.gains[3]))
     for i in indices:
-        if has_observer:
-            observer_estimate_vehicle(i, velocity, angular_velocity, gain, km_, z_force,
-                                      z_torque, fresh, force_estimate, torque_estimate)
+        if p.has_observer:
+            observer_estimate_vehicle(i, p.velocity, p.angular_velocity, p.observer_gain, km,
+                                      p.z_force, p.z_torque, p.fresh, p.force_estimate,
+                                      p.torque_estimate)
         else:
-            store_vector(force_estimate, i, (0.0, 0.0, 0.0))
-            store_vector(torque_estimate, i, (0.0, 0.0, 0.0))
-        r = step_count[i]
-        geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i), matrix_at(rotation, i),
-                          vector_at(angular_velocity, i), reference_at(reference, r), mass, gravity,
-                          inertia_, gains_, force_estimate, torque_estimate, thrust, moment,
-                          desired_force, desired_rotation, desired_rate, attitude_error,
-                          rate_error)
-        residual_observation_vehicle(i, thrust, moment, force_estimate, torque_estimate,
-                                     estimate_scale, position, velocity, rotation, reference,
-                                     r, rotor_mode, centre, scale_up, scale_down, mixer,
-                                     base_action, body_errors, extra)
+            store_vector(p.force_estimate, i, (0.0, 0.0, 0.0))
+            store_vector(p.torque_estimate, i, (0.0, 0.0, 0.0))
+        row = p.step_count[i]
+        geometric_vehicle(i, vector_at(p.position, i), vector_at(p.velocity, i),
+                          matrix_at(p.rotation, i), vector_at(p.angular_velocity, i),
+                          reference_at(p.reference, row), p.mass, p.gravity, inertia, gains,
+                          p.force_estimate, p.torque_estimate, p.thrust, p.moment,
+                          p.desired_force, p.desired_rotation, p.desired_rate,
+                          p.attitude_error, p.rate_error)
+        residual_observation_vehicle(i, p.thrust, p.moment, p.force_estimate,
+                                     p.torque_estimate, p.estimate_scale, p.position,
+                                     p.velocity, p.rotation, p.reference, row, rotor_mode,
+                                     centre, scale_up, scale_down, mixer, p.base_action,
+                                     p.body_errors, p.extra)
 
 
 @njit(cache=True, nogil=True)
@@ -90,27 +138,24 @@ def fused_residual_kernel(start, stop, command, actions, vehicles, update, plan)
     batch across cores): ``command`` is what ``residual_command_kernel`` takes, ``vehicles``
     ``QuadrotorBatch.step_arguments()``, ``update`` what the observer's update and the
     reward need, ``plan`` what ``plan_kernel`` needs."""
-    # the state and the observer, in ``plan_kernel``'s order
-    velocity, rotation, angular_velocity = plan[1], plan[2], plan[3]
-    mass, gravity, inertia = plan[6], plan[7], plan[8]
-    has_observer, gain, km, z_force, z_torque = plan[10], plan[11], plan[12], plan[13], plan[14]
-    (velocity_before, body_z_before, rate_before, alpha, a_rot, clipped, core_rewards,
-     effort_weight, rewards, applied_thrust, applied_moment) = update
+    p, u = plan, update
     residual_command_kernel(start, stop, *command)
     for i in range(start, stop):  # the observer's update needs the state before the step
         for k in range(3):
-            velocity_before[i, k] = velocity[i, k]
-            body_z_before[i, k] = rotation[i, k, 2]
-            rate_before[i, k] = angular_velocity[i, k]
+            u.velocity_before[i, k] = p.velocity[i, k]
+            u.body_z_before[i, k] = p.rotation[i, k, 2]
+            u.rate_before[i, k] = p.angular_velocity[i, k]
     step_kernel(start, stop, actions, *vehicles)
-    residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rewards)
-    if has_observer:
-        inertia_, km_, a_rot_ = matrix_entries(inertia), matrix_entries(km), matrix_entries(a_rot)
+    residual_reward_kernel(start, stop, u.clipped, u.core_rewards, u.effort_weight, u.rewards)
+    if p.has_observer:
+        inertia, km = matrix_entries(p.inertia), matrix_entries(p.observer_rotational_gain)
+        rotational_alpha = matrix_entries(u.rotational_alpha)
         for i in range(start, stop):
-            observer_advance_vehicle(i, velocity_before, body_z_before, rate_before,
-                                     applied_thrust, applied_moment, rotation,
-                                     angular_velocity, mass, gravity, inertia_, gain, alpha,
-                                     km_, a_rot_, z_force, z_torque)
+            observer_advance_vehicle(i, u.velocity_before, u.body_z_before, u.rate_before,
+                                     u.applied_thrust, u.applied_moment, p.rotation,
+                                     p.angular_velocity, p.mass, p.gravity, inertia,
+                                     p.observer_gain, u.alpha, km, rotational_alpha,
+                                     p.z_force, p.z_torque)
     plan_kernel(np.arange(start, stop), plan)
 
 
@@ -136,7 +181,7 @@ class FusedResidualStep:
         self._law: tuple = ()
         self._observer: tuple = ()
         self._observer_rates: tuple = ()
-        self._outputs: tuple = ()
+        self._outputs: dict = {}
         self._arguments: tuple = ()
         self._tables = None  # the core's reference table the arguments were made with
 
@@ -164,9 +209,14 @@ class FusedResidualStep:
         flown = (self._residual, command.residual_range, command.base_thrust,
                  command.base_moment, core.action_map.inverse, self._clipped,
                  command.requested_thrust, self._actions)
-        update = (*self._before, *self._observer_rates, self._clipped, core.rewards,
-                  command.effort_weight, command.rewards, core.applied.thrust,
-                  core.applied.moment)
+        velocity_before, body_z_before, rate_before = self._before
+        alpha, rotational_alpha = self._observer_rates
+        update = UpdateArguments(
+            velocity_before=velocity_before, body_z_before=body_z_before,
+            rate_before=rate_before, alpha=alpha, rotational_alpha=rotational_alpha,
+            clipped=self._clipped, core_rewards=core.rewards,
+            effort_weight=float(command.effort_weight), rewards=command.rewards,
+            applied_thrust=core.applied.thrust, applied_moment=core.applied.moment)
         self._arguments = (flown, self._actions, core.step_arguments(), update,
                            self._plan_arguments())
         self._tables = core.reference_table
@@ -197,8 +247,13 @@ class FusedResidualStep:
         diagnostics = {"desired_force": np.empty((n, 3)), "desired_rotation": np.empty((n, 3, 3)),
                        "desired_angular_velocity": np.empty((n, 3)),
                        "attitude_error": np.empty((n, 3)), "rate_error": np.empty((n, 3))}
-        self._outputs = (force_estimate, torque_estimate, thrust, moment,
-                         *(diagnostics[key] for key in _DIAGNOSTICS))
+        self._outputs = {"force_estimate": force_estimate, "torque_estimate": torque_estimate,
+                         "thrust": thrust, "moment": moment,
+                         "desired_force": diagnostics["desired_force"],
+                         "desired_rotation": diagnostics["desired_rotation"],
+                         "desired_rate": diagnostics["desired_angular_velocity"],
+                         "attitude_error": diagnostics["attitude_error"],
+                         "rate_error": diagnostics["rate_error"]}
         self.controller.diagnostics = {**diagnostics, "force_estimate": force_estimate,
                                        "torque_estimate": torque_estimate}
         if self.controller.observer is not None:
@@ -208,9 +263,17 @@ class FusedResidualStep:
         self.residual.force_estimate, self.residual.torque_estimate = (force_estimate,
                                                                       torque_estimate)
 
-    def _plan_arguments(self) -> tuple:
+    def _plan_arguments(self) -> PlanArguments:
         core, state = self.residual.core, self.residual.core.state
-        return (state.position, state.velocity, state.rotation, state.angular_velocity,
-                core.reference_table, core.step_count, *self._law, *self._observer,
-                *self._outputs, self.residual.estimate_scale, core.action_map.inverse,
-                self._base_action, self._body_errors, self.residual.extra_observation)
+        mass, gravity, inertia, gains = self._law
+        has_observer, gain, rotational_gain, z_force, z_torque, fresh = self._observer
+        return PlanArguments(
+            position=state.position, velocity=state.velocity, rotation=state.rotation,
+            angular_velocity=state.angular_velocity, reference=core.reference_table,
+            step_count=core.step_count, mass=mass, gravity=gravity, inertia=inertia,
+            gains=gains, has_observer=has_observer, observer_gain=gain,
+            observer_rotational_gain=rotational_gain, z_force=z_force, z_torque=z_torque,
+            fresh=fresh, **self._outputs,
+            estimate_scale=self.residual.estimate_scale, inverse=core.action_map.inverse,
+            base_action=self._base_action, body_errors=self._body_errors,
+            extra=self.residual.extra_observation)
