@@ -145,7 +145,7 @@ def fused_residual_kernel(start, stop, command, actions, vehicles, update, plan)
             u.velocity_before[i, k] = p.velocity[i, k]
             u.body_z_before[i, k] = p.rotation[i, k, 2]
             u.rate_before[i, k] = p.angular_velocity[i, k]
-    step_kernel(start, stop, actions, *vehicles)
+    step_kernel(start, stop, actions, vehicles)
     residual_reward_kernel(start, stop, u.clipped, u.core_rewards, u.effort_weight, u.rewards)
     if p.has_observer:
         inertia, km = matrix_entries(p.inertia), matrix_entries(p.observer_rotational_gain)

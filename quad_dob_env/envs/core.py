@@ -28,6 +28,7 @@ from quad_dob_env.dynamics import (
 )
 from quad_dob_env.envs.actions import ActionMap
 from quad_dob_env.envs.kernels import (
+    StepArguments,
     info_kernel,
     sensor_kernel,
     start_kernel,
@@ -290,7 +291,7 @@ class QuadrotorBatch:
         """
         self.prepare_step()
         self._actions[...] = actions
-        run_over_batch(step_kernel, self.n, self._actions, *self.step_arguments())
+        run_over_batch(step_kernel, self.n, self._actions, self.step_arguments())
         self.finish_step()
 
     def prepare_step(self) -> None:
@@ -311,17 +312,23 @@ class QuadrotorBatch:
             times = self.time[:, None] + self._sample_offsets if random.uses_time else None
             random.add_to(times, *self._own)
 
-    def step_arguments(self) -> tuple:
+    def step_arguments(self) -> StepArguments:
         """What ``kernels.step_kernel`` takes after the slice and the actions."""
-        s, sc = self.state, self.scenario
-        return (self.action_map.forward, self._actuation, self._actuator, s.position, s.velocity,
-                s.rotation, s.angular_velocity, self.step_count, self._tables, self._own,
-                self._reference_table,
-                (self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse, self.drag),
-                sc.dt, sc.substeps, self._law, self._limits, self._reward, self._rotation_mode,
-                self._clean_obs, self.rewards, self.termination_code, self.applied.thrust,
-                self.applied.moment, self.applied.rotor_thrusts, self.applied.saturated,
-                self.disturbance_force, self.disturbance_torque)
+        s, sc, applied = self.state, self.scenario, self.applied
+        return StepArguments(
+            action_map=self.action_map.forward, actuation=self._actuation,
+            actuator=self._actuator, position=s.position, velocity=s.velocity,
+            rotation=s.rotation, angular_velocity=s.angular_velocity,
+            step_count=self.step_count, tables=self._tables, own=self._own,
+            reference=self._reference_table,
+            physics=(self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse,
+                     self.drag),
+            dt=sc.dt, substeps=sc.substeps, law=self._law, limits=self._limits,
+            reward_weights=self._reward, rotation_mode=self._rotation_mode,
+            obs=self._clean_obs, reward=self.rewards, code=self.termination_code,
+            applied_thrust=applied.thrust, applied_moment=applied.moment,
+            rotor_thrusts=applied.rotor_thrusts, saturated=applied.saturated,
+            disturbance_force=self.disturbance_force, disturbance_torque=self.disturbance_torque)
 
     def finish_step(self) -> None:
         """After the compiled pass: the sensor model on the new observations."""

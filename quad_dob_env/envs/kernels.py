@@ -4,8 +4,11 @@
 and compiled serial (small batches) and threaded (large ones).
 """
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
 from quad_dob_env.dynamics import (
     actuate_vehicle,
@@ -123,16 +126,56 @@ def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
     return code, error
 
 
+class StepArguments(NamedTuple):
+    """What ``step_kernel`` takes besides the slice and the actions, by name; the core
+    builds it by keyword (``QuadrotorBatch.step_arguments``)."""
+
+    action_map: tuple  # ``ActionMap.forward``
+    actuation: tuple  # ``Actuator.kernel_arguments()``
+    actuator: tuple  # to_wrench, to_rotors, time constant, actuator state (N, 4)
+    position: NDArray  # the state, updated in place
+    velocity: NDArray
+    rotation: NDArray
+    angular_velocity: NDArray
+    step_count: NDArray  # (N,) each vehicle's row in the tables
+    tables: tuple  # force, torque and wind tables shared by all vehicles
+    own: tuple  # and each vehicle's own part of them
+    reference: NDArray  # the reference table (rows, 8, 3)
+    physics: tuple  # mass, g, inertia, inverse inertia, drag (per vehicle)
+    dt: float
+    substeps: int
+    law: tuple  # the ground-effect ``ThrustLaw``
+    limits: tuple  # the episode limits
+    reward_weights: tuple  # position scale, effort weight
+    rotation_mode: int
+    obs: NDArray  # what the step writes
+    reward: NDArray
+    code: NDArray
+    applied_thrust: NDArray
+    applied_moment: NDArray
+    rotor_thrusts: NDArray
+    saturated: NDArray
+    disturbance_force: NDArray
+    disturbance_torque: NDArray
+
+
 @njit(cache=True, nogil=True)
-def step_kernel(start, stop, actions, action_map, actuation, actuator, position, velocity,
-                rotation, angular_velocity, step_count, tables, own, reference, physics, dt,
-                substeps, law, limits, reward_weights, rotation_mode, obs, reward, code,
-                applied_thrust, applied_moment, rotor_thrusts, saturated, disturbance_force,
-                disturbance_torque):
+def step_kernel(start, stop, actions, step):
     """One control step of vehicles ``start..stop-1``: action -> command -> actuators ->
     integration -> observation, reward, termination and the true disturbance
-    (``quad_dob_env.threads`` splits the batch across cores)."""
-    rotor_mode, centre, scale_up, scale_down, allocation = action_map
+    (``quad_dob_env.threads`` splits the batch across cores). ``step`` is a
+    ``StepArguments`` (``QuadrotorBatch.step_arguments()``), read by name."""
+    actuation, actuator, physics, law = step.actuation, step.actuator, step.physics, step.law
+    position, velocity = step.position, step.velocity
+    rotation, angular_velocity = step.rotation, step.angular_velocity
+    step_count, tables, own, reference = step.step_count, step.tables, step.own, step.reference
+    dt, substeps, limits = step.dt, step.substeps, step.limits
+    reward_weights, rotation_mode = step.reward_weights, step.rotation_mode
+    obs, reward, code = step.obs, step.reward, step.code
+    applied_thrust, applied_moment = step.applied_thrust, step.applied_moment
+    rotor_thrusts, saturated = step.rotor_thrusts, step.saturated
+    disturbance_force, disturbance_torque = step.disturbance_force, step.disturbance_torque
+    rotor_mode, centre, scale_up, scale_down, allocation = step.action_map
     to_wrench, to_rotors, time_constant, actuator_state = actuator
     mass, gravity, inertia, inertia_inverse, drag = physics
     force_table, torque_table, wind_table = tables
