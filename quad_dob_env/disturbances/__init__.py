@@ -12,6 +12,9 @@
 
 Every model has three channels: force d_x (world, N), torque d_Ω (body, N m) and wind
 velocity (world, m/s), which acts through the vehicle's drag.
+
+May import ``params``, ``so3``, ``dynamics``, ``linalg``, ``rng``, ``validation`` and
+``threads``; nothing above.
 """
 
 from quad_dob_env.disturbances.base import Disturbance, Sum

@@ -5,6 +5,8 @@
   integrator, compiled per vehicle; the in-ground-effect thrust law it evaluates.
 - ``actuation``: rotor allocation and saturation (``rotors``) or direct wrench limits
   (``wrench``), reporting what was actually applied.
+
+May import ``params``, ``so3``, ``validation`` and ``threads``; nothing above.
 """
 
 from quad_dob_env.dynamics.actuation import (

@@ -17,6 +17,10 @@
 - ``residual_kernels``: the residual's compiled per-vehicle command, reward and extra
   observation.
 - ``rendering``: ``FlightRenderer``, the frames of ``render_mode="rgb_array"``/``"human"``.
+
+May import the simulator's lower layers (params through scenarios, threads); never
+``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``: a residual env
+takes its base controller as an object.
 """
 
 from quad_dob_env.envs.actions import ACTION_MODES, ActionMap

@@ -28,6 +28,7 @@ from quad_dob_env.dynamics import (
 )
 from quad_dob_env.envs.actions import ActionMap
 from quad_dob_env.envs.kernels import (
+    StartArguments,
     StepArguments,
     info_kernel,
     sensor_kernel,
@@ -260,14 +261,17 @@ class QuadrotorBatch:
         offsets = draws[:, :3] * sc.initial_position_noise
         rotations = self._initial_rotation @ so3_exp(draws[:, 3:] * sc.initial_attitude_noise)
         s, applied = self.state, self.applied
-        start_kernel(indices, offsets, rotations, scales, self._start, self._nominal,
-                     s.position, s.velocity, s.rotation, s.angular_velocity,
-                     (self.mass, self.inertia, self.inertia_inverse, self.drag),
-                     (applied.thrust, applied.moment, applied.rotor_thrusts, applied.saturated),
-                     self.disturbance_force, self.disturbance_torque, self.rewards,
-                     self.step_count, self.actuator_state, self._hover_output,
-                     self._reference_table, self._rotation_mode, self._limits, self._clean_obs,
-                     self.termination_code)
+        start_kernel(indices, offsets, rotations, scales, StartArguments(
+            start=self._start, nominal=self._nominal, position=s.position,
+            velocity=s.velocity, rotation=s.rotation, angular_velocity=s.angular_velocity,
+            physics=(self.mass, self.inertia, self.inertia_inverse, self.drag),
+            applied=(applied.thrust, applied.moment, applied.rotor_thrusts, applied.saturated),
+            disturbance_force=self.disturbance_force,
+            disturbance_torque=self.disturbance_torque, rewards=self.rewards,
+            step_count=self.step_count, actuator_state=self.actuator_state,
+            hover=self._hover_output, reference=self._reference_table,
+            rotation_mode=self._rotation_mode, limits=self._limits, obs=self._clean_obs,
+            code=self.termination_code))
         random = self.random_disturbance
         if random is not None:
             random.resample(indices, rngs)

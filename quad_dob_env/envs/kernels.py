@@ -159,6 +159,31 @@ class StepArguments(NamedTuple):
     disturbance_torque: NDArray
 
 
+class StartArguments(NamedTuple):
+    """The core's arrays ``start_kernel`` writes a new episode into, by name
+    (``QuadrotorBatch.reset`` builds it by keyword)."""
+
+    start: tuple  # the scenario's initial position, velocity and body rates
+    nominal: tuple  # the vehicle's mass, inertia, inverse inertia and drag, (1, ...) each
+    position: NDArray
+    velocity: NDArray
+    rotation: NDArray
+    angular_velocity: NDArray
+    physics: tuple  # each vehicle's mass, inertia, inverse inertia and drag
+    applied: tuple  # applied thrust, moment, rotor thrusts, saturated
+    disturbance_force: NDArray
+    disturbance_torque: NDArray
+    rewards: NDArray
+    step_count: NDArray
+    actuator_state: NDArray
+    hover: NDArray  # the actuator output that holds the weight
+    reference: NDArray
+    rotation_mode: int
+    limits: tuple
+    obs: NDArray
+    code: NDArray
+
+
 @njit(cache=True, nogil=True)
 def step_kernel(start, stop, actions, step):
     """One control step of vehicles ``start..stop-1``: action -> command -> actuators ->
@@ -270,18 +295,22 @@ def sensor_kernel(indices, clean, rotation, keys, counters, stds, rotation_mode,
 
 
 @njit(cache=True)
-def start_kernel(indices, offsets, rotations, scales, start, nominal, position, velocity,
-                 rotation, angular_velocity, physics, applied, disturbance_force,
-                 disturbance_torque, rewards, step_count, actuator_state, hover, reference,
-                 rotation_mode, limits, obs, code):
+def start_kernel(indices, offsets, rotations, scales, batch):
     """New episodes for vehicles ``indices`` (``QuadrotorBatch.reset``): the j-th starts at
     the scenario's state plus ``offsets[j]`` (position, velocity) and ``rotations[j]``, with
     the nominal physics times ``scales[j]`` (mass, inertia, drag), nothing applied yet, the
-    rotors at hover; then its first observation and termination code."""
-    initial_position, initial_velocity, initial_angular_velocity = start
-    mass0, inertia0, inertia_inverse0, drag0 = nominal
-    mass, inertia, inertia_inverse, drag = physics
-    applied_thrust, applied_moment, rotor_thrusts, saturated = applied
+    rotors at hover; then its first observation and termination code. ``batch`` is a
+    ``StartArguments``, read by name."""
+    initial_position, initial_velocity, initial_angular_velocity = batch.start
+    mass0, inertia0, inertia_inverse0, drag0 = batch.nominal
+    mass, inertia, inertia_inverse, drag = batch.physics
+    applied_thrust, applied_moment, rotor_thrusts, saturated = batch.applied
+    position, velocity = batch.position, batch.velocity
+    rotation, angular_velocity = batch.rotation, batch.angular_velocity
+    disturbance_force, disturbance_torque = batch.disturbance_force, batch.disturbance_torque
+    rewards, step_count, actuator_state = batch.rewards, batch.step_count, batch.actuator_state
+    hover, reference, rotation_mode = batch.hover, batch.reference, batch.rotation_mode
+    limits, obs, code = batch.limits, batch.obs, batch.code
     for j in range(len(indices)):
         i = indices[j]
         for k in range(3):

@@ -4,6 +4,8 @@
   template: implement ``position_derivatives`` and ``yaw_derivatives`` to add one.
 - ``library``: ``PaperHelix`` (the paper's reference), ``Hover``, ``Circle``,
   ``Lemniscate``, ``TakeoffHoverLanding`` (C³ vertical profile).
+
+May import ``validation`` and numpy; nothing of the vehicle or the envs.
 """
 
 from quad_dob_env.trajectories.base import Reference, Trajectory
