@@ -49,8 +49,8 @@ if TYPE_CHECKING:
     from quad_dob_env.envs.residual import ResidualCommand
 
 class PlanArguments(NamedTuple):
-    """What ``plan_kernel`` reads and writes for the whole batch (built by keyword, read by
-    name: a misplaced array cannot pass for another)."""
+    """What ``plan_kernel`` reads and writes for the whole batch: built by keyword, and the
+    kernel's parameters have its names, so a misplaced array cannot pass for another."""
 
     position: NDArray  # the state now, (N, 3) and (N, 3, 3)
     velocity: NDArray
@@ -101,62 +101,90 @@ class UpdateArguments(NamedTuple):
 
 
 @njit(cache=True)
-def plan_kernel(indices, plan):
+def plan_kernel(indices, position, velocity, rotation, angular_velocity, reference,
+                step_count, mass, gravity, inertia, gains, has_observer, observer_gain,
+                observer_rotational_gain, z_force, z_torque, fresh, force_estimate,
+                torque_estimate, thrust, moment, desired_force, desired_rotation,
+                desired_rate, attitude_error, rate_error, estimate_scale, inverse,
+                base_action, body_errors, extra):
     """Each vehicle of ``indices``: its observer estimate, base command and extra
-    observation for the coming step, from its state now."""
-    p = plan
-    rotor_mode, centre, scale_up, scale_down, mixer = p.inverse
+    observation for the coming step, from its state now. Called with ``*PlanArguments``:
+    the parameters after ``indices`` are its fields (a test holds them equal)."""
+    rotor_mode, centre, scale_up, scale_down, mixer = inverse
     # 9-tuples, as the equations take them
-    inertia, km = matrix_entries(p.inertia), matrix_entries(p.observer_rotational_gain)
-    gains = (as_vector(p.gains[0]), as_vector(p.gains[1]), as_vector(p.gains[2]),
-             as_vector(p.gains[3]))
+    inertia_entries = matrix_entries(inertia)
+    km = matrix_entries(observer_rotational_gain)
+    law_gains = (as_vector(gains[0]), as_vector(gains[1]), as_vector(gains[2]),
+                 as_vector(gains[3]))
     for i in indices:
-        if p.has_observer:
-            observer_estimate_vehicle(i, p.velocity, p.angular_velocity, p.observer_gain, km,
-                                      p.z_force, p.z_torque, p.fresh, p.force_estimate,
-                                      p.torque_estimate)
+        if has_observer:
+            observer_estimate_vehicle(i, velocity, angular_velocity, observer_gain, km,
+                                      z_force, z_torque, fresh, force_estimate,
+                                      torque_estimate)
         else:
-            store_vector(p.force_estimate, i, (0.0, 0.0, 0.0))
-            store_vector(p.torque_estimate, i, (0.0, 0.0, 0.0))
-        row = p.step_count[i]
-        geometric_vehicle(i, vector_at(p.position, i), vector_at(p.velocity, i),
-                          matrix_at(p.rotation, i), vector_at(p.angular_velocity, i),
-                          reference_at(p.reference, row), p.mass, p.gravity, inertia, gains,
-                          p.force_estimate, p.torque_estimate, p.thrust, p.moment,
-                          p.desired_force, p.desired_rotation, p.desired_rate,
-                          p.attitude_error, p.rate_error)
-        residual_observation_vehicle(i, p.thrust, p.moment, p.force_estimate,
-                                     p.torque_estimate, p.estimate_scale, p.position,
-                                     p.velocity, p.rotation, p.reference, row, rotor_mode,
-                                     centre, scale_up, scale_down, mixer, p.base_action,
-                                     p.body_errors, p.extra)
+            store_vector(force_estimate, i, (0.0, 0.0, 0.0))
+            store_vector(torque_estimate, i, (0.0, 0.0, 0.0))
+        row = step_count[i]
+        geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i),
+                          matrix_at(rotation, i), vector_at(angular_velocity, i),
+                          reference_at(reference, row), mass, gravity, inertia_entries,
+                          law_gains, force_estimate, torque_estimate, thrust, moment,
+                          desired_force, desired_rotation, desired_rate, attitude_error,
+                          rate_error)
+        residual_observation_vehicle(i, thrust, moment, force_estimate, torque_estimate,
+                                     estimate_scale, position, velocity, rotation, reference,
+                                     row, rotor_mode, centre, scale_up, scale_down, mixer,
+                                     base_action, body_errors, extra)
+
+
+@njit(cache=True, nogil=True)
+def remember_state(start, stop, velocity_before, body_z_before, rate_before, alpha,
+                   rotational_alpha, clipped, core_rewards, effort_weight, rewards,
+                   applied_thrust, applied_moment, position, velocity, rotation,
+                   angular_velocity, *rest):
+    """The state before the step, which the observer's update needs. Called with
+    ``*(UpdateArguments + PlanArguments)``: its parameters are their fields."""
+    for i in range(start, stop):
+        for k in range(3):
+            velocity_before[i, k] = velocity[i, k]
+            body_z_before[i, k] = rotation[i, k, 2]
+            rate_before[i, k] = angular_velocity[i, k]
+
+
+@njit(cache=True, nogil=True)
+def reward_and_observer_update(start, stop, velocity_before, body_z_before, rate_before, alpha,
+                               rotational_alpha, clipped, core_rewards, effort_weight,
+                               rewards, applied_thrust, applied_moment, position, velocity,
+                               rotation, angular_velocity, reference, step_count, mass,
+                               gravity, inertia, gains, has_observer, observer_gain,
+                               observer_rotational_gain, z_force, z_torque, *rest):
+    """After the physics step: the residual's reward, and each observer advanced with what
+    was applied. Called with ``*(UpdateArguments + PlanArguments)``."""
+    residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rewards)
+    if has_observer:
+        inertia_entries = matrix_entries(inertia)
+        km = matrix_entries(observer_rotational_gain)
+        alpha_entries = matrix_entries(rotational_alpha)
+        for i in range(start, stop):
+            observer_advance_vehicle(i, velocity_before, body_z_before, rate_before,
+                                     applied_thrust, applied_moment, rotation,
+                                     angular_velocity, mass, gravity, inertia_entries,
+                                     observer_gain, alpha, km, alpha_entries, z_force,
+                                     z_torque)
 
 
 @njit(cache=True, nogil=True)
 def fused_residual_kernel(start, stop, command, actions, vehicles, update, plan):
     """One residual step of vehicles ``start..stop-1`` (``quad_dob_env.threads`` splits the
     batch across cores): ``command`` is what ``residual_command_kernel`` takes, ``vehicles``
-    ``QuadrotorBatch.step_arguments()``, ``update`` what the observer's update and the
-    reward need, ``plan`` what ``plan_kernel`` needs."""
-    p, u = plan, update
+    ``QuadrotorBatch.step_arguments()``, ``update`` an ``UpdateArguments`` and ``plan`` a
+    ``PlanArguments``, each passed as a plain tuple (a named one would cost numba's slow
+    typing path every call) and spread into functions whose parameters carry the names."""
     residual_command_kernel(start, stop, *command)
-    for i in range(start, stop):  # the observer's update needs the state before the step
-        for k in range(3):
-            u.velocity_before[i, k] = p.velocity[i, k]
-            u.body_z_before[i, k] = p.rotation[i, k, 2]
-            u.rate_before[i, k] = p.angular_velocity[i, k]
-    step_kernel(start, stop, actions, vehicles)
-    residual_reward_kernel(start, stop, u.clipped, u.core_rewards, u.effort_weight, u.rewards)
-    if p.has_observer:
-        inertia, km = matrix_entries(p.inertia), matrix_entries(p.observer_rotational_gain)
-        rotational_alpha = matrix_entries(u.rotational_alpha)
-        for i in range(start, stop):
-            observer_advance_vehicle(i, u.velocity_before, u.body_z_before, u.rate_before,
-                                     u.applied_thrust, u.applied_moment, p.rotation,
-                                     p.angular_velocity, p.mass, p.gravity, inertia,
-                                     p.observer_gain, u.alpha, km, rotational_alpha,
-                                     p.z_force, p.z_torque)
-    plan_kernel(np.arange(start, stop), plan)
+    remember_state(start, stop, *(update + plan))
+    step_kernel(start, stop, actions, *vehicles)
+    reward_and_observer_update(start, stop, *(update + plan))
+    plan_kernel(np.arange(start, stop), *plan)
 
 
 class FusedResidualStep:
@@ -191,7 +219,7 @@ class FusedResidualStep:
             self._gather_constants()  # a full reset may have new gains and observer arrays
             self._new_outputs()
             self._arguments = ()
-        plan_kernel(np.asarray(indices, dtype=np.intp), self._plan_arguments())
+        plan_kernel(np.asarray(indices, dtype=np.intp), *self._plan_arguments())
 
     def fly(self, residual: NDArray[np.float64]) -> None:
         """One step of every vehicle with ``residual`` (N, 4), and the plan for the next."""
@@ -217,8 +245,8 @@ class FusedResidualStep:
             clipped=self._clipped, core_rewards=core.rewards,
             effort_weight=float(command.effort_weight), rewards=command.rewards,
             applied_thrust=core.applied.thrust, applied_moment=core.applied.moment)
-        self._arguments = (flown, self._actions, core.step_arguments(), update,
-                           self._plan_arguments())
+        self._arguments = (flown, self._actions, tuple(core.step_arguments()), tuple(update),
+                           tuple(self._plan_arguments()))
         self._tables = core.reference_table
 
     def _gather_constants(self) -> None:

@@ -118,6 +118,8 @@ class QuadrotorBatch:
         self.step_count = np.zeros(n, dtype=np.int64)
         self._most_steps = 0  # at least step_count.max(), kept without a pass over N
         self._actions = np.zeros((n, 4))  # a step's actions, as the kernel takes them
+        self._step_record: StepArguments | None = None
+        self._step_tuple: tuple = ()
         self._reference_now: Reference | None = None
         self.termination_code = np.zeros(n, dtype=np.int8)
         self.obs = np.zeros((n, self.observation_size), dtype=np.float32)
@@ -261,7 +263,7 @@ class QuadrotorBatch:
         offsets = draws[:, :3] * sc.initial_position_noise
         rotations = self._initial_rotation @ so3_exp(draws[:, 3:] * sc.initial_attitude_noise)
         s, applied = self.state, self.applied
-        start_kernel(indices, offsets, rotations, scales, StartArguments(
+        start_kernel(indices, offsets, rotations, scales, *StartArguments(
             start=self._start, nominal=self._nominal, position=s.position,
             velocity=s.velocity, rotation=s.rotation, angular_velocity=s.angular_velocity,
             physics=(self.mass, self.inertia, self.inertia_inverse, self.drag),
@@ -295,7 +297,11 @@ class QuadrotorBatch:
         """
         self.prepare_step()
         self._actions[...] = actions
-        run_over_batch(step_kernel, self.n, self._actions, self.step_arguments())
+        if self._step_record is None or self._step_record.reference is not self._reference_table:
+            # first step, or the tables grew: the record is built once per set of arrays
+            self._step_record = self.step_arguments()
+            self._step_tuple = tuple(self._step_record)
+        run_over_batch(step_kernel, self.n, self._actions, *self._step_tuple)
         self.finish_step()
 
     def prepare_step(self) -> None:

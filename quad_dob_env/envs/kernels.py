@@ -127,8 +127,8 @@ def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
 
 
 class StepArguments(NamedTuple):
-    """What ``step_kernel`` takes besides the slice and the actions, by name; the core
-    builds it by keyword (``QuadrotorBatch.step_arguments``)."""
+    """What ``step_kernel`` takes besides the slice and the actions: the core builds it by
+    keyword (``QuadrotorBatch.step_arguments``), the kernel's parameters have its names."""
 
     action_map: tuple  # ``ActionMap.forward``
     actuation: tuple  # ``Actuator.kernel_arguments()``
@@ -160,8 +160,8 @@ class StepArguments(NamedTuple):
 
 
 class StartArguments(NamedTuple):
-    """The core's arrays ``start_kernel`` writes a new episode into, by name
-    (``QuadrotorBatch.reset`` builds it by keyword)."""
+    """The core's arrays ``start_kernel`` writes a new episode into (``QuadrotorBatch.reset``
+    builds it by keyword; the kernel's parameters have its names)."""
 
     start: tuple  # the scenario's initial position, velocity and body rates
     nominal: tuple  # the vehicle's mass, inertia, inverse inertia and drag, (1, ...) each
@@ -185,22 +185,19 @@ class StartArguments(NamedTuple):
 
 
 @njit(cache=True, nogil=True)
-def step_kernel(start, stop, actions, step):
+def step_kernel(start, stop, actions, action_map, actuation, actuator, position, velocity,
+                rotation, angular_velocity, step_count, tables, own, reference, physics, dt,
+                substeps, law, limits, reward_weights, rotation_mode, obs, reward, code,
+                applied_thrust, applied_moment, rotor_thrusts, saturated, disturbance_force,
+                disturbance_torque):
     """One control step of vehicles ``start..stop-1``: action -> command -> actuators ->
     integration -> observation, reward, termination and the true disturbance
-    (``quad_dob_env.threads`` splits the batch across cores). ``step`` is a
-    ``StepArguments`` (``QuadrotorBatch.step_arguments()``), read by name."""
-    actuation, actuator, physics, law = step.actuation, step.actuator, step.physics, step.law
-    position, velocity = step.position, step.velocity
-    rotation, angular_velocity = step.rotation, step.angular_velocity
-    step_count, tables, own, reference = step.step_count, step.tables, step.own, step.reference
-    dt, substeps, limits = step.dt, step.substeps, step.limits
-    reward_weights, rotation_mode = step.reward_weights, step.rotation_mode
-    obs, reward, code = step.obs, step.reward, step.code
-    applied_thrust, applied_moment = step.applied_thrust, step.applied_moment
-    rotor_thrusts, saturated = step.rotor_thrusts, step.saturated
-    disturbance_force, disturbance_torque = step.disturbance_force, step.disturbance_torque
-    rotor_mode, centre, scale_up, scale_down, allocation = step.action_map
+    (``quad_dob_env.threads`` splits the batch across cores). Called as
+    ``step_kernel(start, stop, actions, *StepArguments(...))``: the record is built by
+    keyword and its fields are these parameters, in this order (a test holds them equal),
+    so nothing is placed by position. A record passed whole would cost numba's slow typing
+    path, ~3 µs a call (20 % of a single env's step)."""
+    rotor_mode, centre, scale_up, scale_down, allocation = action_map
     to_wrench, to_rotors, time_constant, actuator_state = actuator
     mass, gravity, inertia, inertia_inverse, drag = physics
     force_table, torque_table, wind_table = tables
@@ -295,22 +292,19 @@ def sensor_kernel(indices, clean, rotation, keys, counters, stds, rotation_mode,
 
 
 @njit(cache=True)
-def start_kernel(indices, offsets, rotations, scales, batch):
+def start_kernel(indices, offsets, rotations, scales, start, nominal, position, velocity,
+                 rotation, angular_velocity, physics, applied, disturbance_force,
+                 disturbance_torque, rewards, step_count, actuator_state, hover, reference,
+                 rotation_mode, limits, obs, code):
     """New episodes for vehicles ``indices`` (``QuadrotorBatch.reset``): the j-th starts at
     the scenario's state plus ``offsets[j]`` (position, velocity) and ``rotations[j]``, with
     the nominal physics times ``scales[j]`` (mass, inertia, drag), nothing applied yet, the
-    rotors at hover; then its first observation and termination code. ``batch`` is a
-    ``StartArguments``, read by name."""
-    initial_position, initial_velocity, initial_angular_velocity = batch.start
-    mass0, inertia0, inertia_inverse0, drag0 = batch.nominal
-    mass, inertia, inertia_inverse, drag = batch.physics
-    applied_thrust, applied_moment, rotor_thrusts, saturated = batch.applied
-    position, velocity = batch.position, batch.velocity
-    rotation, angular_velocity = batch.rotation, batch.angular_velocity
-    disturbance_force, disturbance_torque = batch.disturbance_force, batch.disturbance_torque
-    rewards, step_count, actuator_state = batch.rewards, batch.step_count, batch.actuator_state
-    hover, reference, rotation_mode = batch.hover, batch.reference, batch.rotation_mode
-    limits, obs, code = batch.limits, batch.obs, batch.code
+    rotors at hover; then its first observation and termination code. Called with
+    ``*StartArguments(...)`` after ``scales``, as ``step_kernel`` is."""
+    initial_position, initial_velocity, initial_angular_velocity = start
+    mass0, inertia0, inertia_inverse0, drag0 = nominal
+    mass, inertia, inertia_inverse, drag = physics
+    applied_thrust, applied_moment, rotor_thrusts, saturated = applied
     for j in range(len(indices)):
         i = indices[j]
         for k in range(3):
