@@ -114,6 +114,9 @@ class QuadrotorBatch:
         self._sample_offsets = np.arange(samples) * (scenario.dt / (samples - 1))
         self._split_disturbance(scenario.disturbance)
         self._tabulate(scenario.steps + 1)
+        # an episode is truncated after this many steps: the scenario's, or fewer where a
+        # client asks for a shorter time limit (``set_time_limit``)
+        self.episode_steps = scenario.steps
         self.state = VehicleState.at_rest(n)
         self.step_count = np.zeros(n, dtype=np.int64)
         self._most_steps = 0  # at least step_count.max(), kept without a pass over N
@@ -364,17 +367,30 @@ class QuadrotorBatch:
         hover command) with reason ``invalid_action``."""
         self.termination_code[indices] = TERMINATION_REASONS.index("invalid_action")
 
+    def set_time_limit(self, max_episode_steps: int | None) -> None:
+        """Truncate episodes after ``max_episode_steps`` steps (Gymnasium's ``TimeLimit``,
+        ``make_vec(..., max_episode_steps=N)``), or at the scenario's end if that comes
+        first; None restores the scenario's."""
+        steps = self.scenario.steps
+        if max_episode_steps is not None:
+            if (not isinstance(max_episode_steps, (int, np.integer))
+                    or isinstance(max_episode_steps, bool) or max_episode_steps < 1):
+                raise ValueError(f"max_episode_steps must be an integer >= 1 or None, got "
+                                 f"{max_episode_steps!r}")
+            steps = min(steps, int(max_episode_steps))
+        self.episode_steps = steps
+
     @property
     def terminated(self) -> NDArray[np.bool_]:
         return self.termination_code > 0
 
     @property
     def truncated(self) -> NDArray[np.bool_]:
-        return (self.step_count >= self.scenario.steps) & ~self.terminated
+        return (self.step_count >= self.episode_steps) & ~self.terminated
 
     def termination_reason(self, index: int) -> str:
         """``info["termination_reason"]`` for a vehicle whose episode ended, else ''."""
         code = int(self.termination_code[index])
         if code:
             return TERMINATION_REASONS[code]
-        return TIME_LIMIT if self.step_count[index] >= self.scenario.steps else ""
+        return TIME_LIMIT if self.step_count[index] >= self.episode_steps else ""

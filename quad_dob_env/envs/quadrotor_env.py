@@ -80,7 +80,11 @@ class QuadrotorEnv(gym.Env):
     | ``non_finite_state`` | the step produced NaN/inf; the last finite state is kept      |
     | ``invalid_action``   | a NaN/inf action with ``invalid_actions="terminate"``         |
 
-    ``truncated`` with reason ``time_limit`` after the scenario's duration.
+    ``truncated`` with reason ``time_limit`` after the scenario's duration. The registered
+    ids carry it as ``spec.max_episode_steps`` too (the default scenario's steps), so
+    ``gym.make`` adds Gymnasium's ``TimeLimit``; pass ``max_episode_steps=`` to ``gym.make``
+    for another limit, and a longer scenario (``scenario_options={"duration": ...}``) with
+    a matching one.
 
     ## Info
     A fresh dict each step: ``time``; ``position_error``, ``velocity_error``;
@@ -106,8 +110,9 @@ class QuadrotorEnv(gym.Env):
     ``terminate``).
 
     ## Version history
-    - v1 (Benchmark v1): every scenario's reference is checked flyable (thrust, moments,
-      rotor thrusts, body rate by differential flatness) or refused; the paper vehicle's
+    - v1 (Benchmark v1; the time limit in the spec too, same episodes): every scenario's
+      reference is checked flyable (thrust, moments, rotor thrusts, body rate by
+      differential flatness) or refused; the paper vehicle's
       yaw moment per newton of thrust is a 10-inch propeller's (0.0166 m, was Lee 2010's
       8.004e-4 m); drag is rotation-invariant, ``‖u‖ diag(c₂) u`` (was per component);
       the wind scenarios fly the helix with a fixed heading at 2 m over a floor, with

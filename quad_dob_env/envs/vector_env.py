@@ -38,7 +38,10 @@ class QuadrotorVectorEnv(VectorEnv):
     first, with reward 0 and ``terminated = truncated = False``; its action is ignored.
     ``info`` holds arrays with a leading axis N (``time``, ``position_error``,
     ``disturbance_force``, ...); ``termination_reason`` holds strings with the mask
-    ``_termination_reason`` where an episode ended.
+    ``_termination_reason`` where an episode ended. ``max_episode_steps`` (what
+    ``gym.make_vec(..., max_episode_steps=N)`` passes, default the id's) truncates episodes
+    after N steps, or at the scenario's end if that comes first, with reason
+    ``time_limit``: the same step a ``TimeLimit`` wrapper ends a single env.
 
     Residual mode: with ``base_controller`` (a controller object; by name through
     ``quad_dob_composition.ResidualVectorEnv``, what the residual ids build) every vehicle is
@@ -62,7 +65,8 @@ class QuadrotorVectorEnv(VectorEnv):
                  reward_effort_weight: float | None = None, render_mode: str | None = None,
                  base_controller: Any = None, thrust_scale: float = 0.1,
                  moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
-                 invalid_actions: str = "raise", fused_pass: Any = None) -> None:
+                 invalid_actions: str = "raise", fused_pass: Any = None,
+                 max_episode_steps: int | None = None) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -78,6 +82,7 @@ class QuadrotorVectorEnv(VectorEnv):
             EpisodeLimits(max_position_error, max_tilt, max_body_rate),
             RewardWeights(reward_position_scale, reward_effort_weight),
         )
+        self.core.set_time_limit(max_episode_steps)
         self.residual = None if base_controller is None else ResidualCommand(
             self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
             fused_pass)
@@ -134,7 +139,7 @@ class QuadrotorVectorEnv(VectorEnv):
         rewards, ended = np.empty(n), np.empty(n, dtype=bool)
         terminated, truncated = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
         self._ended_count = episode_ends_kernel(
-            self.core.termination_code, self.core.step_count, self.scenario.steps, restarted,
+            self.core.termination_code, self.core.step_count, self.core.episode_steps, restarted,
             self.rewards(), rewards, terminated, truncated, ended)
         self._needs_reset = ended
         return (self.observations(), rewards, terminated, truncated,
