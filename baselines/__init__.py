@@ -11,7 +11,6 @@ type), never ``quad_dob_training``.
 - ``geometric``: Lee–Leok–McClamroch 2010 on SE(3); with an observer, geometric + NDOB.
 - ``observer``: the nonlinear disturbance observer (Chen 2000 form).
 - ``pid``: cascaded PID; ``smc``: sliding-mode control.
-- ``policy``: ``ReferencePolicy``, any controller as an SB3-style ``predict`` in an env.
 
 ``make_controller(name, vehicle)`` builds one by the name the CLI, evaluation and the
 residual wrapper use: ``geometric``, ``geometric-ndob`` (the paper's observer gains),

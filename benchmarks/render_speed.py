@@ -16,7 +16,7 @@ import gymnasium as gym
 import numpy as np
 
 import quad_dob_env  # noqa: F401
-from quad_dob_baselines.policy import ReferencePolicy
+from quad_dob_composition import ReferencePolicy
 
 
 def main() -> None:

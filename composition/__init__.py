@@ -7,6 +7,8 @@ simulator (``quad_dob_env``) and the controllers (``quad_dob_baselines``); the f
   that runs the geometric controller inside a residual step (``fused_pass_for``).
 - ``fused``: that pass (residual, command, physics, observer, the next base command, the
   extra observation and reward, per vehicle).
+- ``policy``: ``ReferencePolicy``, any controller as an SB3-style ``predict`` in a direct
+  env (it refuses a residual one).
 - ``envs``: what the registered ``QuadDOB/...Residual-v1`` ids build, by string entry
   point: ``make_residual_env`` (one vehicle) and ``ResidualVectorEnv`` (N vehicles), both
   taking ``base_controller`` by name; ``make_vector_env`` picks the plain or residual
@@ -20,8 +22,10 @@ from quad_dob_composition.envs import (
     make_vector_env,
     residual_command,
 )
+from quad_dob_composition.policy import ReferencePolicy
 
 __all__ = [
+    "ReferencePolicy",
     "ResidualVectorEnv",
     "fused_pass_for",
     "make_base",

@@ -10,7 +10,7 @@ from quad_dob_baselines import (
     NonlinearDisturbanceObserver,
     make_controller,
 )
-from quad_dob_baselines.policy import ReferencePolicy
+from quad_dob_composition import ReferencePolicy
 from quad_dob_env.disturbances import Constant
 from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.flatness import attitude_from_thrust_vector as desired_attitude

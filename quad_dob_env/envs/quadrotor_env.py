@@ -149,10 +149,15 @@ class QuadrotorEnv(gym.Env):
         self.observation_space = gym.spaces.Box(
             -OBSERVATION_BOUND, OBSERVATION_BOUND, (self.core.observation_size,), np.float32
         )
+        # None for a direct env; in a residual one, the base controller's name and gains
+        # (set by ResidualActionWrapper, and in the reset info)
+        self.base_controller: dict[str, Any] | None = None
+        self._reset_done = False
 
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:
         super().reset(seed=seed)
+        self._reset_done = True
         self.core.reset(np.zeros(1, dtype=np.intp), [self.np_random])
         info = self._info()
         info["sampled"] = dict(self.core.sampled[0])
@@ -160,6 +165,8 @@ class QuadrotorEnv(gym.Env):
         return self.core.obs[0].copy(), info
 
     def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
+        if not self._reset_done:  # as Gymnasium's OrderEnforcing does for gym.make'd envs
+            raise gym.error.ResetNeeded("call reset() before step()")
         core = self.core
         actions, invalid = screen_actions(action, (4,), self.invalid_actions)
         core.step(actions[None])

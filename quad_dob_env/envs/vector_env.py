@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -86,6 +87,9 @@ class QuadrotorVectorEnv(VectorEnv):
         self.residual = None if base_controller is None else ResidualCommand(
             self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
             fused_pass)
+        # None without a base; with one, its name and gains (also in the reset info)
+        self.base_controller = (None if self.residual is None
+                                else self.residual.controller.describe())
         self.num_envs = self.core.n
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.scenario.dt)}
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
@@ -118,6 +122,8 @@ class QuadrotorVectorEnv(VectorEnv):
         self._ended_count = 0
         info = self._info(np.zeros(n, dtype=bool), 0)
         info["sampled"] = [dict(sampled) for sampled in self.core.sampled]
+        if self.base_controller is not None:
+            info["base_controller"] = copy.deepcopy(self.base_controller)
         return self.observations(), info
 
     def reseed(self, seeds: list[int | None]) -> None:

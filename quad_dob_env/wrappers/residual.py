@@ -5,6 +5,7 @@ Command, observation and reward: see ``quad_dob_env.envs.residual``.
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import gymnasium as gym
@@ -34,6 +35,7 @@ class ResidualActionWrapper(gym.Wrapper):
         # the env steps itself, so the residual runs as separate stages around its step
         self.residual = ResidualCommand(core, base_controller, thrust_scale, moment_scale,
                                         residual_effort_weight)
+        env.unwrapped.base_controller = self.residual.controller.describe()
         self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.observation_space = gym.spaces.Box(
             -OBSERVATION_BOUND, OBSERVATION_BOUND,
@@ -43,7 +45,9 @@ class ResidualActionWrapper(gym.Wrapper):
               ) -> tuple[NDArray[np.float32], dict]:
         observation, info = self.env.reset(seed=seed, options=options)
         self.residual.restart(np.zeros(1, dtype=np.intp))
-        return self._observation(observation), self._info(info)
+        return (self._observation(observation),
+                {**self._info(info),  # a copy: what a reset hands out is the caller's
+                 "base_controller": copy.deepcopy(self.env.unwrapped.base_controller)})
 
     def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
         residual, invalid = screen_actions(action, (4,), self.env.unwrapped.invalid_actions)

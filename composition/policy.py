@@ -1,4 +1,5 @@
-"""``ReferencePolicy``: run any controller in a ``QuadrotorEnv`` loop like an SB3 model."""
+"""``ReferencePolicy``: run any controller in a ``QuadrotorEnv`` loop like an SB3 model (a
+controller driving an env: composition, so it lives here, not in ``baselines``)."""
 
 from __future__ import annotations
 
@@ -21,6 +22,13 @@ class ReferencePolicy:
     """
 
     def __init__(self, controller: Controller | str, env: gym.Env) -> None:
+        if getattr(env.unwrapped, "base_controller", None) is not None:
+            raise ValueError(
+                f"ReferencePolicy outputs a full command, but {env.spec.id if env.spec else env} "
+                f"is a residual env (its base {env.unwrapped.base_controller['name']!r} "
+                "already flies; the action is added to it): fly a controller in a direct env "
+                "(QuadDOB/Hover-v1, QuadDOB/Track-v1), or give the residual env zero actions "
+                "to fly its base alone")
         self.core = env.unwrapped.core
         if self.core.n != 1:
             raise ValueError(f"ReferencePolicy drives a single env, got {self.core.n} vehicles")
