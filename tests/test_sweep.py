@@ -89,3 +89,14 @@ def test_a_training_sweep_trains_and_scores_each_combination(tmp_path):
     rows = run_sweep(config, tmp_path / "out", workers=1)
     assert [(row["seed"], row["seeds"]) for row in rows] == [(0, 2), (1, 2)]
     assert all(row["rms_position_mean"] < 1.0 for row in rows)
+
+
+def test_a_shipped_sweep_is_found_from_any_directory(tmp_path, monkeypatch):
+    from quad_dob_training.sweep import find_config
+
+    monkeypatch.chdir(tmp_path)  # not the clone's root
+    path = find_config("training/sweeps/observer_rate_vs_wind.yaml")
+    assert path.is_file() and load_config(path)["kind"] == "evaluate"
+    assert find_config("residual_seeds.yaml").is_file()
+    with pytest.raises(ValueError, match=r"does not exist; the shipped ones are .*residual_seeds"):
+        find_config("training/sweeps/nope.yaml")

@@ -56,7 +56,24 @@ CONFIG_KEYS = ("kind", "name", "grid", "random", "seeds", "env", "mode", "timest
 
 # --- the config --------------------------------------------------------------------------
 
+SHIPPED_SWEEPS = Path(__file__).parent / "sweeps"
+
+
+def find_config(path: Path | str) -> Path:
+    """``path`` as given, or else a shipped sweep by name or by its ``training/sweeps/``
+    path, so the README's commands work from any directory."""
+    given = Path(path)
+    if given.is_file():
+        return given
+    shipped = SHIPPED_SWEEPS / given.name
+    if shipped.is_file() and (given.parent in (Path("."), Path("training/sweeps"))):
+        return shipped
+    raise ValueError(f"sweep config {str(path)!r} does not exist; the shipped ones are "
+                     + ", ".join(sorted(p.name for p in SHIPPED_SWEEPS.glob("*.yaml"))))
+
+
 def load_config(path: Path) -> dict[str, Any]:
+    path = find_config(path)
     config = yaml.safe_load(Path(path).read_text())
     if not isinstance(config, dict):
         raise ValueError(f"{path} must hold a mapping with kind, grid and seeds")
