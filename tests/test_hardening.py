@@ -34,8 +34,9 @@ def _fly_and_check(env: QuadrotorVectorEnv, actions: np.ndarray) -> set[str]:
         assert np.isfinite(obs).all() and np.isfinite(rewards).all()
         assert env.observation_space.contains(obs)
         ended = terminated | truncated
-        assert np.array_equal(info["_termination_reason"], ended)
-        reasons |= set(info["termination_reason"][ended])
+        assert np.array_equal(info.get("_termination_reason", np.zeros_like(ended)), ended)
+        if ended.any():
+            reasons |= set(info["termination_reason"][ended])
     assert reasons <= REASONS
     return reasons
 

@@ -124,3 +124,41 @@ def test_native_vector_env_matches_gymnasiums_sync_vector_env_through_autoresets
         result, expected = native.step(action), reference.step(action)
         for mine, theirs in zip(result[:4], expected[:4], strict=True):
             np.testing.assert_allclose(mine, theirs, rtol=0, atol=1e-12)
+
+
+def _same_info(native: dict, sync: dict, where: str) -> None:
+    assert sorted(native) == sorted(sync), where
+    for key, value in native.items():
+        other = sync[key]
+        if isinstance(value, dict):
+            _same_info(value, other, f"{where}/{key}")
+        elif key.startswith("_") or value.dtype == object:
+            assert np.array_equal(value, other), f"{where}/{key}"
+        else:
+            np.testing.assert_allclose(value, other, rtol=0, atol=1e-5, err_msg=f"{where}/{key}")
+
+
+def test_info_matches_sync_vector_env_key_for_key_through_autoresets():
+    # randomisation on, so every autoreset draws anew; SyncVectorEnv merges each vehicle's
+    # single-env info with Gymnasium's _key masks: the native env must give the same
+    options = {"duration": 0.2, "randomization": {"mass": (0.9, 1.1), "drag": (0.8, 1.2)}}
+    kwargs = {"num_envs": 3, "scenario": "gusty-hover", "scenario_options": options}
+    native = gym.make_vec("QuadDOB/Hover-v1", vectorization_mode="vector_entry_point", **kwargs)
+    sync = gym.make_vec("QuadDOB/Hover-v1", vectorization_mode="sync", **kwargs)
+    (obs, info), (obs2, info2) = native.reset(seed=3), sync.reset(seed=3)
+    _same_info(info, info2, "reset")
+    assert info["_sampled"].all() and "mass" in info["sampled"]
+    actions = np.random.default_rng(0).uniform(-0.3, 0.3, (170, 3, 4))
+    ends = resampled = 0
+    for step in range(170):
+        obs, rewards, terminated, truncated, info = native.step(actions[step])
+        obs2, rewards2, terminated2, truncated2, info2 = sync.step(
+            actions[step].astype(np.float32))
+        np.testing.assert_allclose(obs, obs2, rtol=0, atol=1e-5)
+        np.testing.assert_allclose(rewards, rewards2, rtol=0, atol=1e-5)
+        assert np.array_equal(terminated, terminated2) and np.array_equal(truncated, truncated2)
+        _same_info(info, info2, f"step {step}")
+        resampled += int(info.get("_sampled", np.zeros(3, bool)).sum())
+        if step < 169:  # an end on the last step resets on the step after
+            ends += int((terminated | truncated).sum())
+    assert ends >= 20 and resampled == ends  # every episode end brought fresh draws

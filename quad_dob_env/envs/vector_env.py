@@ -38,8 +38,12 @@ class QuadrotorVectorEnv(VectorEnv):
     episode ends resets it instead of stepping it: its observation is the new episode's
     first, with reward 0 and ``terminated = truncated = False``; its action is ignored.
     ``info`` holds arrays with a leading axis N (``time``, ``position_error``,
-    ``disturbance_force``, ...); ``termination_reason`` holds strings with the mask
-    ``_termination_reason`` where an episode ended. ``max_episode_steps`` (what
+    ``disturbance_force``, ...), each with its ``_key`` mask as Gymnasium's vector envs give
+    (all True: every vehicle reports them); ``termination_reason``, on a step where some
+    episode ended, holds strings with the mask ``_termination_reason`` of those vehicles.
+    ``sampled`` (what randomisation drew) comes at reset and after every autoreset, as a
+    dict of (N,) arrays with masks and ``_sampled`` marking the vehicles that started an
+    episode, as ``SyncVectorEnv`` merges it. ``max_episode_steps`` (what
     ``gym.make_vec(..., max_episode_steps=N)`` passes, default the id's) truncates episodes
     after N steps, or at the scenario's end if that comes first, with reason
     ``time_limit``: the same step a ``TimeLimit`` wrapper ends a single env.
@@ -103,6 +107,9 @@ class QuadrotorVectorEnv(VectorEnv):
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
         self._ended_count = 0
         self._no_reasons = np.full(self.num_envs, "", dtype=object)
+        # the mask of keys every vehicle reports, shared by every step's info (read-only)
+        self._every_vehicle = np.ones(self.num_envs, dtype=bool)
+        self._every_vehicle.setflags(write=False)
         self._renderer = None if render_mode is None else FlightRenderer(self.core)
         self._rendered = range(min(self.num_envs, RENDERED_VEHICLES))
 
@@ -121,7 +128,7 @@ class QuadrotorVectorEnv(VectorEnv):
         self._needs_reset[:] = False
         self._ended_count = 0
         info = self._info(np.zeros(n, dtype=bool), 0)
-        info["sampled"] = [dict(sampled) for sampled in self.core.sampled]
+        info.update(self._sampled_info(np.arange(n)))
         if self.base_controller is not None:
             info["base_controller"] = copy.deepcopy(self.base_controller)
         return self.observations(), info
@@ -148,8 +155,10 @@ class QuadrotorVectorEnv(VectorEnv):
             self.core.termination_code, self.core.step_count, self.core.episode_steps, restarted,
             self.rewards(), rewards, terminated, truncated, ended)
         self._needs_reset = ended
-        return (self.observations(), rewards, terminated, truncated,
-                self._info(ended, self._ended_count))
+        info = self._info(ended, self._ended_count)
+        if restarted.any():  # as Gymnasium's vector envs merge a reset's info
+            info.update(self._sampled_info(np.flatnonzero(restarted)))
+        return self.observations(), rewards, terminated, truncated, info
 
     # --- the stages, shared with quad_dob_training.vec_env's SB3 adapter -------------------------
     def restart(self, indices: NDArray[np.intp]) -> None:
@@ -198,16 +207,35 @@ class QuadrotorVectorEnv(VectorEnv):
 
     def _info(self, ended: NDArray[np.bool_], ended_count: int) -> dict[str, Any]:
         core = self.core
-        reasons = self._no_reasons.copy()
-        if ended_count:
+        info = core.info_arrays()
+        if ended_count:  # as a single env reports it: only where an episode ended
+            reasons = self._no_reasons.copy()
             for i in np.flatnonzero(ended):
                 reasons[i] = core.termination_reason(i)
-        info = core.info_arrays()
-        info["termination_reason"] = reasons
-        info["_termination_reason"] = ended.copy()  # ours decides the next autoreset
+            info["termination_reason"] = reasons
+            info["_termination_reason"] = ended.copy()
         if self.residual is not None:
             info.update(self.residual.info())
+        for key in [key for key in info if not key.startswith("_")]:
+            info.setdefault(f"_{key}", self._every_vehicle)  # every vehicle reports it
         return info
+
+    def _sampled_info(self, indices: NDArray[np.intp]) -> dict[str, Any]:
+        """``sampled`` for the vehicles that started an episode (the draws of domain
+        randomisation and random disturbances), shaped as Gymnasium's vector envs merge a
+        reset's info: a dict of (N,) arrays, each with its ``_key`` mask, and ``_sampled``."""
+        n = self.num_envs
+        sampled: dict[str, NDArray] = {}
+        for i in indices:
+            for key, value in self.core.sampled[i].items():
+                if key not in sampled:
+                    sampled[key] = np.zeros(n, dtype=type(value))
+                    sampled[f"_{key}"] = np.zeros(n, dtype=bool)
+                sampled[key][i] = value
+                sampled[f"_{key}"][i] = True
+        mask = np.zeros(n, dtype=bool)
+        mask[indices] = True
+        return {"sampled": sampled, "_sampled": mask}
 
 
 __all__ = ["TERMINATION_REASONS", "QuadrotorVectorEnv"]
