@@ -131,3 +131,24 @@ def test_a_typo_in_the_hyperparameter_file_is_named(tmp_path):
                                          r"did you mean 'n_steps'"):
         resolve_config("ppo", "direct", "QuadDOB/Track-v1", None, 10, 1, 0,
                        hyperparams=hyperparams)
+
+
+def test_a_cut_off_or_corrupted_model_is_named_not_a_deep_traceback(tmp_path):
+    from quad_dob_training.policies import SHIPPED_RESIDUAL, load_model
+
+    cut = tmp_path / "model.zip"
+    cut.write_bytes(SHIPPED_RESIDUAL.read_bytes()[:5000])  # killed while writing
+    (tmp_path / "config.yaml").write_text("mode: residual\n")
+    with pytest.raises(ValueError, match=r"model\.zip' is not a stable-baselines3 zip"):
+        load_model(cut)
+    # a whole zip whose policy weights are garbage
+    import zipfile
+
+    broken = tmp_path / "broken.zip"
+    with zipfile.ZipFile(SHIPPED_RESIDUAL) as source, zipfile.ZipFile(broken, "w") as target:
+        for item in source.namelist():
+            data = source.read(item)
+            target.writestr(item, b"not torch" if item == "policy.pth" else data)
+    (tmp_path / "broken.yaml").write_text("mode: residual\n")
+    with pytest.raises(ValueError, match=r"broken\.zip' could not be loaded .*damaged"):
+        load_model(broken)

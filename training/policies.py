@@ -19,6 +19,7 @@ metric code as ``quad-dob paper``.
 from __future__ import annotations
 
 import hashlib
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -104,7 +105,27 @@ def load_model(path: str | Path, expected_sha256: str | None = None) -> tuple[An
     # the schedules are pickled code (by value, tagged with the module that made them);
     # flying a policy needs none of them, so they are not unpickled
     schedules = {"learning_rate": 0.0, "lr_schedule": _no_schedule, "clip_range": _no_schedule}
-    return PPO.load(path, device="cpu", custom_objects=schedules), config
+    return load_zip(PPO, path, custom_objects=schedules), config
+
+
+def load_zip(algorithm: Any, path: Path | str, **options: Any) -> Any:
+    """``algorithm.load(path)``, with a cut-off or corrupted file named in a ValueError
+    instead of a traceback from deep inside zipfile, torch or pickle."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"model file {str(path)!r} does not exist")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"model file {str(path)!r} is not a stable-baselines3 zip (cut off "
+                         "while written, or not a model): train again or pick another "
+                         "checkpoint")
+    try:
+        return algorithm.load(path, device="cpu", **options)
+    except Exception as error:  # zipfile, torch, pickle and json all raise their own
+        first_line = (str(error).splitlines() or [""])[0][:160]
+        raise ValueError(f"model file {str(path)!r} could not be loaded "
+                         f"({type(error).__name__}: {first_line}): it is damaged or was written "
+                         "by an incompatible stable-baselines3; train again or pick another "
+                         "checkpoint") from error
 
 
 def _no_schedule(_: float) -> float:

@@ -27,7 +27,7 @@ from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 import quad_dob_env
 from quad_dob_env.validation import unknown_name_error
 from quad_dob_training.metrics import flight_metrics
-from quad_dob_training.policies import Policy, fly_policy
+from quad_dob_training.policies import Policy, fly_policy, load_zip
 from quad_dob_training.vec_env import QuadrotorSB3VecEnv
 
 HYPERPARAMS = Path(__file__).parent / "hyperparams" / "ppo.yml"
@@ -196,7 +196,7 @@ def train(config: dict[str, Any], out: Path, resume: Path | None = None,
             venv.obs_rms.var = np.array(saved["var"])
             venv.obs_rms.count = saved["count"]
     if resume is not None:
-        model = PPO.load(resume, env=venv, device="cpu", tensorboard_log=str(out / "tb"))
+        model = load_zip(PPO, resume, env=venv, tensorboard_log=str(out / "tb"))
     else:
         model = make_model(config, venv, out / "tb")
     (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
