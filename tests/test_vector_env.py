@@ -1,6 +1,7 @@
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.vector import AutoresetMode
 
 import quad_dob_env  # noqa: F401
 from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
@@ -127,24 +128,39 @@ def test_native_vector_env_matches_gymnasiums_sync_vector_env_through_autoresets
 
 
 def _same_info(native: dict, sync: dict, where: str) -> None:
-    assert sorted(native) == sorted(sync), where
+    """Same keys and masks, and the same values wherever a key's mask says the vehicle
+    reports it (elsewhere SyncVectorEnv leaves zeros or None)."""
+    assert sorted(native) == sorted(sync), (where, sorted(set(native) ^ set(sync)))
     for key, value in native.items():
         other = sync[key]
         if isinstance(value, dict):
             _same_info(value, other, f"{where}/{key}")
-        elif key.startswith("_") or value.dtype == object:
+        elif key.startswith("_"):
             assert np.array_equal(value, other), f"{where}/{key}"
         else:
-            np.testing.assert_allclose(value, other, rtol=0, atol=1e-5, err_msg=f"{where}/{key}")
+            for i in np.flatnonzero(native[f"_{key}"]):
+                if value.dtype == object and not isinstance(value[i], str):
+                    np.testing.assert_allclose(value[i], other[i], rtol=0, atol=1e-5,
+                                               err_msg=f"{where}/{key}[{i}]")
+                elif value.dtype == object:
+                    assert value[i] == other[i], f"{where}/{key}[{i}]"
+                else:
+                    np.testing.assert_allclose(value[i], other[i], rtol=0, atol=1e-5,
+                                               err_msg=f"{where}/{key}[{i}]")
 
 
-def test_info_matches_sync_vector_env_key_for_key_through_autoresets():
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_info_matches_sync_vector_env_key_for_key_through_autoresets(mode):
     # randomisation on, so every autoreset draws anew; SyncVectorEnv merges each vehicle's
-    # single-env info with Gymnasium's _key masks: the native env must give the same
+    # single-env info with Gymnasium's _key masks: the native env must give the same, in
+    # both autoreset modes (same-step: final_obs and final_info too)
     options = {"duration": 0.2, "randomization": {"mass": (0.9, 1.1), "drag": (0.8, 1.2)}}
     kwargs = {"num_envs": 3, "scenario": "gusty-hover", "scenario_options": options}
-    native = gym.make_vec("QuadDOB/Hover-v1", vectorization_mode="vector_entry_point", **kwargs)
-    sync = gym.make_vec("QuadDOB/Hover-v1", vectorization_mode="sync", **kwargs)
+    native = gym.make_vec("QuadDOB/Hover-v1", vectorization_mode="vector_entry_point",
+                          autoreset_mode=mode, **kwargs)
+    sync = gym.make_vec("QuadDOB/Hover-v1", vectorization_mode="sync",
+                        vector_kwargs={"autoreset_mode": mode}, **kwargs)
+    assert native.metadata["autoreset_mode"] is mode
     (obs, info), (obs2, info2) = native.reset(seed=3), sync.reset(seed=3)
     _same_info(info, info2, "reset")
     assert info["_sampled"].all() and "mass" in info["sampled"]
@@ -159,6 +175,26 @@ def test_info_matches_sync_vector_env_key_for_key_through_autoresets():
         assert np.array_equal(terminated, terminated2) and np.array_equal(truncated, truncated2)
         _same_info(info, info2, f"step {step}")
         resampled += int(info.get("_sampled", np.zeros(3, bool)).sum())
-        if step < 169:  # an end on the last step resets on the step after
+        if step < 169 or mode is AutoresetMode.SAME_STEP:  # next-step: resets a step later
             ends += int((terminated | truncated).sum())
+        if mode is AutoresetMode.SAME_STEP and (terminated | truncated).any():
+            assert np.array_equal(info["_final_obs"], terminated | truncated)
     assert ends >= 20 and resampled == ends  # every episode end brought fresh draws
+
+
+def test_same_step_autoreset_in_a_residual_env_and_a_bad_mode_named():
+    envs = gym.make_vec("QuadDOB/HoverResidual-v1", num_envs=2,
+                        vectorization_mode="vector_entry_point",
+                        autoreset_mode=AutoresetMode.SAME_STEP, scenario_options=SHORT)
+    obs, _ = envs.reset(seed=0)
+    ends = 0
+    for _ in range(65):
+        obs, rewards, terminated, truncated, info = envs.step(np.zeros((2, 4)))
+        assert np.isfinite(obs).all() and np.isfinite(rewards).all()
+        if (terminated | truncated).any():
+            ends += 1
+            assert info["final_obs"][0].shape == obs[0].shape
+    assert ends >= 2
+    with pytest.raises(ValueError, match="autoreset_mode 'Disabled' is not supported; valid: "
+                                         "NextStep, SameStep"):
+        QuadrotorVectorEnv(2, autoreset_mode=AutoresetMode.DISABLED)

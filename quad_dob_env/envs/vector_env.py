@@ -34,7 +34,9 @@ class QuadrotorVectorEnv(VectorEnv):
 
     Seeding: ``reset(seed=s)`` gives vehicle i the generator of a single env reset with
     ``seed=s + i`` (a list gives one seed per vehicle), so vehicle i equals that single env
-    step for step. Autoreset: Gymnasium's next-step mode. The step after a vehicle's
+    step for step. Autoreset: Gymnasium's next-step mode by default, or
+    ``autoreset_mode=AutoresetMode.SAME_STEP`` (``final_obs``, ``final_info``, as
+    ``SyncVectorEnv`` in that mode). The step after a vehicle's
     episode ends resets it instead of stepping it: its observation is the new episode's
     first, with reward 0 and ``terminated = truncated = False``; its action is ignored.
     ``info`` holds arrays with a leading axis N (``time``, ``position_error``,
@@ -71,7 +73,8 @@ class QuadrotorVectorEnv(VectorEnv):
                  base_controller: Any = None, thrust_scale: float = 0.1,
                  moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
                  invalid_actions: str = "raise", fused_pass: Any = None,
-                 max_episode_steps: int | None = None) -> None:
+                 max_episode_steps: int | None = None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -88,6 +91,15 @@ class QuadrotorVectorEnv(VectorEnv):
             RewardWeights(reward_position_scale, reward_effort_weight),
         )
         self.core.set_time_limit(max_episode_steps)
+        modes = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
+        try:
+            self.autoreset_mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            self.autoreset_mode = None
+        if self.autoreset_mode not in modes:
+            given = getattr(autoreset_mode, "value", autoreset_mode)
+            raise ValueError(f"autoreset_mode {given!r} is not supported; valid: "
+                             + ", ".join(mode.value for mode in modes))
         self.residual = None if base_controller is None else ResidualCommand(
             self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
             fused_pass)
@@ -95,7 +107,8 @@ class QuadrotorVectorEnv(VectorEnv):
         self.base_controller = (None if self.residual is None
                                 else self.residual.controller.describe())
         self.num_envs = self.core.n
-        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.scenario.dt)}
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.scenario.dt),
+                         "autoreset_mode": self.autoreset_mode}
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         size = self.core.observation_size + (
             0 if self.residual is None else RESIDUAL_OBSERVATION_SIZE)
@@ -154,10 +167,36 @@ class QuadrotorVectorEnv(VectorEnv):
         self._ended_count = episode_ends_kernel(
             self.core.termination_code, self.core.step_count, self.core.episode_steps, restarted,
             self.rewards(), rewards, terminated, truncated, ended)
-        self._needs_reset = ended
         info = self._info(ended, self._ended_count)
         if restarted.any():  # as Gymnasium's vector envs merge a reset's info
             info.update(self._sampled_info(np.flatnonzero(restarted)))
+        if self.autoreset_mode is AutoresetMode.SAME_STEP and self._ended_count:
+            return self._reset_now(rewards, terminated, truncated, ended, info)
+        self._needs_reset = ended
+        return self.observations(), rewards, terminated, truncated, info
+
+    def _reset_now(self, rewards: NDArray, terminated: NDArray, truncated: NDArray,
+                   ended: NDArray[np.bool_], info: dict[str, Any]) -> tuple:
+        """Same-step autoreset (Gymnasium 1.x): the ended vehicles start their new episode
+        in this step; their last observation and info go in ``final_obs`` and
+        ``final_info`` (masked by ``_final_obs``, ``_final_info``), and the step returns
+        their new first observation and reset info, as ``SyncVectorEnv`` does."""
+        indices = np.flatnonzero(ended)
+        last = self.observations()
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        for i in indices:
+            final_obs[i] = last[i]
+        final_info = {key: value for key, value in info.items() if not key.startswith("_")}
+        for key in list(final_info):
+            final_info[f"_{key}"] = ended.copy()
+        self.restart(indices)
+        self.record_paths()
+        self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+        self._ended_count = 0
+        info = self._info(self._needs_reset, 0)
+        info.update(self._sampled_info(indices))
+        info.update({"final_obs": final_obs, "_final_obs": ended.copy(),
+                     "final_info": final_info, "_final_info": ended.copy()})
         return self.observations(), rewards, terminated, truncated, info
 
     # --- the stages, shared with quad_dob_training.vec_env's SB3 adapter -------------------------
