@@ -121,8 +121,8 @@ class QuadrotorBatch:
         self.step_count = np.zeros(n, dtype=np.int64)
         self._most_steps = 0  # at least step_count.max(), kept without a pass over N
         self._actions = np.zeros((n, 4))  # a step's actions, as the kernel takes them
-        self._step_record: StepArguments | None = None
-        self._step_tuple: tuple = ()
+        self._kernel_tuples: tuple[tuple, tuple] = ((), ())  # see _kernel_arguments
+        self._kernel_tables = None
         self._reference_now: Reference | None = None
         self.termination_code = np.zeros(n, dtype=np.int8)
         self.obs = np.zeros((n, self.observation_size), dtype=np.float32)
@@ -265,18 +265,7 @@ class QuadrotorBatch:
                 self._sensor_counters[indices[j]] = 0
         offsets = draws[:, :3] * sc.initial_position_noise
         rotations = self._initial_rotation @ so3_exp(draws[:, 3:] * sc.initial_attitude_noise)
-        s, applied = self.state, self.applied
-        start_kernel(indices, offsets, rotations, scales, *StartArguments(
-            start=self._start, nominal=self._nominal, position=s.position,
-            velocity=s.velocity, rotation=s.rotation, angular_velocity=s.angular_velocity,
-            physics=(self.mass, self.inertia, self.inertia_inverse, self.drag),
-            applied=(applied.thrust, applied.moment, applied.rotor_thrusts, applied.saturated),
-            disturbance_force=self.disturbance_force,
-            disturbance_torque=self.disturbance_torque, rewards=self.rewards,
-            step_count=self.step_count, actuator_state=self.actuator_state,
-            hover=self._hover_output, reference=self._reference_table,
-            rotation_mode=self._rotation_mode, limits=self._limits, obs=self._clean_obs,
-            code=self.termination_code))
+        start_kernel(indices, offsets, rotations, scales, *self._kernel_arguments()[1])
         random = self.random_disturbance
         if random is not None:
             random.resample(indices, rngs)
@@ -300,11 +289,7 @@ class QuadrotorBatch:
         """
         self.prepare_step()
         self._actions[...] = actions
-        if self._step_record is None or self._step_record.reference is not self._reference_table:
-            # first step, or the tables grew: the record is built once per set of arrays
-            self._step_record = self.step_arguments()
-            self._step_tuple = tuple(self._step_record)
-        run_over_batch(step_kernel, self.n, self._actions, *self._step_tuple)
+        run_over_batch(step_kernel, self.n, self._actions, *self._kernel_arguments()[0])
         self.finish_step()
 
     def prepare_step(self) -> None:
@@ -324,6 +309,26 @@ class QuadrotorBatch:
                     own.fill(0.0)
             times = self.time[:, None] + self._sample_offsets if random.uses_time else None
             random.add_to(times, *self._own)
+
+    def _kernel_arguments(self) -> tuple[tuple, tuple]:
+        """The step and start kernels' records, built once per reference table (the other
+        arrays never change) and kept as plain tuples, which numba types fast."""
+        if self._kernel_tables is not self._reference_table:
+            s, applied = self.state, self.applied
+            start = StartArguments(
+                start=self._start, nominal=self._nominal, position=s.position,
+                velocity=s.velocity, rotation=s.rotation, angular_velocity=s.angular_velocity,
+                physics=(self.mass, self.inertia, self.inertia_inverse, self.drag),
+                applied=(applied.thrust, applied.moment, applied.rotor_thrusts,
+                         applied.saturated), disturbance_force=self.disturbance_force,
+                disturbance_torque=self.disturbance_torque, rewards=self.rewards,
+                step_count=self.step_count, actuator_state=self.actuator_state,
+                hover=self._hover_output, reference=self._reference_table,
+                rotation_mode=self._rotation_mode, limits=self._limits, obs=self._clean_obs,
+                code=self.termination_code)
+            self._kernel_tuples = (tuple(self.step_arguments()), tuple(start))
+            self._kernel_tables = self._reference_table
+        return self._kernel_tuples
 
     def step_arguments(self) -> StepArguments:
         """What ``kernels.step_kernel`` takes after the slice and the actions."""
@@ -368,9 +373,8 @@ class QuadrotorBatch:
         self.termination_code[indices] = TERMINATION_REASONS.index("invalid_action")
 
     def set_time_limit(self, max_episode_steps: int | None) -> None:
-        """Truncate episodes after ``max_episode_steps`` steps (Gymnasium's ``TimeLimit``,
-        ``make_vec(..., max_episode_steps=N)``), or at the scenario's end if that comes
-        first; None restores the scenario's."""
+        """Truncate episodes after ``max_episode_steps`` steps (``make_vec(...,
+        max_episode_steps=N)``) or at the scenario's end if sooner; None: the scenario's."""
         steps = self.scenario.steps
         if max_episode_steps is not None:
             if (not isinstance(max_episode_steps, (int, np.integer))
