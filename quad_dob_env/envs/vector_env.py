@@ -123,6 +123,7 @@ class QuadrotorVectorEnv(VectorEnv):
         # the mask of keys every vehicle reports, shared by every step's info (read-only)
         self._every_vehicle = np.ones(self.num_envs, dtype=bool)
         self._every_vehicle.setflags(write=False)
+        self._key_masks: dict[str, NDArray[np.bool_]] | None = None
         self._renderer = None if render_mode is None else FlightRenderer(self.core)
         self._rendered = range(min(self.num_envs, RENDERED_VEHICLES))
 
@@ -247,16 +248,17 @@ class QuadrotorVectorEnv(VectorEnv):
     def _info(self, ended: NDArray[np.bool_], ended_count: int) -> dict[str, Any]:
         core = self.core
         info = core.info_arrays()
+        if self.residual is not None:
+            info.update(self.residual.info())
+        if self._key_masks is None:  # the keys never change: their masks are made once
+            self._key_masks = {f"_{key}": self._every_vehicle for key in info}
+        info.update(self._key_masks)  # every vehicle reports these
         if ended_count:  # as a single env reports it: only where an episode ended
             reasons = self._no_reasons.copy()
             for i in np.flatnonzero(ended):
                 reasons[i] = core.termination_reason(i)
             info["termination_reason"] = reasons
             info["_termination_reason"] = ended.copy()
-        if self.residual is not None:
-            info.update(self.residual.info())
-        for key in [key for key in info if not key.startswith("_")]:
-            info.setdefault(f"_{key}", self._every_vehicle)  # every vehicle reports it
         return info
 
     def _sampled_info(self, indices: NDArray[np.intp]) -> dict[str, Any]:
