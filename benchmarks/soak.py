@@ -45,7 +45,8 @@ def main() -> None:
         if not (np.isfinite(obs).all() and np.isfinite(rewards).all()):
             raise SystemExit(f"non-finite observation or reward at step {step}")
         ended = terminated | truncated
-        reasons.update(info["termination_reason"][ended].tolist())
+        if ended.any():  # the key is there on steps where an episode ended
+            reasons.update(info["termination_reason"][ended].tolist())
     wall = time.perf_counter() - start
     end_memory = resident_mib()
     print(f"{steps * n:,} vehicle-steps ({n} vehicles x {steps:,} steps) in {wall:.0f} s "
