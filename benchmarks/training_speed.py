@@ -28,7 +28,7 @@ def main() -> None:
                             args.timesteps, None, seed=0)
     with tempfile.TemporaryDirectory() as folder:
         model = make_model(config, make_vec_env(config), Path(folder) / "tb")
-        model.learn(config["n_envs"] * config["ppo"].get("n_steps", 2048))  # warm up
+        model.learn(config["n_envs"] * config["algo_kwargs"].get("n_steps", 2048))  # warm up
         start = time.perf_counter()
         model.learn(args.timesteps, reset_num_timesteps=False)
         rate = args.timesteps / (time.perf_counter() - start)

@@ -11,7 +11,9 @@ The folder ``training/`` installs as ``quad_dob_training``; it sits on top and m
   ``report``: the self-contained interactive ``report.html``.
 - ``paper``: the paper reproduction.
 - ``vec_env``: the stable-baselines3 ``VecEnv`` adapter over the native vector env.
-- ``train``: PPO training (config from ``hyperparams/``, checkpoints, evaluation, resume).
+- ``train``: PPO or SAC training (hyperparameters from ``hyperparams/ALGO.yml`` in
+  rl-zoo3's schema, evaluation against the base); ``checkpoints``: the checkpoints a killed
+  run resumes from, to the weights of a run never stopped.
 - ``policies``: policies by name (controllers, ``ppo:PATH``, ``residual``) and flying them
   over many seeds; ``pretrained/`` holds the shipped residual policy.
 - ``evaluate``: every policy on every scenario over seeds: tables with intervals and the

@@ -58,7 +58,8 @@ def _train(args: argparse.Namespace) -> int:
 
     return train_main(args.algo, args.mode, args.env, args.scenario, args.timesteps,
                       args.n_envs, args.seed, args.out, args.resume, args.base,
-                      args.checkpoint_every, args.evaluate_every, not args.no_progress)
+                      args.checkpoint_every, args.evaluate_every, not args.no_progress,
+                      args.conf_file)
 
 
 def _evaluate(args: argparse.Namespace) -> int:
@@ -129,22 +130,29 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     paper.set_defaults(handler=_paper)
     train = commands.add_parser(
-        "train", help="train PPO (stable-baselines3) on the vector env, residual or direct")
-    train.add_argument("--algo", default="ppo", help="algorithm (default: %(default)s)")
+        "train", help="train PPO or SAC (stable-baselines3) on the vector env, residual or "
+        "direct; resumable")
+    train.add_argument("--algo", default="ppo", help="ppo or sac (default: %(default)s)")
     train.add_argument("--mode", default="residual", help="residual or direct "
                        "(default: %(default)s)")
     train.add_argument("--env", default="QuadDOB/TrackResidual-v1",
-                       help="env id; its hyperparameters come from "
-                       "training/hyperparams/ppo.yml (default: %(default)s)")
+                       help="env id; its hyperparameters come from the --conf-file "
+                       "(default: %(default)s)")
+    train.add_argument("--conf-file", type=Path, default=None,
+                       help="hyperparameters per env id in rl-zoo3's schema (default: "
+                       "training/hyperparams/ALGO.yml)")
     train.add_argument("--scenario", default=None, help="scenario (default: the yml's)")
     train.add_argument("--base", default=None,
                        help="base controller of a residual (default: the yml's)")
     train.add_argument("--timesteps", type=_positive_int, default=None)
     train.add_argument("--n-envs", type=_positive_int, default=None)
     train.add_argument("--seed", type=int, default=0)
-    train.add_argument("--out", type=Path, default=Path("runs/ppo"))
-    train.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to go on "
-                       "from")
+    train.add_argument("--out", type=Path, default=None,
+                       help="run folder (default: runs/ALGO, or the resumed run's own)")
+    train.add_argument("--resume", type=Path, default=None,
+                       help="a run folder (its newest checkpoint) or a checkpoint's .state: "
+                       "finishes that run as if it had never stopped; or a model .zip: "
+                       "trains --timesteps more from its weights")
     train.add_argument("--checkpoint-every", type=_positive_int, default=100_000,
                        help="timesteps between checkpoints (default: %(default)s)")
     train.add_argument("--evaluate-every", type=_positive_int, default=100_000,

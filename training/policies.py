@@ -36,6 +36,7 @@ from quad_dob_env.scenarios import Scenario
 from quad_dob_env.validation import unknown_name_error
 from quad_dob_training.rollout import Flight, FlightRecorder
 
+ALGORITHMS = ("ppo", "sac")  # what quad-dob train trains and ppo:PATH / residual:PATH load
 PRETRAINED = Path(__file__).parent / "pretrained"
 SHIPPED_RESIDUAL = PRETRAINED / "residual_dryden_helix_gusts.zip"
 # sha256 of the shipped zip: SB3 zips hold pickled objects that run code when loaded, so the
@@ -85,8 +86,6 @@ def load_model(path: str | Path, expected_sha256: str | None = None) -> tuple[An
     SB3 zips can execute code when loaded: load only files you trust. With
     ``expected_sha256`` the file is checked before it is opened.
     """
-    from stable_baselines3 import PPO
-
     path = Path(path)
     if path.is_dir():
         path = path / "model.zip"
@@ -102,10 +101,24 @@ def load_model(path: str | Path, expected_sha256: str | None = None) -> tuple[An
         raise ValueError(f"no training config beside {str(path)!r} (looked for "
                          f"{path.stem}.yaml and config.yaml): cannot tell which env it fits")
     config = yaml.safe_load(config_path.read_text())
+    algo = config.get("algo", "ppo")
+    if algo not in ALGORITHMS:
+        raise ValueError(f"{str(config_path)!r} names algorithm {algo!r}; this version loads "
+                         + ", ".join(ALGORITHMS))
     # the schedules are pickled code (by value, tagged with the module that made them);
     # flying a policy needs none of them, so they are not unpickled
     schedules = {"learning_rate": 0.0, "lr_schedule": _no_schedule, "clip_range": _no_schedule}
-    return load_zip(PPO, path, custom_objects=schedules), config
+    return load_zip(algorithm_class(algo), path, custom_objects=schedules), config
+
+
+def algorithm_class(name: str) -> Any:
+    """SB3's class for an ``ALGORITHMS`` name (imported here: torch takes seconds to load,
+    and listing or evaluating controllers needs none of it)."""
+    import stable_baselines3
+
+    if name not in ALGORITHMS:
+        raise unknown_name_error("algorithm", name, ALGORITHMS)
+    return getattr(stable_baselines3, name.upper())
 
 
 def load_zip(algorithm: Any, path: Path | str, **options: Any) -> Any:

@@ -176,7 +176,7 @@ def _train_task(task: dict[str, Any]) -> dict[str, Any]:
         if key in ("thrust_scale", "moment_scale"):
             config["env_kwargs"][key] = value
         else:
-            config["ppo"][key] = value
+            config["algo_kwargs"][key] = value
     with tempfile.TemporaryDirectory() as folder:
         model = train(config, Path(folder), evaluate_every=10**12, progress_bar=False)
     policy = Policy("trained", config["base_controller"], model, config)

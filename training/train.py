@@ -1,17 +1,20 @@
-"""``quad-dob train``: PPO (stable-baselines3) on N vehicles of the native vector env.
+"""``quad-dob train``: PPO or SAC (stable-baselines3) on N vehicles of the native vector env.
 
-Read top to bottom: resolve the config (the env id's entry in ``hyperparams/ppo.yml``, then
-the command line), build the vector env, build or resume the model, train with checkpoints
-and an evaluation against the base controller, save the model with its config beside it.
+Read top to bottom: resolve the config (the env id's entry in ``hyperparams/ALGO.yml``, in
+rl-zoo3's schema, then the command line), build the vector env, build the model or resume a
+checkpoint, train with checkpoints and an evaluation against the base controller, save the
+model with its config beside it.
 
 Outputs in ``--out``: ``model.zip`` and ``config.yaml`` (everything needed to rebuild the env
-it fits), ``checkpoints/``, ``tb/`` (tensorboard), ``evaluations.csv`` (the training curve:
-the policy's and the base controller's RMS position error on held-out seeds), ``train.log``.
+it fits), ``checkpoints/`` (resumable, see ``checkpoints.py``), ``tb/`` (tensorboard),
+``evaluations.csv`` (the training curve: the policy's and the base controller's RMS position
+error on held-out seeds), ``train.log``.
 """
 
 from __future__ import annotations
 
 import csv
+import inspect
 import time
 from pathlib import Path
 from typing import Any
@@ -20,27 +23,37 @@ import gymnasium as gym
 import numpy as np
 import torch
 import yaml
-from stable_baselines3 import PPO
-from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
 import quad_dob_env
 from quad_dob_env.validation import unknown_name_error
+from quad_dob_training.checkpoints import (
+    ResumableCheckpoint,
+    latest_checkpoint,
+    load_state,
+    unpickle_env_stack,
+)
 from quad_dob_training.metrics import flight_metrics
-from quad_dob_training.policies import Policy, fly_policy, load_zip
+from quad_dob_training.policies import ALGORITHMS, Policy, algorithm_class, fly_policy, load_zip
 from quad_dob_training.vec_env import QuadrotorSB3VecEnv
 
-HYPERPARAMS = Path(__file__).parent / "hyperparams" / "ppo.yml"
-ALGORITHMS = ("ppo",)
+HYPERPARAMS = Path(__file__).parent / "hyperparams"
 MODES = ("residual", "direct")
-PPO_KEYS = ("n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "learning_rate",
-            "ent_coef", "clip_range", "max_grad_norm", "vf_coef")
-ENV_KEYS = ("reward_position_scale", "reward_effort_weight", "residual_effort_weight",
-            "thrust_scale", "moment_scale", "max_position_error", "max_tilt", "max_body_rate")
-CONFIG_KEYS = ("scenario", "base_controller", "n_envs", "n_timesteps", "policy",
-               "policy_kwargs", "normalize_observations", *PPO_KEYS, *ENV_KEYS)
-EVAL_SEEDS = list(range(10_000, 10_008))
-OBSERVATION_CLIP = 10.0  # held out: training seeds count up from --seed
+# rl-zoo3's keys that are not the algorithm's own keywords
+SCHEMA_KEYS = ("env_kwargs", "n_envs", "n_timesteps", "policy", "normalize", "policy_kwargs")
+# keywords of the algorithm that the run itself sets
+RUN_KEYWORDS = ("self", "policy", "env", "policy_kwargs", "seed", "device", "verbose",
+                "tensorboard_log", "_init_setup_model")
+NORMALIZE_KEYS = ("norm_obs", "norm_reward")
+EVAL_SEEDS = list(range(10_000, 10_008))  # held out: training seeds count up from --seed
+OBSERVATION_CLIP = 10.0
+
+
+def algorithm_keywords(algo: str) -> tuple[str, ...]:
+    """The keywords of SB3's constructor that a hyperparameter file may set."""
+    parameters = inspect.signature(algorithm_class(algo).__init__).parameters
+    return tuple(name for name in parameters if name not in RUN_KEYWORDS)
 
 
 def _schedule(value: Any) -> Any:
@@ -51,10 +64,26 @@ def _schedule(value: Any) -> Any:
     return value
 
 
+def _normalize(value: Any, where: str) -> dict[str, bool] | None:
+    """rl-zoo3's ``normalize``: false, true (observations and rewards) or a mapping."""
+    if value is False or value is None:
+        return None
+    if value is True:
+        return {"norm_obs": True, "norm_reward": True}
+    if isinstance(value, dict):
+        for key in value:
+            if key not in NORMALIZE_KEYS:
+                raise unknown_name_error(f"normalize key in {where}", key, NORMALIZE_KEYS)
+        return {key: bool(value.get(key, True)) for key in NORMALIZE_KEYS}
+    raise ValueError(f"normalize in {where} is {value!r}: write true, false or a YAML "
+                     "mapping such as {norm_obs: true, norm_reward: false} (rl-zoo3 also evals "
+                     "strings; quad-dob train does not eval config files)")
+
+
 def resolve_config(algo: str, mode: str, env_id: str, scenario: str | None,
                    timesteps: int | None, n_envs: int | None, seed: int,
                    base_controller: str | None = None,
-                   hyperparams: Path = HYPERPARAMS) -> dict[str, Any]:
+                   hyperparams: Path | None = None) -> dict[str, Any]:
     """The whole run as plain data: hyperparameters, env options, seed, versions."""
     if algo not in ALGORITHMS:
         raise unknown_name_error("algorithm", algo, ALGORITHMS)
@@ -66,30 +95,35 @@ def resolve_config(algo: str, mode: str, env_id: str, scenario: str | None,
     if (mode == "residual") != residual_id:
         raise ValueError(f"mode {mode!r} does not fit env {env_id!r}: residual training takes "
                          "a ...Residual-v1 id, direct training the others")
-    table = yaml.safe_load(Path(hyperparams).read_text())
+    hyperparams = Path(hyperparams or HYPERPARAMS / f"{algo}.yml")
+    table = yaml.safe_load(hyperparams.read_text())
     if env_id not in table:
         raise ValueError(f"{hyperparams} has no entry for {env_id}; it has: " + ", ".join(table))
     entry = dict(table[env_id])
+    where = f"{hyperparams.name} [{env_id}]"
+    allowed = (*SCHEMA_KEYS, *algorithm_keywords(algo))
     for key in entry:
-        if key not in CONFIG_KEYS:
-            raise unknown_name_error(f"key in {Path(hyperparams).name} [{env_id}]", key,
-                                     CONFIG_KEYS)
-    spec_kwargs = dict(gym.spec(env_id).kwargs)
-    env_kwargs = {"scenario": scenario or entry.get("scenario") or spec_kwargs["scenario"],
-                  **{key: entry[key] for key in ENV_KEYS if key in entry}}
-    if residual_id:
-        env_kwargs["base_controller"] = (base_controller or entry.get("base_controller")
-                                         or spec_kwargs["base_controller"])
-    elif base_controller is not None:
-        raise ValueError("--base applies to residual training only")
+        if key not in allowed:
+            raise unknown_name_error(f"key in {where}", key, allowed)
+    policy_kwargs = entry.get("policy_kwargs", {})
+    if not isinstance(policy_kwargs, dict):
+        raise ValueError(f"policy_kwargs in {where} must be a YAML mapping, not "
+                         f"{policy_kwargs!r} (quad-dob train does not eval config files)")
+    env_kwargs = {**gym.spec(env_id).kwargs, **entry.get("env_kwargs", {})}
+    if scenario:
+        env_kwargs["scenario"] = scenario
+    if base_controller is not None:
+        if not residual_id:
+            raise ValueError("--base applies to residual training only")
+        env_kwargs["base_controller"] = base_controller
     return {
         "algo": algo, "mode": mode, "env_id": env_id, "seed": int(seed),
         "n_envs": int(n_envs or entry.get("n_envs", 64)),
         "n_timesteps": int(timesteps or entry.get("n_timesteps", 1_000_000)),
         "policy": entry.get("policy", "MlpPolicy"),
-        "ppo": {key: entry[key] for key in PPO_KEYS if key in entry},
-        "policy_kwargs": dict(entry.get("policy_kwargs", {})),
-        "normalize_observations": bool(entry.get("normalize_observations", False)),
+        "algo_kwargs": {key: value for key, value in entry.items() if key not in SCHEMA_KEYS},
+        "policy_kwargs": dict(policy_kwargs),
+        "normalize": _normalize(entry.get("normalize", False), where),
         "env_kwargs": env_kwargs,
         "base_controller": env_kwargs.get("base_controller"),
         "versions": {"quad_dob_env": quad_dob_env.__version__, "torch": str(torch.__version__),
@@ -100,7 +134,7 @@ def resolve_config(algo: str, mode: str, env_id: str, scenario: str | None,
 def normalization(venv: Any) -> dict[str, Any] | None:
     """The running observation statistics as plain numbers, so a model's config carries
     them (``Policy.act`` applies them) and no pickle is needed; None when not normalised."""
-    if not isinstance(venv, VecNormalize):
+    if not isinstance(venv, VecNormalize) or not venv.norm_obs:
         return None
     return {"mean": venv.obs_rms.mean.tolist(), "var": venv.obs_rms.var.tolist(),
             "count": float(venv.obs_rms.count), "epsilon": float(venv.epsilon),
@@ -116,7 +150,7 @@ class BaselineEvaluation(BaseCallback):
     def __init__(self, config: dict, out: Path, every: int) -> None:
         super().__init__()
         self.config, self.out, self.every = config, out, every
-        self._next = every
+        self._next: int | None = None
         self._best: tuple[float, float] | None = None
         self._scenario = quad_dob_env.make_scenario(config["env_kwargs"]["scenario"])
         self.base_scores = None
@@ -124,13 +158,20 @@ class BaselineEvaluation(BaseCallback):
             self.base_scores = self._score(Policy(config["base_controller"],
                                                   config["base_controller"]))
 
+    def checkpoint_state(self) -> dict[str, Any]:
+        return {"next": self._next, "best": self._best}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        self._next, self._best = state["next"], state["best"]
+
     def _score(self, policy: Policy) -> tuple[float, float]:
         metrics = [flight_metrics(f) for f in fly_policy(policy, self._scenario, EVAL_SEEDS)]
         return (float(np.mean([m["rms_position_settled"] for m in metrics])),
                 float(np.mean([m["crashed"] for m in metrics])))
 
     def _on_training_start(self) -> None:
-        self._next = self.num_timesteps + self.every
+        if self._next is None:
+            self._next = self.num_timesteps + self.every
         self._evaluate()
 
     def _on_step(self) -> bool:
@@ -168,47 +209,75 @@ class BaselineEvaluation(BaseCallback):
             writer.writerow(row)
 
 
-def make_vec_env(config: dict[str, Any]) -> VecMonitor:
-    """The config's vehicles as an SB3 VecEnv (episode statistics included)."""
+def make_vec_env(config: dict[str, Any]) -> Any:
+    """The config's vehicles as an SB3 VecEnv (episode statistics included), behind
+    ``VecNormalize`` when the config normalises."""
     torch.set_num_threads(1)  # small MLPs: threads cost more than they save, and the env
     # already uses every core for large batches
-    return VecMonitor(QuadrotorSB3VecEnv(config["n_envs"], seed=config["seed"],
+    venv = VecMonitor(QuadrotorSB3VecEnv(config["n_envs"], seed=config["seed"],
                                          **config["env_kwargs"]))
+    if config["normalize"]:
+        venv = VecNormalize(venv, gamma=config["algo_kwargs"].get("gamma", 0.99),
+                            clip_obs=OBSERVATION_CLIP, **config["normalize"])
+        saved = config.get("observation_normalization")
+        if saved:  # going on from a model: its statistics, not fresh ones
+            venv.obs_rms.mean = np.array(saved["mean"])
+            venv.obs_rms.var = np.array(saved["var"])
+            venv.obs_rms.count = saved["count"]
+    return venv
 
 
-def make_model(config: dict[str, Any], venv: Any, tensorboard: Path) -> PPO:
-    """A fresh PPO model with the config's policy and hyperparameters."""
-    return PPO(config["policy"], venv, seed=config["seed"], device="cpu", verbose=0,
-               tensorboard_log=str(tensorboard), policy_kwargs=config["policy_kwargs"],
-               **{key: _schedule(value) for key, value in config["ppo"].items()})
+def make_model(config: dict[str, Any], venv: Any, tensorboard: Path) -> Any:
+    """A fresh model of the config's algorithm, policy and hyperparameters."""
+    return algorithm_class(config["algo"])(
+        config["policy"], venv, seed=config["seed"], device="cpu", verbose=0,
+        tensorboard_log=str(tensorboard), policy_kwargs=config["policy_kwargs"],
+        **{key: _schedule(value) for key, value in config["algo_kwargs"].items()})
 
 
 def train(config: dict[str, Any], out: Path, resume: Path | None = None,
           checkpoint_every: int = 100_000, evaluate_every: int = 100_000,
-          progress_bar: bool = True) -> PPO:
+          progress_bar: bool = True) -> Any:
+    """Train (or resume) the run ``config`` describes into ``out``.
+
+    ``resume`` is a checkpoint's ``.state`` (or a run folder: its newest): the run goes on
+    with the checkpoint's config, env and RNGs to ``n_timesteps``, ending where the run
+    would have ended had it never stopped. A bare model ``.zip`` instead trains
+    ``n_timesteps`` more from its weights, on a fresh env."""
     out.mkdir(parents=True, exist_ok=True)
-    venv = make_vec_env(config)
-    if config["normalize_observations"]:
-        venv = VecNormalize(venv, norm_obs=True, norm_reward=False, clip_obs=OBSERVATION_CLIP)
-        if config.get("observation_normalization"):  # resuming: from the saved statistics
-            saved = config["observation_normalization"]
-            venv.obs_rms.mean = np.array(saved["mean"])
-            venv.obs_rms.var = np.array(saved["var"])
-            venv.obs_rms.count = saved["count"]
-    if resume is not None:
-        model = load_zip(PPO, resume, env=venv, tensorboard_log=str(out / "tb"))
+    algorithm = algorithm_class(config["algo"])
+    state = None
+    if resume is not None and Path(resume).suffix != ".zip":
+        state_path = Path(resume) if Path(resume).is_file() else latest_checkpoint(resume)
+        state = load_state(state_path)
+        config = {**state["config"], "n_timesteps": config["n_timesteps"]}
+        venv = unpickle_env_stack(state["env"])
+        # force_reset=False: the zip's last observation is the one the pickled env is at
+        model = load_zip(algorithm, state_path.with_suffix(".zip"), env=venv,
+                         force_reset=False, tensorboard_log=str(out / "tb"))
+        replay = state_path.with_name(state_path.stem + "_replay.pkl")
+        if replay.is_file():
+            model.load_replay_buffer(replay)
+        remaining = config["n_timesteps"] - model.num_timesteps
+        print(f"resuming {state_path} at {model.num_timesteps:,} of "
+              f"{config['n_timesteps']:,} timesteps")
     else:
-        model = make_model(config, venv, out / "tb")
+        venv = make_vec_env(config)
+        if resume is not None:
+            model = load_zip(algorithm, resume, env=venv, tensorboard_log=str(out / "tb"))
+        else:
+            model = make_model(config, venv, out / "tb")
+        remaining = config["n_timesteps"]
     (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
-    callbacks = [
-        CheckpointCallback(max(checkpoint_every // config["n_envs"], 1), str(out / "checkpoints"),
-                           name_prefix="ppo"),
-        BaselineEvaluation(config, out, evaluate_every),
-    ]
+    evaluation = BaselineEvaluation(config, out, evaluate_every)
+    checkpoint = ResumableCheckpoint(out / "checkpoints", checkpoint_every, config,
+                                     [evaluation], restore=state)
+    if state is not None:
+        evaluation.restore(state["callbacks"][0])
     start = time.perf_counter()
     steps_before = model.num_timesteps
-    model.learn(config["n_timesteps"], callback=callbacks, progress_bar=progress_bar,
-                reset_num_timesteps=resume is None, tb_log_name="ppo")
+    model.learn(max(remaining, 0), callback=[checkpoint, evaluation], progress_bar=progress_bar,
+                reset_num_timesteps=resume is None, tb_log_name=config["algo"])
     wall = time.perf_counter() - start
     config["observation_normalization"] = normalization(venv)
     (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
@@ -249,18 +318,31 @@ def plot_training_curve(evaluations: Path, path: Path) -> None:
 
 
 def main(algo: str, mode: str, env_id: str, scenario: str | None, timesteps: int | None,
-         n_envs: int | None, seed: int, out: Path, resume: Path | None,
+         n_envs: int | None, seed: int, out: Path | None, resume: Path | None,
          base_controller: str | None, checkpoint_every: int, evaluate_every: int,
-         progress_bar: bool) -> int:
-    if resume is not None and not Path(resume).is_file():
-        raise ValueError(f"--resume {str(resume)!r} is not a file")
+         progress_bar: bool, hyperparams: Path | None = None) -> int:
+    """``quad-dob train``. Resuming a checkpoint takes its run's config (the env, the
+    algorithm and its hyperparameters) and ignores those options; ``--timesteps`` may
+    lengthen the run."""
+    if resume is not None and not Path(resume).exists():
+        raise ValueError(f"--resume {str(resume)!r} does not exist: give a run folder, a "
+                         "checkpoint's .state or a model .zip")
+    state_path = None
+    if resume is not None and Path(resume).suffix != ".zip":
+        state_path = Path(resume) if Path(resume).is_file() else latest_checkpoint(resume)
+        saved = load_state(state_path)["config"]
+        algo, mode, env_id, seed = saved["algo"], saved["mode"], saved["env_id"], saved["seed"]
+        timesteps = timesteps or saved["n_timesteps"]
+        out = out or state_path.parent.parent
     config = resolve_config(algo, mode, env_id, scenario, timesteps, n_envs, seed,
-                            base_controller)
-    if resume is not None:  # the run's observation statistics, from its config.yaml
+                            base_controller, hyperparams)
+    if resume is not None and state_path is None:
+        # a bare model: the run's observation statistics, from its config.yaml
         for folder in (Path(resume).parent, Path(resume).parent.parent):
             if (folder / "config.yaml").is_file():
                 saved = yaml.safe_load((folder / "config.yaml").read_text())
                 config["observation_normalization"] = saved.get("observation_normalization")
                 break
-    train(config, out, resume, checkpoint_every, evaluate_every, progress_bar)
+    train(config, Path(out or f"runs/{algo}"), state_path or resume, checkpoint_every,
+          evaluate_every, progress_bar)
     return 0
