@@ -149,23 +149,24 @@ def _same_info(native: dict, sync: dict, where: str) -> None:
                                                err_msg=f"{where}/{key}[{i}]")
 
 
+@pytest.mark.parametrize("env_id", ["QuadDOB/Hover-v1", "QuadDOB/HoverResidual-v1"])
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
-def test_info_matches_sync_vector_env_key_for_key_through_autoresets(mode):
+def test_info_matches_sync_vector_env_key_for_key_through_autoresets(mode, env_id):
     # randomisation on, so every autoreset draws anew; SyncVectorEnv merges each vehicle's
     # single-env info with Gymnasium's _key masks: the native env must give the same, in
     # both autoreset modes (same-step: final_obs and final_info too)
     options = {"duration": 0.2, "randomization": {"mass": (0.9, 1.1), "drag": (0.8, 1.2)}}
     kwargs = {"num_envs": 3, "scenario": "gusty-hover", "scenario_options": options}
-    native = gym.make_vec("QuadDOB/Hover-v1", vectorization_mode="vector_entry_point",
+    native = gym.make_vec(env_id, vectorization_mode="vector_entry_point",
                           autoreset_mode=mode, **kwargs)
-    sync = gym.make_vec("QuadDOB/Hover-v1", vectorization_mode="sync",
+    sync = gym.make_vec(env_id, vectorization_mode="sync",
                         vector_kwargs={"autoreset_mode": mode}, **kwargs)
     assert native.metadata["autoreset_mode"] is mode
     (obs, info), (obs2, info2) = native.reset(seed=3), sync.reset(seed=3)
     _same_info(info, info2, "reset")
     assert info["_sampled"].all() and "mass" in info["sampled"]
     actions = np.random.default_rng(0).uniform(-0.3, 0.3, (170, 3, 4))
-    ends = resampled = 0
+    ends = resampled = named = 0
     for step in range(170):
         obs, rewards, terminated, truncated, info = native.step(actions[step])
         obs2, rewards2, terminated2, truncated2, info2 = sync.step(
@@ -175,11 +176,17 @@ def test_info_matches_sync_vector_env_key_for_key_through_autoresets(mode):
         assert np.array_equal(terminated, terminated2) and np.array_equal(truncated, truncated2)
         _same_info(info, info2, f"step {step}")
         resampled += int(info.get("_sampled", np.zeros(3, bool)).sum())
+        if "_base_controller" in info:
+            named += int(info["_base_controller"].sum())
+            assert set(info["base_controller"]["name"][info["_base_controller"]]) == {
+                "geometric-ndob:tuned"}
         if step < 169 or mode is AutoresetMode.SAME_STEP:  # next-step: resets a step later
             ends += int((terminated | truncated).sum())
         if mode is AutoresetMode.SAME_STEP and (terminated | truncated).any():
             assert np.array_equal(info["_final_obs"], terminated | truncated)
     assert ends >= 20 and resampled == ends  # every episode end brought fresh draws
+    if "Residual" in env_id:  # the base's name comes with every new episode, as sync's
+        assert named == resampled
 
 
 def test_same_step_autoreset_in_a_residual_env_and_a_bad_mode_named():

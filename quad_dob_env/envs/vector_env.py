@@ -142,9 +142,7 @@ class QuadrotorVectorEnv(VectorEnv):
         self._needs_reset[:] = False
         self._ended_count = 0
         info = self._info(np.zeros(n, dtype=bool), 0)
-        info.update(self._sampled_info(np.arange(n)))
-        if self.base_controller is not None:
-            info["base_controller"] = copy.deepcopy(self.base_controller)
+        info.update(self._reset_info(np.arange(n)))
         return self.observations(), info
 
     def reseed(self, seeds: list[int | None]) -> None:
@@ -170,7 +168,7 @@ class QuadrotorVectorEnv(VectorEnv):
             self.rewards(), rewards, terminated, truncated, ended)
         info = self._info(ended, self._ended_count)
         if restarted.any():  # as Gymnasium's vector envs merge a reset's info
-            info.update(self._sampled_info(np.flatnonzero(restarted)))
+            info.update(self._reset_info(np.flatnonzero(restarted)))
         if self.autoreset_mode is AutoresetMode.SAME_STEP and self._ended_count:
             return self._reset_now(rewards, terminated, truncated, ended, info)
         self._needs_reset = ended
@@ -195,7 +193,7 @@ class QuadrotorVectorEnv(VectorEnv):
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
         self._ended_count = 0
         info = self._info(self._needs_reset, 0)
-        info.update(self._sampled_info(indices))
+        info.update(self._reset_info(indices))
         info.update({"final_obs": final_obs, "_final_obs": ended.copy(),
                      "final_info": final_info, "_final_info": ended.copy()})
         return self.observations(), rewards, terminated, truncated, info
@@ -261,22 +259,42 @@ class QuadrotorVectorEnv(VectorEnv):
             info["_termination_reason"] = ended.copy()
         return info
 
-    def _sampled_info(self, indices: NDArray[np.intp]) -> dict[str, Any]:
-        """``sampled`` for the vehicles that started an episode (the draws of domain
-        randomisation and random disturbances), shaped as Gymnasium's vector envs merge a
-        reset's info: a dict of (N,) arrays, each with its ``_key`` mask, and ``_sampled``."""
-        n = self.num_envs
-        sampled: dict[str, NDArray] = {}
+    def _reset_info(self, indices: NDArray[np.intp]) -> dict[str, Any]:
+        """The reset info of the vehicles that started an episode: ``sampled`` (the draws of
+        domain randomisation and random disturbances) and, in residual mode,
+        ``base_controller``, merged as Gymnasium's vector envs merge each env's reset info
+        (every value an (N, ...) array, nested dicts alike, each with its ``_key`` mask)."""
+        merged: dict[str, Any] = {}
         for i in indices:
-            for key, value in self.core.sampled[i].items():
-                if key not in sampled:
-                    sampled[key] = np.zeros(n, dtype=type(value))
-                    sampled[f"_{key}"] = np.zeros(n, dtype=bool)
-                sampled[key][i] = value
-                sampled[f"_{key}"][i] = True
-        mask = np.zeros(n, dtype=bool)
-        mask[indices] = True
-        return {"sampled": sampled, "_sampled": mask}
+            vehicle = {"sampled": self.core.sampled[i]}
+            if self.base_controller is not None:
+                vehicle["base_controller"] = copy.deepcopy(self.base_controller)
+            _add_vehicle_info(merged, vehicle, int(i), self.num_envs)
+        return merged
+
+
+def _add_vehicle_info(merged: dict[str, Any], info: dict[str, Any], i: int,
+                      n: int) -> dict[str, Any]:
+    """Vehicle ``i``'s ``info`` into ``merged``, in the layout of Gymnasium's vector infos."""
+    for key, value in info.items():
+        if isinstance(value, dict):
+            array = _add_vehicle_info(merged.get(key, {}), value, i, n)
+        else:
+            array = merged.get(key)
+            if array is None:
+                if type(value) in (int, float, bool) or isinstance(value, np.number):
+                    array = np.zeros(n, dtype=type(value))
+                elif isinstance(value, np.ndarray):
+                    array = np.zeros((n, *value.shape), dtype=value.dtype)
+                else:
+                    array = np.full(n, None, dtype=object)
+            array[i] = value
+        mask = merged.get(f"_{key}")
+        if mask is None:
+            mask = np.zeros(n, dtype=bool)
+        mask[i] = True
+        merged[key], merged[f"_{key}"] = array, mask
+    return merged
 
 
 __all__ = ["TERMINATION_REASONS", "QuadrotorVectorEnv"]
