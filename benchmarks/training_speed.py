@@ -3,7 +3,9 @@
 Run by hand: ``python benchmarks/training_speed.py [--timesteps 300000]``. Trains the
 ``QuadDOB/TrackResidual-v1`` recipe of ``training/hyperparams/ppo.yml`` (dryden-helix-gusts,
 geometric-ndob:tuned base) without evaluations or checkpoints and prints timesteps/s: the
-environment and the PPO update together, as a user sees it.
+environment and the PPO update together, as a user sees it, and where the time went:
+stepping the vehicles (the env), the rest of rollout collection (policy inference, buffer
+writes) and the update (SB3's ``train``).
 """
 
 from __future__ import annotations
@@ -16,26 +18,80 @@ import time
 from pathlib import Path
 
 import torch
+from stable_baselines3.common.callbacks import BaseCallback
 
 from quad_dob_training.train import make_model, make_vec_env, resolve_config
+
+
+class Stopwatch(BaseCallback):
+    """Seconds spent collecting rollouts (everything between a rollout's start and end)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.collecting = 0.0
+        self._start = 0.0
+
+    def _on_rollout_start(self) -> None:
+        self._start = time.perf_counter()
+
+    def _on_rollout_end(self) -> None:
+        self.collecting += time.perf_counter() - self._start
+
+    def _on_step(self) -> bool:
+        return True
+
+
+def timed_env_steps(venv) -> list[float]:
+    """Wrap the innermost env's ``step_wait`` to sum its seconds."""
+    inner = venv
+    while hasattr(inner, "venv"):
+        inner = inner.venv
+    spent = [0.0]
+    step_wait = inner.step_wait
+
+    def timed():
+        start = time.perf_counter()
+        result = step_wait()
+        spent[0] += time.perf_counter() - start
+        return result
+
+    inner.step_wait = timed
+    return spent
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--timesteps", type=int, default=300_000)
+    parser.add_argument("--threads", type=int, default=1, help="torch threads (recipe: 1)")
+    parser.add_argument("--n-envs", type=int, default=None, help="vehicles (recipe: 64)")
+    parser.add_argument("--batch-size", type=int, default=None, help="recipe: 1024")
     args = parser.parse_args()
     config = resolve_config("ppo", "residual", "QuadDOB/TrackResidual-v1", None,
-                            args.timesteps, None, seed=0)
+                            args.timesteps, args.n_envs, seed=0)
+    if args.batch_size:
+        config["algo_kwargs"]["batch_size"] = args.batch_size
     with tempfile.TemporaryDirectory() as folder:
-        model = make_model(config, make_vec_env(config), Path(folder) / "tb")
+        venv = make_vec_env(config)
+        torch.set_num_threads(args.threads)  # after make_vec_env, which sets the recipe's 1
+        model = make_model(config, venv, Path(folder) / "tb")
         model.learn(config["n_envs"] * config["algo_kwargs"].get("n_steps", 2048))  # warm up
+        env_seconds, stopwatch = timed_env_steps(venv), Stopwatch()
         start = time.perf_counter()
-        model.learn(args.timesteps, reset_num_timesteps=False)
-        rate = args.timesteps / (time.perf_counter() - start)
+        model.learn(args.timesteps, reset_num_timesteps=False, callback=stopwatch)
+        wall = time.perf_counter() - start
+        rate = args.timesteps / wall
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, torch {torch.__version__}")
     print(f"PPO on QuadDOB/TrackResidual-v1 ({config['env_kwargs']['scenario']}, base "
-          f"{config['base_controller']}), {config['n_envs']} envs: {rate:,.0f} timesteps/s")
+          f"{config['base_controller']}), {config['n_envs']} envs, batch "
+          f"{config['algo_kwargs']['batch_size']}, {args.threads} torch thread(s): "
+          f"{rate:,.0f} timesteps/s")
+    update = wall - stopwatch.collecting
+    print(f"of {wall:.1f} s: env steps {env_seconds[0]:.1f} s ({env_seconds[0] / wall:.0%}), "
+          f"rest of collection (policy inference, buffer) "
+          f"{stopwatch.collecting - env_seconds[0]:.1f} s "
+          f"({(stopwatch.collecting - env_seconds[0]) / wall:.0%}), "
+          f"update {update:.1f} s ({update / wall:.0%})")
 
 
 if __name__ == "__main__":

@@ -99,7 +99,16 @@ def _run(command: str) -> None:
     assert cli.main(words[1:]) == 0, command
 
 
-def test_every_readme_command_runs(tmp_path, monkeypatch):
+@pytest.fixture
+def no_ray_left_behind():
+    """The Ray sweeps start Ray inside this process; its workers must not outlive the test
+    (idle, they still take CPU from the rest of the suite)."""
+    yield
+    if "ray" in sys.modules:
+        sys.modules["ray"].shutdown()
+
+
+def test_every_readme_command_runs(tmp_path, monkeypatch, no_ray_left_behind):
     monkeypatch.chdir(tmp_path)
     ran = []
     for command in _commands():

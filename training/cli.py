@@ -66,7 +66,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from quad_dob_training.evaluate import main as evaluate_main
 
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
-                         args.json, args.baseline)
+                         args.json, args.baseline, args.suite)
 
 
 def _tune(args: argparse.Namespace) -> int:
@@ -174,6 +174,10 @@ def build_parser() -> argparse.ArgumentParser:
                           help="controller every policy is compared with, paired over the "
                           "seeds with 95 %% bootstrap intervals; '' for none (default: the "
                           "recommended base, geometric-ndob:tuned)")
+    evaluate.add_argument("--suite", action="store_true",
+                          help="every v1 scenario family (wind, calm, forces) instead of "
+                          "--scenarios, and leaderboard.md: means with 95 %% intervals and "
+                          "paired differences to the baseline")
     evaluate.add_argument("--json", action="store_true", help="print the rows as JSON")
     evaluate.set_defaults(handler=_evaluate)
     tune = commands.add_parser(

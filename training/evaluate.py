@@ -36,6 +36,16 @@ SCORES = (("rms_position_settled", "RMS ‖e_x‖ [m]"),
           ("rms_moment", "effort: RMS ‖M‖ [N m]"))
 # the paired difference to the baseline is reported for these
 COMPARED = ("rms_position_settled", "rms_attitude_settled", "rms_moment")
+# --suite: every v1 scenario family, by what it asks of a policy
+SUITE = {
+    "wind": ("dryden-helix", "dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind"),
+    "calm": ("paper-none", "hover-calm", "ground-effect-landing"),
+    "forces": ("paper-I", "paper-II", "paper-IIA", "hover-step-force"),
+}
+# the leaderboard's cells: mean [95 % CI]
+LEADERBOARD = (("rms_position_settled", "RMS ‖e_x‖ [m]"), ("rms_tilt_settled", "tilt [rad]"),
+               ("rms_heading_settled", "heading [rad]"), ("rms_moment", "effort ‖M‖ [N m]"),
+               ("crash_rate", "crash rate"))
 
 
 def parse_seeds(text: str) -> list[int]:
@@ -92,7 +102,9 @@ def _row(scenario: str, policy: str, seeds: list[int], metrics: list[dict],
         row[f"{key}_mean"] = interval.mean
         row[f"{key}_std"] = float(values.std())
         row[f"{key}_low"], row[f"{key}_high"] = interval.low, interval.high
-    row["crash_rate"] = float(np.mean([m["crashed"] for m in metrics]))
+    crashes = bootstrap_mean(np.array([m["crashed"] for m in metrics], dtype=float))
+    row["crash_rate"] = row["crash_rate_mean"] = crashes.mean
+    row["crash_rate_low"], row["crash_rate_high"] = crashes.low, crashes.high
     row["crashes"] = int(np.sum([m["crashed"] for m in metrics]))
     row["flights"] = len(metrics)
     row["baseline"] = baseline or ""
@@ -129,6 +141,44 @@ def markdown_table(rows: list[dict]) -> str:
         if baseline:
             cells.append(_difference_cell(row, baseline))
         lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def leaderboard(rows: list[dict]) -> str:
+    """The suite's leaderboard: per family and scenario, each policy's mean and 95 %
+    bootstrap interval of every score, and its paired difference to the baseline; then, per
+    policy, the scenarios where it is better or worse than the baseline (interval excluding
+    zero)."""
+    baseline = rows[0].get("baseline") if rows else ""
+    family_of = {name: family for family, names in SUITE.items() for name in names}
+    header = ["family", "scenario", "policy", *(label for _, label in LEADERBOARD)]
+    if baseline:
+        header.append(f"Δ RMS ‖e_x‖ vs {baseline} [m] (95 % CI)")
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for row in rows:
+        cells = [family_of.get(row["scenario"], "other"), row["scenario"], row["policy"]]
+        for key, _ in LEADERBOARD:
+            cells.append(f"{row[f'{key}_mean']:.4f} [{row[f'{key}_low']:.4f}, "
+                         f"{row[f'{key}_high']:.4f}]")
+        if baseline:
+            cells.append(_difference_cell(row, baseline))
+        lines.append("| " + " | ".join(cells) + " |")
+    if baseline:
+        lines += ["", f"| policy | better than {baseline} | worse | not significant | "
+                      "flights lost (its own / the baseline's) |", "|---|---|---|---|---|"]
+        lost_by_base = {row["scenario"]: row["crashes"] for row in rows
+                        if row["policy"] == baseline}
+        for policy in dict.fromkeys(row["policy"] for row in rows):
+            if policy == baseline:
+                continue
+            mine = [row for row in rows if row["policy"] == policy]
+            better = [r["scenario"] for r in mine if r["rms_position_settled_diff_high"] < 0]
+            worse = [r["scenario"] for r in mine if r["rms_position_settled_diff_low"] > 0]
+            lost = sum(r["crashes"] for r in mine)
+            base_lost = sum(lost_by_base.get(r["scenario"], 0) for r in mine)
+            lines.append(f"| {policy} | {len(better)}: {', '.join(better) or '—'} | "
+                         f"{len(worse)}: {', '.join(worse) or '—'} | "
+                         f"{len(mine) - len(better) - len(worse)} | {lost} / {base_lost} |")
     return "\n".join(lines)
 
 
@@ -169,9 +219,12 @@ def _bar_plot(rows: list[dict], path: Path) -> None:
 
 
 def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
-         as_json: bool, baseline: str | None = None) -> int:
-    """``baseline`` None: the recommended base; "": no comparison."""
+         as_json: bool, baseline: str | None = None, suite: bool = False) -> int:
+    """``baseline`` None: the recommended base; "": no comparison. ``suite``: every
+    scenario of ``SUITE`` instead of ``scenarios``, and ``leaderboard.md``."""
     baseline = DEFAULT_BASE_CONTROLLER if baseline is None else baseline
+    if suite:
+        scenarios = [name for names in SUITE.values() for name in names]
     seed_list = parse_seeds(seeds)
     first_flights: dict = {}
     rows = evaluate(policies, scenarios, seed_list, first_flights, baseline or None)
@@ -188,6 +241,12 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
                     ("rms_position_settled_diff_high", "high")]
     write_report(out / "report.html", f"quad-dob evaluate (figures: seed {seed_list[0]})",
                  rows, [*columns, ("crash_rate", "crash rate")], first_flights)
+    if suite:
+        (out / "leaderboard.md").write_text(leaderboard(rows) + "\n")
+        print(leaderboard(rows))
+        print(f"\nwrote {out / 'leaderboard.md'}, evaluation.md, evaluation.csv, "
+              "evaluation.png, report.html")
+        return 0
     print(markdown_table(rows))
     print(f"\nwrote {out / 'evaluation.md'}, evaluation.csv, evaluation.png, report.html")
     return 0

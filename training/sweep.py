@@ -237,17 +237,22 @@ def run_ray(pending: list[dict], on_result: Callable[[dict], None], address: str
         import ray
     except ImportError:
         raise ValueError("--ray-address needs Ray: pip install 'quad_dob_env[ray]'") from None
-    if not ray.is_initialized():
+    started_here = not ray.is_initialized()
+    if started_here:
         if address == "local":
             ray.init(num_cpus=num_cpus, include_dashboard=False, log_to_driver=False)
         else:
             ray.init(address=address, log_to_driver=False)
-    remote = ray.remote(run_task)
-    running = [remote.remote(task) for task in pending]
-    while running:
-        done, running = ray.wait(running, num_returns=1)
-        for reference in done:
-            on_result(ray.get(reference))
+    try:
+        remote = ray.remote(run_task)
+        running = [remote.remote(task) for task in pending]
+        while running:
+            done, running = ray.wait(running, num_returns=1)
+            for reference in done:
+                on_result(ray.get(reference))
+    finally:
+        if started_here:  # a caller's own Ray session stays; ours leaves no workers behind
+            ray.shutdown()
 
 
 def run_sweep(config_path: Path, out: Path | None = None, ray_address: str | None = None,
