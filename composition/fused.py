@@ -57,7 +57,7 @@ class PlanArguments(NamedTuple):
     rotation: NDArray
     angular_velocity: NDArray
     reference: NDArray  # the core's reference table (rows, 8, 3)
-    step_count: NDArray  # (N,) each vehicle's row in it
+    reference_row: NDArray  # (N,) each vehicle's row in it
     mass: float  # the geometric law's constants
     gravity: float
     inertia: NDArray  # (3, 3)
@@ -102,7 +102,7 @@ class UpdateArguments(NamedTuple):
 
 @njit(cache=True)
 def plan_kernel(indices, position, velocity, rotation, angular_velocity, reference,
-                step_count, mass, gravity, inertia, gains, has_observer, observer_gain,
+                reference_row, mass, gravity, inertia, gains, has_observer, observer_gain,
                 observer_rotational_gain, z_force, z_torque, fresh, force_estimate,
                 torque_estimate, thrust, moment, desired_force, desired_rotation,
                 desired_rate, attitude_error, rate_error, estimate_scale, inverse,
@@ -124,7 +124,7 @@ def plan_kernel(indices, position, velocity, rotation, angular_velocity, referen
         else:
             store_vector(force_estimate, i, (0.0, 0.0, 0.0))
             store_vector(torque_estimate, i, (0.0, 0.0, 0.0))
-        row = step_count[i]
+        row = reference_row[i]
         geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i),
                           matrix_at(rotation, i), vector_at(angular_velocity, i),
                           reference_at(reference, row), mass, gravity, inertia_entries,
@@ -155,7 +155,7 @@ def remember_state(start, stop, velocity_before, body_z_before, rate_before, alp
 def reward_and_observer_update(start, stop, velocity_before, body_z_before, rate_before, alpha,
                                rotational_alpha, clipped, core_rewards, effort_weight,
                                rewards, applied_thrust, applied_moment, position, velocity,
-                               rotation, angular_velocity, reference, step_count, mass,
+                               rotation, angular_velocity, reference, reference_row, mass,
                                gravity, inertia, gains, has_observer, observer_gain,
                                observer_rotational_gain, z_force, z_torque, *rest):
     """After the physics step: the residual's reward, and each observer advanced with what
@@ -298,7 +298,7 @@ class FusedResidualStep:
         return PlanArguments(
             position=state.position, velocity=state.velocity, rotation=state.rotation,
             angular_velocity=state.angular_velocity, reference=core.reference_table,
-            step_count=core.step_count, mass=mass, gravity=gravity, inertia=inertia,
+            reference_row=core.reference_row, mass=mass, gravity=gravity, inertia=inertia,
             gains=gains, has_observer=has_observer, observer_gain=gain,
             observer_rotational_gain=rotational_gain, z_force=z_force, z_torque=z_torque,
             fresh=fresh, **self._outputs,

@@ -7,7 +7,9 @@ matrix functions, counter-based per-vehicle noise, compiled loops split across c
 integrator), ``disturbances`` (forces, torques, wind, ground effect), ``trajectories``,
 ``flatness`` (the attitude, rates and inputs that fly a reference), ``feasibility`` (a
 reference's needs against the actuators), ``variation`` (sensor noise, domain
-randomisation), ``scenarios``, ``envs``, ``wrappers`` (the residual wrapper). None of them
+randomisation), ``scenario`` (the ``Scenario`` record, validated), ``scenarios`` (the named
+ones, the random-reference families included), ``envs``, ``wrappers`` (the residual
+wrapper). None of them
 imports ``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``, not even
 at run time (``tests/test_layering.py``): the residual ids name their composition-layer
 entry points as strings.

@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 
 from quad_dob_env.envs import QuadrotorEnv
-from quad_dob_env.scenarios import SensorNoise, make_scenario
+from quad_dob_env.scenarios import make_scenario
+from quad_dob_env.variation import SensorNoise
 
 STILL = {"initial_position_noise": 0.0, "initial_attitude_noise": 0.0}
 

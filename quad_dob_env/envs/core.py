@@ -4,7 +4,9 @@
 physics, observation, reward and termination are written once.
 
 Every vehicle's time is ``step_count * dt``, so whatever depends on time alone (the
-reference and the non-random disturbances) is tabulated once on that grid, and one
+reference and the non-random disturbances) is tabulated once on that grid (a
+``TrajectoryFamily``'s members stacked, each vehicle reading its member's block at
+``reference_row``), and one
 compiled call per step does the rest for the whole batch: action -> command -> actuation ->
 integration -> observation, reward, termination.
 """
@@ -13,7 +15,6 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,62 +28,26 @@ from quad_dob_env.dynamics import (
     physics_arrays,
 )
 from quad_dob_env.envs.actions import ActionMap
+from quad_dob_env.envs.info import INFO_COLUMNS, INFO_WIDTH, info_kernel
 from quad_dob_env.envs.kernels import (
     StartArguments,
     StepArguments,
-    info_kernel,
     sensor_kernel,
     start_kernel,
     step_kernel,
 )
+from quad_dob_env.envs.limits import EpisodeLimits, RewardWeights
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.so3 import exp as so3_exp
 from quad_dob_env.threads import run_over_batch
-from quad_dob_env.trajectories import Reference
-from quad_dob_env.validation import as_finite, unknown_name_error
+from quad_dob_env.trajectories import REFERENCE_FIELDS, Reference, TrajectoryFamily
+from quad_dob_env.validation import unknown_name_error
 
 ROTATION_REPRESENTATIONS = {"matrix": 9, "6d": 6}
 # Index 0 means "still flying"; the rest are info["termination_reason"] values.
 TERMINATION_REASONS = ("", "crashed", "out_of_bounds", "attitude_lost", "non_finite_state",
                        "invalid_action")
 TIME_LIMIT = "time_limit"
-_REFERENCE_FIELDS = [f.name for f in fields(Reference)]
-# info entries per vehicle, as columns of one block (kernels.info_kernel writes them)
-_INFO_COLUMNS = (("time", 0), ("position_error", slice(1, 4)), ("velocity_error", slice(4, 7)),
-                 ("reference_position", slice(7, 10)), ("reference_velocity", slice(10, 13)),
-                 ("reference_acceleration", slice(13, 16)), ("reference_heading", slice(16, 19)),
-                 ("disturbance_force", slice(19, 22)), ("disturbance_torque", slice(22, 25)),
-                 ("applied_thrust", 25), ("applied_moment", slice(26, 29)),
-                 ("rotor_thrusts", slice(29, 33)))
-_INFO_WIDTH = 33
-
-
-@dataclass(frozen=True)
-class EpisodeLimits:
-    """When an episode ends early (``terminated``); all documented in ``QuadrotorEnv``."""
-
-    max_position_error: float = 5.0  # [m] from the reference
-    max_tilt: float = np.pi / 2  # [rad] between body z and world z
-    max_body_rate: float = 35.0  # [rad/s], any axis
-
-    def __post_init__(self) -> None:
-        as_finite(self.max_position_error, "max_position_error", 0.0, strictly=True)
-        as_finite(self.max_tilt, "max_tilt", 0.0, strictly=True)
-        if self.max_tilt > np.pi:
-            raise ValueError(f"max_tilt must be <= pi, got {self.max_tilt}")
-        as_finite(self.max_body_rate, "max_body_rate", 0.0, strictly=True)
-
-
-@dataclass(frozen=True)
-class RewardWeights:
-    """``reward = exp(-|e_x| / position_scale) - effort_weight * mean(action²)``."""
-
-    position_scale: float = 0.25  # [m]
-    effort_weight: float = 0.01
-
-    def __post_init__(self) -> None:
-        as_finite(self.position_scale, "reward position_scale", 0.0, strictly=True)
-        as_finite(self.effort_weight, "reward effort_weight", 0.0)
 
 
 # --- the core ----------------------------------------------------------------------------
@@ -113,12 +78,18 @@ class QuadrotorBatch:
         samples = 2 * scenario.substeps + 1
         self._sample_offsets = np.arange(samples) * (scenario.dt / (samples - 1))
         self._split_disturbance(scenario.disturbance)
+        trajectory = scenario.trajectory
+        self._members = (trajectory.members if isinstance(trajectory, TrajectoryFamily)
+                         else (trajectory,))
+        # which member each vehicle flies, and its row in the stacked reference table
+        self.reference_member = np.zeros(n, dtype=np.int64)
+        self.reference_row = np.zeros(n, dtype=np.int64)
+        self.step_count = np.zeros(n, dtype=np.int64)
         self._tabulate(scenario.steps + 1)
         # an episode is truncated after this many steps: the scenario's, or fewer where a
         # client asks for a shorter time limit (``set_time_limit``)
         self.episode_steps = scenario.steps
         self.state = VehicleState.at_rest(n)
-        self.step_count = np.zeros(n, dtype=np.int64)
         self._most_steps = 0  # at least step_count.max(), kept without a pass over N
         self._actions = np.zeros((n, 4))  # a step's actions, as the kernel takes them
         self._kernel_tuples: tuple[tuple, tuple] = ((), ())  # see _kernel_arguments
@@ -206,12 +177,16 @@ class QuadrotorBatch:
             self.random_disturbance.bind(self.n, self.scenario.dt)
 
     def _tabulate(self, rows: int) -> None:
-        """Reference and time-only disturbances on the grid ``t = step * dt``, ``rows`` steps."""
+        """Reference and time-only disturbances on the grid ``t = step * dt``, ``rows`` steps;
+        a family's members stacked, ``rows`` each, member k's block from row k * rows."""
         dt = self.scenario.dt
         times = np.arange(rows) * dt
-        ref = self.scenario.trajectory.evaluate(times)
         self._reference_table = np.ascontiguousarray(
-            np.stack([getattr(ref, name) for name in _REFERENCE_FIELDS], axis=1))
+            np.concatenate([member.table(times) for member in self._members]))
+        self._member_rows = rows
+        # a member's start: where (and how fast) its vehicle begins, noise aside
+        self._member_starts = self._reference_table[::rows, :2].reshape(-1, 6)
+        self.reference_row[:] = self.reference_member * rows + self.step_count
         grid = times[:, None] + self._sample_offsets
         channels = [np.zeros((*grid.shape, 3)) for _ in range(3)]  # force, torque, wind
         for part in self._timed_parts:
@@ -227,18 +202,29 @@ class QuadrotorBatch:
 
     @property
     def reference_table(self) -> NDArray[np.float64]:
-        """The reference on the control grid, (rows, 8, 3) in ``Reference``'s field order;
-        row k is time k dt. It is replaced (not grown in place) when flown past its end."""
+        """The reference on the control grid, (members x rows, 8, 3) in ``Reference``'s field
+        order; vehicle i reads row ``reference_row[i]``, time ``step_count[i] dt`` of its
+        member. It is replaced (not grown in place) when flown past its end."""
         return self._reference_table
+
+    def member_reference(self, index: int, steps: int) -> NDArray[np.float64]:
+        """Vehicle ``index``'s reference over its first ``steps`` rows, (steps, 8, 3)."""
+        first = int(self.reference_member[index]) * self._member_rows
+        return self._reference_table[first:first + min(steps, self._member_rows)]
+
+    def member_paths(self, steps: int) -> NDArray[np.float64]:
+        """Every member's reference position over its first ``steps`` rows, (K, steps, 3)."""
+        blocks = self._reference_table.reshape(len(self._members), self._member_rows, 8, 3)
+        return blocks[:, :steps, 0]
 
     @property
     def reference(self) -> Reference:
         """The reference at each vehicle's current time, (N, 3) per field (read-only views,
         gathered once per step)."""
         if self._reference_now is None:
-            rows = np.take(self._reference_table, self.step_count, axis=0)  # faster than []
+            rows = np.take(self._reference_table, self.reference_row, axis=0)  # faster than []
             rows.flags.writeable = False
-            self._reference_now = Reference(*(rows[:, j] for j in range(len(_REFERENCE_FIELDS))))
+            self._reference_now = Reference(*(rows[:, j] for j in range(len(REFERENCE_FIELDS))))
         return self._reference_now
 
     # --- reset ----------------------------------------------------------------------------
@@ -250,6 +236,10 @@ class QuadrotorBatch:
                              f"{len(rngs)} generators")
         sc = self.scenario
         count = len(indices)
+        members = np.zeros(count, dtype=np.int64)
+        if len(self._members) > 1:  # the reference first: the start is relative to it
+            for j, rng in enumerate(rngs):
+                members[j] = rng.integers(len(self._members))
         draws = np.empty((count, 6))  # position offset, attitude offset (rotation vector)
         scales = np.ones((count, 3))  # mass, inertia, drag
         randomization = sc.randomization
@@ -263,7 +253,12 @@ class QuadrotorBatch:
             if self.sensors is not None:
                 self._sensor_keys[indices[j]] = rng.integers(0, 2**63, dtype=np.uint64)
                 self._sensor_counters[indices[j]] = 0
-        offsets = draws[:, :3] * sc.initial_position_noise
+        offsets = np.zeros((count, 6))  # position, velocity
+        offsets[:, :3] = draws[:, :3] * sc.initial_position_noise
+        if len(self._members) > 1:  # on the member's start, not the scenario's
+            offsets += self._member_starts[members] - np.concatenate(self._start[:2])
+        self.reference_member[indices] = members
+        self.reference_row[indices] = members * self._member_rows
         rotations = self._initial_rotation @ so3_exp(draws[:, 3:] * sc.initial_attitude_noise)
         start_kernel(indices, offsets, rotations, scales, *self._kernel_arguments()[1])
         random = self.random_disturbance
@@ -322,7 +317,8 @@ class QuadrotorBatch:
                 applied=(applied.thrust, applied.moment, applied.rotor_thrusts,
                          applied.saturated), disturbance_force=self.disturbance_force,
                 disturbance_torque=self.disturbance_torque, rewards=self.rewards,
-                step_count=self.step_count, actuator_state=self.actuator_state,
+                step_count=self.step_count, reference_row=self.reference_row,
+                actuator_state=self.actuator_state,
                 hover=self._hover_output, reference=self._reference_table,
                 rotation_mode=self._rotation_mode, limits=self._limits, obs=self._clean_obs,
                 code=self.termination_code)
@@ -337,8 +333,8 @@ class QuadrotorBatch:
             action_map=self.action_map.forward, actuation=self._actuation,
             actuator=self._actuator, position=s.position, velocity=s.velocity,
             rotation=s.rotation, angular_velocity=s.angular_velocity,
-            step_count=self.step_count, tables=self._tables, own=self._own,
-            reference=self._reference_table,
+            step_count=self.step_count, reference_row=self.reference_row, tables=self._tables,
+            own=self._own, reference=self._reference_table,
             physics=(self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse,
                      self.drag),
             dt=sc.dt, substeps=sc.substeps, law=self._law, limits=self._limits,
@@ -358,12 +354,13 @@ class QuadrotorBatch:
         true disturbance force and torque, the applied thrust, moment and rotor thrusts, and
         ``actuator_saturated``. New arrays each call (views of one block, filled in one
         compiled pass)."""
-        block = np.empty((self.n, _INFO_WIDTH))
+        block = np.empty((self.n, INFO_WIDTH))
         s, applied = self.state, self.applied
-        info_kernel(s.position, s.velocity, self.step_count, self.scenario.dt,
-                    self._reference_table, self.disturbance_force, self.disturbance_torque,
+        info_kernel(s.position, s.velocity, self.step_count, self.reference_row,
+                    self.scenario.dt, self._reference_table, self.disturbance_force,
+                    self.disturbance_torque,
                     applied.thrust, applied.moment, applied.rotor_thrusts, block)
-        info = {name: block[:, columns] for name, columns in _INFO_COLUMNS}
+        info = {name: block[:, columns] for name, columns in INFO_COLUMNS}
         info["actuator_saturated"] = applied.saturated.copy()
         return info
 

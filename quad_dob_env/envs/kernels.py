@@ -137,10 +137,11 @@ class StepArguments(NamedTuple):
     velocity: NDArray
     rotation: NDArray
     angular_velocity: NDArray
-    step_count: NDArray  # (N,) each vehicle's row in the tables
+    step_count: NDArray  # (N,) each vehicle's step: its time's row in the tables
+    reference_row: NDArray  # (N,) its row in the reference table (its member's block)
     tables: tuple  # force, torque and wind tables shared by all vehicles
     own: tuple  # and each vehicle's own part of them
-    reference: NDArray  # the reference table (rows, 8, 3)
+    reference: NDArray  # the reference table (members x rows, 8, 3)
     physics: tuple  # mass, g, inertia, inverse inertia, drag (per vehicle)
     dt: float
     substeps: int
@@ -175,6 +176,7 @@ class StartArguments(NamedTuple):
     disturbance_torque: NDArray
     rewards: NDArray
     step_count: NDArray
+    reference_row: NDArray  # each vehicle's row of the reference table (its member's block)
     actuator_state: NDArray
     hover: NDArray  # the actuator output that holds the weight
     reference: NDArray
@@ -186,7 +188,8 @@ class StartArguments(NamedTuple):
 
 @njit(cache=True, nogil=True)
 def step_kernel(start, stop, actions, action_map, actuation, actuator, position, velocity,
-                rotation, angular_velocity, step_count, tables, own, reference, physics, dt,
+                rotation, angular_velocity, step_count, reference_row, tables, own, reference,
+                physics, dt,
                 substeps, law, limits, reward_weights, rotation_mode, obs, reward, code,
                 applied_thrust, applied_moment, rotor_thrusts, saturated, disturbance_force,
                 disturbance_torque):
@@ -231,7 +234,9 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, position,
             x, v, R, w = xn, vn, Rn, wn
             store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
         step_count[i] = row + 1
-        code[i], error = _sense(i, x, v, R, w, reference, row + 1, rotation_mode, limits, obs)
+        reference_row[i] += 1  # time indexes the disturbance tables, this the reference's
+        code[i], error = _sense(i, x, v, R, w, reference, reference_row[i], rotation_mode,
+                                limits, obs)
         if diverged:
             code[i] = 4
         effort = 0.0
@@ -294,10 +299,11 @@ def sensor_kernel(indices, clean, rotation, keys, counters, stds, rotation_mode,
 @njit(cache=True)
 def start_kernel(indices, offsets, rotations, scales, start, nominal, position, velocity,
                  rotation, angular_velocity, physics, applied, disturbance_force,
-                 disturbance_torque, rewards, step_count, actuator_state, hover, reference,
-                 rotation_mode, limits, obs, code):
+                 disturbance_torque, rewards, step_count, reference_row, actuator_state, hover,
+                 reference, rotation_mode, limits, obs, code):
     """New episodes for vehicles ``indices`` (``QuadrotorBatch.reset``): the j-th starts at
-    the scenario's state plus ``offsets[j]`` (position, velocity) and ``rotations[j]``, with
+    the scenario's state plus ``offsets[j]`` (position, then velocity) and ``rotations[j]``,
+    at its ``reference_row`` (set by the caller), with
     the nominal physics times ``scales[j]`` (mass, inertia, drag), nothing applied yet, the
     rotors at hover; then its first observation and termination code. Called with
     ``*StartArguments(...)`` after ``scales``, as ``step_kernel`` is."""
@@ -309,7 +315,7 @@ def start_kernel(indices, offsets, rotations, scales, start, nominal, position, 
         i = indices[j]
         for k in range(3):
             position[i, k] = initial_position[k] + offsets[j, k]
-            velocity[i, k] = initial_velocity[k]
+            velocity[i, k] = initial_velocity[k] + offsets[j, 3 + k]
             angular_velocity[i, k] = initial_angular_velocity[k]
             for c in range(3):
                 rotation[i, k, c] = rotations[j, k, c]
@@ -329,30 +335,8 @@ def start_kernel(indices, offsets, rotations, scales, start, nominal, position, 
             rotor_thrusts[i, k] = 0.0
             actuator_state[i, k] = hover[k]
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        code[i], _ = _sense(i, x, v, R, w, reference, 0, rotation_mode, limits, obs)
-
-
-@njit(cache=True)
-def info_kernel(position, velocity, step_count, dt, reference, disturbance_force,
-                disturbance_torque, applied_thrust, applied_moment, rotor_thrusts, out):
-    """Each vehicle's ``info`` numbers as one row of ``out`` (layout:
-    ``QuadrotorBatch.info_arrays``)."""
-    for i in range(position.shape[0]):
-        r = step_count[i]
-        out[i, 0] = r * dt
-        for k in range(3):
-            out[i, 1 + k] = position[i, k] - reference[r, 0, k]
-            out[i, 4 + k] = velocity[i, k] - reference[r, 1, k]
-            out[i, 7 + k] = reference[r, 0, k]
-            out[i, 10 + k] = reference[r, 1, k]
-            out[i, 13 + k] = reference[r, 2, k]
-            out[i, 16 + k] = reference[r, 5, k]
-            out[i, 19 + k] = disturbance_force[i, k]
-            out[i, 22 + k] = disturbance_torque[i, k]
-            out[i, 26 + k] = applied_moment[i, k]
-        out[i, 25] = applied_thrust[i]
-        for k in range(4):
-            out[i, 29 + k] = rotor_thrusts[i, k]
+        code[i], _ = _sense(i, x, v, R, w, reference, reference_row[i], rotation_mode, limits,
+                            obs)
 
 
 @njit(cache=True)

@@ -61,8 +61,8 @@ class FlightRenderer:
 
     def __init__(self, core, width: int = 480, height: int = 360) -> None:
         self.core, self.width, self.height = core, int(width), int(height)
-        reference = core.reference_table[: core.scenario.steps + 1, 0]
-        self.reference_path = reference
+        # framed on every reference a vehicle may fly (a family's members all)
+        reference = core.member_paths(core.scenario.steps + 1).reshape(-1, 3)
         low, high = reference.min(axis=0), reference.max(axis=0)
         span = float(np.max(high - low))
         self.camera = Camera((low + high) / 2, 1.3 * max(span, 2.0) + 1.5, self.width,
@@ -105,8 +105,8 @@ class FlightRenderer:
         for start, end in self._ground:
             a, b = camera.project(np.stack([start, end]))
             draw.line([tuple(a), tuple(b)], fill=_GROUND, width=1)
-        draw.line([tuple(p) for p in camera.project(self.reference_path)], fill=_REFERENCE,
-                  width=2)
+        path = core.member_reference(index, core.scenario.steps + 1)[:, 0]
+        draw.line([tuple(p) for p in camera.project(path)], fill=_REFERENCE, width=2)
         trail = self.trails.get(index)
         if trail and len(trail) > 1:
             draw.line([tuple(p) for p in camera.project(np.array(trail))], fill=_FLOWN, width=2)

@@ -174,7 +174,7 @@ class ResidualCommand:
             np.ascontiguousarray(self.force_estimate, dtype=np.float64),
             np.ascontiguousarray(self.torque_estimate, dtype=np.float64), self.estimate_scale,
             state.position, state.velocity, state.rotation, core.reference_table,
-            core.step_count, core.action_map.inverse, self._base_action, self._body_errors,
+            core.reference_row, core.action_map.inverse, self._base_action, self._body_errors,
             self.extra_observation)
 
     def info(self) -> dict[str, NDArray]:

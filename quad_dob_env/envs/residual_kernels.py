@@ -71,14 +71,14 @@ def residual_observation_vehicle(i, base_thrust, base_moment, force_estimate, to
 @njit(cache=True)
 def residual_observation_kernel(base_thrust, base_moment, force_estimate, torque_estimate,
                                 estimate_scale, position, velocity, rotation, reference,
-                                step_count, inverse, base_action, body_errors, extra):
-    """``residual_observation_vehicle`` for every vehicle, at its own step's reference row
+                                reference_row, inverse, base_action, body_errors, extra):
+    """``residual_observation_vehicle`` for every vehicle, at its own reference row
     (the separate stages' way to the same entries the fused pass writes)."""
     rotor_mode, centre, scale_up, scale_down, mixer = inverse
     for i in range(base_thrust.shape[0]):
         residual_observation_vehicle(i, base_thrust, base_moment, force_estimate,
                                      torque_estimate, estimate_scale, position, velocity,
-                                     rotation, reference, step_count[i], rotor_mode, centre,
+                                     rotation, reference, reference_row[i], rotor_mode, centre,
                                      scale_up, scale_down, mixer, base_action, body_errors,
                                      extra)
 

@@ -4,11 +4,14 @@
   template: implement ``position_derivatives`` and ``yaw_derivatives`` to add one.
 - ``library``: ``PaperHelix`` (the paper's reference), ``Hover``, ``Circle``,
   ``Lemniscate``, ``TakeoffHoverLanding`` (C³ vertical profile).
+- ``family``: ``TrajectoryFamily`` (members, one per vehicle, drawn at each reset) and
+  ``random_references`` (a seeded pool of smooth random references, by kind).
 
 May import ``validation`` and numpy; nothing of the vehicle or the envs.
 """
 
-from quad_dob_env.trajectories.base import Reference, Trajectory
+from quad_dob_env.trajectories.base import REFERENCE_FIELDS, Reference, Trajectory
+from quad_dob_env.trajectories.family import REFERENCE_KINDS, TrajectoryFamily, random_references
 from quad_dob_env.trajectories.library import (
     Circle,
     Harmonic,
@@ -19,6 +22,8 @@ from quad_dob_env.trajectories.library import (
 )
 
 __all__ = [
+    "REFERENCE_FIELDS",
+    "REFERENCE_KINDS",
     "Circle",
     "Harmonic",
     "Hover",
@@ -27,4 +32,6 @@ __all__ = [
     "Reference",
     "TakeoffHoverLanding",
     "Trajectory",
+    "TrajectoryFamily",
+    "random_references",
 ]

@@ -8,6 +8,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 DERIVATIVE_ORDERS = 5  # position, velocity, acceleration, jerk, snap
+REFERENCE_FIELDS = ("position", "velocity", "acceleration", "jerk", "snap", "heading",
+                    "heading_rate", "heading_acceleration")  # Reference's, in order
 
 
 @dataclass(frozen=True)
@@ -60,6 +62,12 @@ class Trajectory:
             heading_acceleration=yaw_acceleration[:, None] * across
             - (yaw_rate**2)[:, None] * along,
         )
+
+    def table(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``evaluate(times)`` as one (len(times), 8, 3) array, fields in ``Reference``'s
+        order (``REFERENCE_FIELDS``): the layout the compiled kernels read."""
+        ref = self.evaluate(times)
+        return np.stack([getattr(ref, name) for name in REFERENCE_FIELDS], axis=1)
 
     def start_position(self) -> NDArray[np.float64]:
         return self.position_derivatives(np.zeros(1))[0, 0]

@@ -1,0 +1,37 @@
+"""When an episode ends early, and what the reward weighs: the core's two settings records."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from quad_dob_env.validation import as_finite
+
+
+@dataclass(frozen=True)
+class EpisodeLimits:
+    """When an episode ends early (``terminated``); all documented in ``QuadrotorEnv``."""
+
+    max_position_error: float = 5.0  # [m] from the reference
+    max_tilt: float = np.pi / 2  # [rad] between body z and world z
+    max_body_rate: float = 35.0  # [rad/s], any axis
+
+    def __post_init__(self) -> None:
+        as_finite(self.max_position_error, "max_position_error", 0.0, strictly=True)
+        as_finite(self.max_tilt, "max_tilt", 0.0, strictly=True)
+        if self.max_tilt > np.pi:
+            raise ValueError(f"max_tilt must be <= pi, got {self.max_tilt}")
+        as_finite(self.max_body_rate, "max_body_rate", 0.0, strictly=True)
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """``reward = exp(-|e_x| / position_scale) - effort_weight * mean(action²)``."""
+
+    position_scale: float = 0.25  # [m]
+    effort_weight: float = 0.01
+
+    def __post_init__(self) -> None:
+        as_finite(self.position_scale, "reward position_scale", 0.0, strictly=True)
+        as_finite(self.effort_weight, "reward effort_weight", 0.0)

@@ -1,0 +1,158 @@
+"""The ``Scenario`` record: what a flight is, validated when it is built.
+
+A trajectory (or a ``TrajectoryFamily``), disturbances, an initial state, a duration and a
+clock, the actuation and the vehicle; its reference is checked flyable by differential
+flatness (``feasibility``) or refused. The named scenarios are built in ``scenarios``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from quad_dob_env.disturbances import Disturbance, GroundEffect
+from quad_dob_env.feasibility import Feasibility, check_reference, refusal
+from quad_dob_env.params import ACTUATIONS, VehicleParams, get_vehicle
+from quad_dob_env.so3 import project_to_so3
+from quad_dob_env.trajectories import Trajectory, TrajectoryFamily
+from quad_dob_env.validation import as_finite, as_vector3, unknown_name_error
+from quad_dob_env.variation import Randomization, SensorNoise
+
+# Bounds that keep a typo from asking for an absurd experiment: a control period from
+# 0.1 ms to 0.1 s, at most a million steps per episode (its reference is tabulated), and
+# at most 100 physics substeps per control step.
+MIN_DT, MAX_DT, MAX_STEPS, MAX_SUBSTEPS = 1e-4, 0.1, 1_000_000, 100
+
+@dataclass(frozen=True)
+class Scenario:
+    """Everything but the policy: what the vehicle must track, what disturbs it, for how long.
+
+    Every scenario is checked on construction: its reference's thrust, moments, rotor thrusts
+    and body rate by differential flatness (``quad_dob_env.feasibility``) must fit the
+    vehicle's limits, or it is refused with the axis and the numbers (``allow_infeasible``
+    builds it anyway); ``feasibility`` holds the margins.
+
+    Initial state: ``initial_position`` plus a uniform offset in ``±initial_position_noise``
+    per axis; ``initial_rotation`` times ``exp`` of a uniform rotation vector in
+    ``±initial_attitude_noise`` per axis; the given velocity and body rates.
+    ``floor_height`` None means open space (no floor, no crash on the ground).
+    """
+
+    name: str
+    vehicle: VehicleParams
+    trajectory: Trajectory
+    duration: float
+    disturbance: Disturbance | None = None
+    ground_effect: GroundEffect | None = None
+    floor_height: float | None = None
+    initial_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    initial_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    initial_rotation: tuple[tuple[float, ...], ...] = ((1.0, 0, 0), (0, 1.0, 0), (0, 0, 1.0))
+    initial_angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    initial_position_noise: float = 0.0
+    initial_attitude_noise: float = 0.0
+    dt: float = 0.01
+    substeps: int = 1
+    actuation: str = "rotors"
+    drag: bool = False  # the vehicle's drag acts on the air-relative velocity (needed for wind)
+    motor_lag: bool = False  # actuators follow commands with the vehicle's motor time constant
+    sensors: SensorNoise | None = None
+    randomization: Randomization | None = None
+    description: str = field(default="", compare=False)
+    # A reference that needs more than the actuators give is refused unless this is set.
+    allow_infeasible: bool = field(default=False, compare=False)
+    feasibility: Feasibility = field(init=False, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.vehicle, VehicleParams):
+            object.__setattr__(self, "vehicle", get_vehicle(self.vehicle))
+        if not isinstance(self.trajectory, (Trajectory, TrajectoryFamily)):
+            raise ValueError("Scenario.trajectory must be a Trajectory or a TrajectoryFamily, "
+                             f"got {self.trajectory!r}")
+        if self.disturbance is not None and not isinstance(self.disturbance, Disturbance):
+            raise ValueError(
+                f"Scenario.disturbance must be a Disturbance or None, got {self.disturbance!r}"
+            )
+        if self.ground_effect is not None:
+            if not isinstance(self.ground_effect, GroundEffect):
+                raise ValueError(f"Scenario.ground_effect must be a GroundEffect or None, "
+                                 f"got {self.ground_effect!r}")
+            if self.floor_height is None:
+                raise ValueError("Scenario.ground_effect needs a floor: set floor_height")
+            self.ground_effect.law(self.vehicle, self.floor_height)  # validates its heights
+        if self.floor_height is not None:
+            as_finite(self.floor_height, "Scenario.floor_height")
+        for name, kind in (("sensors", SensorNoise), ("randomization", Randomization)):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, kind):
+                if not isinstance(value, dict):
+                    raise ValueError(f"Scenario.{name} must be a {kind.__name__}, a dict of its "
+                                     f"fields or None, got {value!r}")
+                fields_ = [f.name for f in dataclasses.fields(kind)]
+                for key in value:
+                    if key not in fields_:
+                        raise unknown_name_error(f"{kind.__name__} field", key, fields_)
+                object.__setattr__(self, name, kind(**value))
+        dt = as_finite(self.dt, "Scenario.dt", MIN_DT)
+        if dt > MAX_DT:
+            raise ValueError(f"Scenario.dt must be in [{MIN_DT}, {MAX_DT}] s, got {self.dt!r}")
+        duration = as_finite(self.duration, "Scenario.duration", dt)
+        if duration / dt > MAX_STEPS:
+            raise ValueError(f"Scenario.duration / dt must be at most {MAX_STEPS:,} steps (the "
+                             f"reference is tabulated per step), got {duration / dt:,.0f}")
+        if (not isinstance(self.substeps, (int, np.integer)) or isinstance(self.substeps, bool)
+                or not 1 <= self.substeps <= MAX_SUBSTEPS):
+            raise ValueError(f"Scenario.substeps must be an integer in [1, {MAX_SUBSTEPS}], "
+                             f"got {self.substeps!r}")
+        if self.actuation not in ACTUATIONS:
+            raise unknown_name_error("actuation", self.actuation, ACTUATIONS)
+        as_finite(self.initial_position_noise, "Scenario.initial_position_noise", 0.0)
+        if as_finite(self.initial_attitude_noise, "Scenario.initial_attitude_noise", 0.0) > np.pi:
+            raise ValueError("Scenario.initial_attitude_noise is a rotation angle per axis in "
+                             f"[0, pi], got {self.initial_attitude_noise!r}")
+        for name in ("initial_position", "initial_velocity", "initial_angular_velocity"):
+            object.__setattr__(self, name,
+                               tuple(as_vector3(getattr(self, name), f"Scenario.{name}")))
+        rotation = np.asarray(self.initial_rotation, dtype=float)
+        if (rotation.shape != (3, 3) or not np.all(np.isfinite(rotation))
+                or not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-9)
+                or np.linalg.det(rotation) < 0):
+            raise ValueError(
+                "Scenario.initial_rotation must be a rotation matrix, got "
+                f"{self.initial_rotation!r}"
+            )
+        object.__setattr__(self, "initial_rotation",
+                           tuple(tuple(row) for row in project_to_so3(rotation).tolist()))
+        object.__setattr__(self, "duration", duration)
+        family = isinstance(self.trajectory, TrajectoryFamily)
+        members = self.trajectory.members if family else (self.trajectory,)
+        # a family is as feasible as its hardest member
+        checks = [check_reference(member, self.vehicle, self.actuation, duration, dt)
+                  for member in members]
+        hardest = min(range(len(checks)), key=lambda k: checks[k].worst.margin)
+        feasibility = checks[hardest]
+        if not feasibility.feasible and not self.allow_infeasible:
+            name = (f"{self.name} (member {hardest}, a {self.trajectory.kinds[hardest]})"
+                    if family else self.name)
+            raise ValueError(refusal(name, self.vehicle, self.actuation, feasibility))
+        object.__setattr__(self, "feasibility", feasibility)
+
+    @property
+    def steps(self) -> int:
+        """Control steps in one episode."""
+        return math.floor(self.duration / self.dt + 1e-9)
+
+    def initial_rotation_matrix(self) -> NDArray[np.float64]:
+        return np.array(self.initial_rotation)
+
+    def with_changes(self, **changes: object) -> Scenario:
+        """A copy with fields replaced, validated like the original."""
+        fields = [f.name for f in dataclasses.fields(self)]
+        for key in changes:
+            if key not in fields:
+                raise unknown_name_error("Scenario field", key, fields)
+        return dataclasses.replace(self, **changes)

@@ -1,0 +1,93 @@
+"""Reference families: each vehicle flies a member drawn from its own seed at every reset."""
+
+from dataclasses import fields
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from quad_dob_composition import make_vector_env
+from quad_dob_env import make_scenario
+from quad_dob_env.trajectories import (
+    REFERENCE_FIELDS,
+    REFERENCE_KINDS,
+    Reference,
+    TrajectoryFamily,
+    random_references,
+)
+
+SHORT = {"duration": 0.3}
+
+
+def test_the_table_layout_is_the_reference_record_in_order():
+    assert tuple(f.name for f in fields(Reference)) == REFERENCE_FIELDS
+
+
+def test_a_pool_is_seeded_and_bounded_by_the_vehicles_limits():
+    first, again, other = (random_references(s, 12) for s in (4, 4, 5))
+    times = np.linspace(0.0, 10.0, 101)
+    for a, b in zip(first.members, again.members, strict=True):
+        assert np.array_equal(a.table(times), b.table(times))
+    assert any(not np.array_equal(a.table(times), b.table(times))
+               for a, b in zip(first.members, other.members, strict=True))
+    assert set(first.kinds) == set(REFERENCE_KINDS)
+    for name in ("random-tracks", "random-lemniscates"):
+        scenario = make_scenario(name)
+        assert scenario.feasibility.feasible  # every member checked, the hardest kept
+        assert min(scenario.feasibility.margins().values()) > 0.2
+    with pytest.raises(ValueError, match=r"reference kind 'spiral'.*valid"):
+        random_references(0, 3, kinds=("spiral",))
+    with pytest.raises(ValueError, match="one or more Trajectory members"):
+        TrajectoryFamily([])
+
+
+def test_lemniscates_are_held_out_of_the_training_pool():
+    training = make_scenario("random-tracks").trajectory
+    held_out = make_scenario("random-lemniscates").trajectory
+    assert "lemniscate" not in training.kinds and set(held_out.kinds) == {"lemniscate"}
+
+
+def test_each_vehicle_starts_on_its_own_member_and_draws_anew_at_autoreset():
+    env = make_vector_env(16, "random-tracks", scenario_options=SHORT)
+    env.reset(seed=0)
+    core = env.core
+    members = core.reference_member.copy()
+    assert len(set(members.tolist())) > 8  # the batch flies different references
+    reference = core.reference
+    assert np.allclose(core.state.position, reference.position, atol=1e-12)
+    assert np.allclose(core.state.velocity, reference.velocity, atol=1e-12)
+    for _ in range(31):  # 30 steps end the episodes; the next step autoresets them
+        env.step(np.zeros((16, 4)))
+    assert not np.array_equal(core.reference_member, members)
+    assert np.allclose(core.state.position, core.reference.position, atol=1e-12)
+
+
+def test_same_seed_same_reference_and_wind_bit_for_bit_other_seeds_differ():
+    def flight(seed: int) -> np.ndarray:
+        env = make_vector_env(3, "random-tracks", scenario_options=SHORT,
+                              base_controller="geometric-ndob:tuned")
+        obs, _ = env.reset(seed=seed)
+        frames = [obs]
+        for _ in range(25):
+            frames.append(env.step(np.zeros((3, 4)))[0])
+        return np.array(frames)
+
+    assert np.array_equal(flight(7), flight(7))
+    assert not np.allclose(flight(7), flight(8))
+
+
+def test_native_vector_env_equals_single_envs_on_a_family():
+    kwargs = {"num_envs": 3, "scenario": "random-tracks", "scenario_options": SHORT}
+    native = gym.make_vec("QuadDOB/TrackResidual-v1", vectorization_mode="vector_entry_point",
+                          **kwargs)
+    sync = gym.make_vec("QuadDOB/TrackResidual-v1", vectorization_mode="sync", **kwargs)
+    obs, _ = native.reset(seed=11)
+    obs2, _ = sync.reset(seed=11)
+    np.testing.assert_allclose(obs, obs2, rtol=0, atol=1e-5)
+    actions = np.random.default_rng(0).uniform(-0.5, 0.5, (70, 3, 4))
+    for step in range(70):  # two autoresets each
+        obs, rewards, terminated, truncated, _ = native.step(actions[step])
+        obs2, rewards2, terminated2, truncated2, _ = sync.step(actions[step].astype(np.float32))
+        np.testing.assert_allclose(obs, obs2, rtol=0, atol=1e-5)
+        np.testing.assert_allclose(rewards, rewards2, rtol=0, atol=1e-5)
+        assert np.array_equal(terminated | truncated, terminated2 | truncated2)
