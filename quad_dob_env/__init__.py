@@ -17,7 +17,8 @@ entry points as strings.
 Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v1`` and
 ``QuadDOB/Track-v1`` (direct control), and ``QuadDOB/HoverResidual-v1`` and
 ``QuadDOB/TrackResidual-v1`` (a residual on top of ``base_controller``, default the
-recommended ``geometric-ndob:tuned``, in wind); ``gym.make_vec(id, num_envs=N,
+recommended ``geometric-ndob:tuned``, in wind), and ``QuadDOB/TracksResidual-v1`` (the same
+on ``random-tracks``, the task distribution generalists train on); ``gym.make_vec(id, num_envs=N,
 vectorization_mode="vector_entry_point")`` gives the native ``QuadrotorVectorEnv`` for each.
 ``wrappers`` sits below ``envs``. The envs' version history is in ``QuadrotorEnv``'s
 docstring.
@@ -38,6 +39,8 @@ ENV_IDS = {
     # a residual has something to learn only where there is something to reject
     "QuadDOB/HoverResidual-v1": "gusty-hover",
     "QuadDOB/TrackResidual-v1": "dryden-helix-gusts",
+    # generalists: every vehicle a reference of a seeded pool, wind and physics randomised
+    "QuadDOB/TracksResidual-v1": "random-tracks",
 }
 
 

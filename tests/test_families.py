@@ -8,6 +8,7 @@ import pytest
 
 from quad_dob_composition import make_vector_env
 from quad_dob_env import make_scenario
+from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.trajectories import (
     REFERENCE_FIELDS,
     REFERENCE_KINDS,
@@ -56,6 +57,10 @@ def test_each_vehicle_starts_on_its_own_member_and_draws_anew_at_autoreset():
     reference = core.reference
     assert np.allclose(core.state.position, reference.position, atol=1e-12)
     assert np.allclose(core.state.velocity, reference.velocity, atol=1e-12)
+    # and at the attitude that flies it: a circle starts tilted into its turn
+    flat = flat_attitude(reference, core.vehicle.mass, core.vehicle.gravity).rotation
+    assert np.allclose(core.state.rotation, flat, atol=1e-12)
+    assert not np.allclose(core.state.rotation, np.eye(3))
     for _ in range(31):  # 30 steps end the episodes; the next step autoresets them
         env.step(np.zeros((16, 4)))
     assert not np.array_equal(core.reference_member, members)

@@ -178,3 +178,28 @@ def test_residual_ids_default_to_the_recommended_base_in_wind(env_id):
     scenario = env.unwrapped.core.scenario
     assert scenario.drag and scenario.disturbance is not None
     assert "Dryden" in repr(scenario.disturbance)
+
+
+def test_the_authority_gate_keeps_the_residual_out_where_nothing_disturbs():
+    def flight(scenario, residual, gate, compiled=True):
+        env = ResidualVectorEnv(2, scenario, compiled=compiled, authority_gate=gate,
+                                scenario_options={"duration": 1.0})
+        env.reset(seed=3)
+        for _ in range(100):
+            obs, *_ = env.step(np.full((2, 4), residual))
+        return obs, env.residual.gated(np.full((2, 4), residual))
+
+    # calm: the observer sees no disturbance, so any residual flies the base exactly
+    assert np.array_equal(flight("paper-none", 0.8, 0.05)[0],
+                          flight("paper-none", 0.0, None)[0])
+    # a constant push of 0.083 weights: past a gate of 0.05 the residual has all its
+    # authority, against a gate of 0.12 part of it (2 * 0.083 / 0.12 - 1 = 0.38)
+    assert np.allclose(flight("paper-II", 0.3, 0.05)[1], 0.3, rtol=0, atol=1e-12)
+    obs, gated = flight("paper-II", 0.3, 0.12)
+    assert np.allclose(gated, 0.3 * (2 * 0.0829 / 0.12 - 1), rtol=0, atol=3e-3)
+    assert not np.allclose(obs, flight("paper-II", 0.0, None)[0])
+    # the stages and the compiled pass gate alike
+    np.testing.assert_allclose(obs, flight("paper-II", 0.3, 0.12, compiled=False)[0],
+                               rtol=0, atol=1e-9)
+    with pytest.raises(ValueError, match="authority_gate"):
+        ResidualVectorEnv(1, "paper-II", authority_gate=-1.0)

@@ -41,6 +41,9 @@ SUITE = {
     "wind": ("dryden-helix", "dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind"),
     "calm": ("paper-none", "hover-calm", "ground-effect-landing"),
     "forces": ("paper-I", "paper-II", "paper-IIA", "hover-step-force"),
+    # random references in randomised wind: the training pool (on unseen seeds), and a
+    # kind held out of training
+    "references": ("random-tracks", "random-lemniscates"),
 }
 # the leaderboard's cells: mean [95 % CI]
 LEADERBOARD = (("rms_position_settled", "RMS ‖e_x‖ [m]"), ("rms_tilt_settled", "tilt [rad]"),

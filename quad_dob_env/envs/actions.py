@@ -21,7 +21,11 @@ from quad_dob_env.envs.kernels import (
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.validation import unknown_name_error
 
-ACTION_MODES = ("thrust_moments", "rotor_thrusts")
+ACTION_MODES = ("thrust_moments", "rotor_thrusts", "thrust_rates")
+# thrust_rates: the inner rate loop's bandwidth [1/s] (a fifth of the 100 Hz control rate,
+# so one step's correction never overshoots) and the largest body rate it is asked for
+RATE_GAIN = 20.0
+MAX_RATE_COMMAND = 4.0  # [rad/s]
 INVALID_ACTION_MODES = ("raise", "terminate")
 
 
@@ -39,7 +43,9 @@ class ActionMap:
         if action_mode not in ACTION_MODES:
             raise unknown_name_error("action_mode", action_mode, ACTION_MODES)
         self.action_mode = action_mode
-        if action_mode == "thrust_moments":
+        # thrust_rates flies through thrust_moments: the rate loop turns rates into moments
+        self.rate_loop = RateLoop(actuator.moment_limit) if action_mode == "thrust_rates" else None
+        if action_mode in ("thrust_moments", "thrust_rates"):
             moment = actuator.moment_limit
             centre = np.array([vehicle.hover_thrust, 0.0, 0.0, 0.0])
             scale_up = np.concatenate([[vehicle.max_total_thrust - vehicle.hover_thrust], moment])
@@ -52,6 +58,13 @@ class ActionMap:
         rotor_mode = action_mode == "rotor_thrusts"
         self.forward = (rotor_mode, centre, scale_up, scale_down, vehicle.allocation_matrix)
         self.inverse = (rotor_mode, centre, scale_up, scale_down, vehicle.mixer_matrix)
+
+    def flown(self, actions: NDArray, angular_velocity: NDArray, inertia: NDArray) -> NDArray:
+        """The actions the compiled step takes: ``actions`` themselves, or with
+        ``thrust_rates`` the thrust-and-moment actions its rate loop commands now."""
+        if self.rate_loop is None:
+            return actions
+        return self.rate_loop.moment_actions(actions, angular_velocity, inertia)
 
     def to_actions(self, thrust: NDArray, moment: NDArray) -> NDArray[np.float64]:
         """The normalised actions (N, 4) that command ``thrust`` (N,) and ``moment`` (N, 3),
@@ -69,6 +82,30 @@ class ActionMap:
         thrust, moment = np.empty(len(actions)), np.empty((len(actions), 3))
         command_from_action_batch(actions, *self.forward, thrust, moment)
         return thrust, moment
+
+
+class RateLoop:
+    """Collective thrust and body rates -> thrust and moments, the inner loop rotorpy and
+    "Learning to Fly in Seconds" give their policies: action entries 1-3 ask for body
+    rates ``ω_cmd = a · MAX_RATE_COMMAND``, and each control step commands
+    ``M = J k_ω (ω_cmd - ω) + ω × J ω`` (Lee et al. 2010, eq. 16's rate and gyroscopic
+    terms), as the moment actions the core flies; entry 0 stays the collective thrust."""
+
+    def __init__(self, moment_limit: NDArray, gain: float = RATE_GAIN,
+                 max_rate: float = MAX_RATE_COMMAND) -> None:
+        self.moment_limit, self.gain, self.max_rate = np.asarray(moment_limit), gain, max_rate
+
+    def moment_actions(self, actions: NDArray, angular_velocity: NDArray,
+                       inertia: NDArray) -> NDArray[np.float64]:
+        """(N, 4) thrust-and-rate actions as thrust-and-moment actions, for body rates
+        ``angular_velocity`` (N, 3) and inertias (N, 3, 3)."""
+        commanded = np.clip(actions[:, 1:], -1.0, 1.0) * self.max_rate
+        spin = np.einsum("nij,nj->ni", inertia, angular_velocity)
+        moment = (self.gain * np.einsum("nij,nj->ni", inertia, commanded - angular_velocity)
+                  + np.cross(angular_velocity, spin))
+        out = np.array(actions, dtype=np.float64)
+        out[:, 1:] = moment / self.moment_limit
+        return out
 
 
 _NO_ROWS = np.zeros(0, dtype=np.intp)

@@ -37,6 +37,7 @@ from quad_dob_env.envs.kernels import (
     step_kernel,
 )
 from quad_dob_env.envs.limits import EpisodeLimits, RewardWeights
+from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.so3 import exp as so3_exp
 from quad_dob_env.threads import run_over_batch
@@ -151,16 +152,13 @@ class QuadrotorBatch:
         if self.sensors is None:
             return
         history, slot = self._history, self._history_slot
-        if reset:
-            sensor_kernel(indices, self._clean_obs, self.state.rotation, self._sensor_keys,
-                           self._sensor_counters, self._sensor_stds, self._rotation_mode,
-                           history[slot])
-            history[:, indices] = history[slot, indices]  # no older readings yet
-        else:
+        if not reset:  # a step: the ring turns; a reset overwrites the newest reading
             slot = self._history_slot = (slot + 1) % len(history)
-            sensor_kernel(indices, self._clean_obs, self.state.rotation, self._sensor_keys,
-                           self._sensor_counters, self._sensor_stds, self._rotation_mode,
-                           history[slot])
+        sensor_kernel(indices, self._clean_obs, self.state.rotation, self._sensor_keys,
+                      self._sensor_counters, self._sensor_stds, self._rotation_mode,
+                      history[slot])
+        if reset:
+            history[:, indices] = history[slot, indices]  # no older readings yet
         # the reading taken delay_steps ago, the oldest in the ring
         self.obs[indices] = history[(slot + 1) % len(history), indices]
 
@@ -184,8 +182,11 @@ class QuadrotorBatch:
         self._reference_table = np.ascontiguousarray(
             np.concatenate([member.table(times) for member in self._members]))
         self._member_rows = rows
-        # a member's start: where (and how fast) its vehicle begins, noise aside
-        self._member_starts = self._reference_table[::rows, :2].reshape(-1, 6)
+        # a member's start (noise aside): position, velocity and the attitude that flies it
+        firsts = self._reference_table[::rows]
+        self._member_starts = firsts[:, :2].reshape(-1, 6)
+        self._member_rotations = flat_attitude(Reference(*firsts.transpose(1, 0, 2)),
+                                               self.vehicle.mass, self.vehicle.gravity).rotation
         self.reference_row[:] = self.reference_member * rows + self.step_count
         grid = times[:, None] + self._sample_offsets
         channels = [np.zeros((*grid.shape, 3)) for _ in range(3)]  # force, torque, wind
@@ -214,8 +215,7 @@ class QuadrotorBatch:
 
     def member_paths(self, steps: int) -> NDArray[np.float64]:
         """Every member's reference position over its first ``steps`` rows, (K, steps, 3)."""
-        blocks = self._reference_table.reshape(len(self._members), self._member_rows, 8, 3)
-        return blocks[:, :steps, 0]
+        return self._reference_table.reshape(len(self._members), -1, 8, 3)[:, :steps, 0]
 
     @property
     def reference(self) -> Reference:
@@ -236,16 +236,16 @@ class QuadrotorBatch:
                              f"{len(rngs)} generators")
         sc = self.scenario
         count = len(indices)
-        members = np.zeros(count, dtype=np.int64)
-        if len(self._members) > 1:  # the reference first: the start is relative to it
-            for j, rng in enumerate(rngs):
-                members[j] = rng.integers(len(self._members))
+        members = np.zeros(count, dtype=np.int64)  # which reference of a family
         draws = np.empty((count, 6))  # position offset, attitude offset (rotation vector)
         scales = np.ones((count, 3))  # mass, inertia, drag
         randomization = sc.randomization
         for j, rng in enumerate(rngs):
-            # fixed draw order per vehicle: position, attitude (one call, the same numbers
-            # as two), randomisation, sensor key, then the disturbance
+            # fixed draw order per vehicle: a family's member (the start is relative to it),
+            # position, attitude (one call, the same numbers as two), randomisation, sensor
+            # key, then the disturbance
+            if len(self._members) > 1:
+                members[j] = rng.integers(len(self._members))
             draws[j] = rng.uniform(-1.0, 1.0, 6)
             if randomization is not None:
                 r = randomization
@@ -255,11 +255,13 @@ class QuadrotorBatch:
                 self._sensor_counters[indices[j]] = 0
         offsets = np.zeros((count, 6))  # position, velocity
         offsets[:, :3] = draws[:, :3] * sc.initial_position_noise
-        if len(self._members) > 1:  # on the member's start, not the scenario's
+        first = self._initial_rotation
+        if len(self._members) > 1:  # on the member's start and attitude, not the scenario's
             offsets += self._member_starts[members] - np.concatenate(self._start[:2])
+            first = self._member_rotations[members]
         self.reference_member[indices] = members
         self.reference_row[indices] = members * self._member_rows
-        rotations = self._initial_rotation @ so3_exp(draws[:, 3:] * sc.initial_attitude_noise)
+        rotations = first @ so3_exp(draws[:, 3:] * sc.initial_attitude_noise)
         start_kernel(indices, offsets, rotations, scales, *self._kernel_arguments()[1])
         random = self.random_disturbance
         if random is not None:
@@ -283,7 +285,8 @@ class QuadrotorBatch:
         true ``disturbance_force`` / ``disturbance_torque``.
         """
         self.prepare_step()
-        self._actions[...] = actions
+        self._actions[...] = self.action_map.flown(actions, self.state.angular_velocity,
+                                                   self.inertia)
         run_over_batch(step_kernel, self.n, self._actions, *self._kernel_arguments()[0])
         self.finish_step()
 

@@ -40,6 +40,11 @@ class QuadrotorEnv(gym.Env):
     |--------------------|-------------------------------|-----------------------------------|
     | ``thrust_moments`` | collective thrust, Mx, My, Mz | [0, 4 f_max] N; ±moment limit N m |
     | ``rotor_thrusts``  | thrust of rotors 1..4         | [0, f_max] N each                 |
+    | ``thrust_rates``   | collective thrust, ωx, ωy, ωz | [0, 4 f_max] N; ±4 rad/s body rate|
+
+    ``thrust_rates`` flies the body rates through an inner loop at the control rate,
+    ``M = J k_ω (ω_cmd - ω) + ω × J ω`` with ``k_ω = 20 /s`` (``envs.actions.RateLoop``), as
+    rotorpy and "Learning to Fly in Seconds" give their policies; direct control only.
 
     ``f_max`` is the vehicle's ``max_rotor_thrust``.
 

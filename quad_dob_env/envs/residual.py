@@ -15,6 +15,11 @@ Applied command (before the actuators' own limits):
 ``thrust = base_thrust + thrust_scale · max_total_thrust · a₀``,
 ``moment_k = base_moment_k + moment_scale · moment_limit_k · a_k`` (k = 1..3),
 with the residual ``a`` clipped to [-1, 1]. A zero residual gives the base command exactly.
+With ``authority_gate`` = g (a fraction of the weight), ``a`` is first multiplied by
+``clip(2 ‖d̂x‖ / (g m g₀) - 1, 0, 1)``, from the force disturbance the observer sees now (the
+observation's entries 4-6): below half the gate (nothing, or the observer's own small model
+error, disturbs the vehicle) the residual has no authority and the base flies alone, bit
+for bit; from the gate up it has all of it.
 
 Observation: the env's own observation followed by 16 entries, from the state the base
 controller reads:
@@ -82,8 +87,14 @@ class ResidualCommand:
     def __init__(self, core: QuadrotorBatch, base_controller: Any,
                  thrust_scale: float = 0.1, moment_scale: float = 0.1,
                  residual_effort_weight: float = 0.01,
-                 fused_pass: Callable[[ResidualCommand], Any] | None = None) -> None:
+                 fused_pass: Callable[[ResidualCommand], Any] | None = None,
+                 authority_gate: float | None = None) -> None:
+        if core.action_map.rate_loop is not None:
+            raise ValueError("a residual adds to its base's thrust and moments: "
+                             "action_mode='thrust_rates' is for direct control only")
         self.core = core
+        self.authority_gate = (None if authority_gate is None else
+                               as_finite(authority_gate, "authority_gate", 0.0, strictly=True))
         self.controller = check_controller(base_controller)
         self.thrust_scale = as_finite(thrust_scale, "residual thrust_scale", 0.0, strictly=True)
         self.moment_scale = as_finite(moment_scale, "residual moment_scale", 0.0, strictly=True)
@@ -131,7 +142,7 @@ class ResidualCommand:
         one compiled pass when it was given one (``fused_pass``), else ``command``,
         ``core.step``, ``record`` and ``plan``."""
         if self._fused is not None:
-            self._fused.fly(residual)
+            self._fused.fly(self.gated(residual))
             return
         self.core.step(self.command(residual))
         self.record()
@@ -144,11 +155,21 @@ class ResidualCommand:
         core = self.core
         self._state_before = core.state.copy()
         actions = np.empty((core.n, 4))
+        residual = self.gated(residual)
         residual_command_kernel(0, core.n, np.ascontiguousarray(residual, dtype=np.float64),
                                 self.residual_range, np.ascontiguousarray(self.base_thrust),
                                 np.ascontiguousarray(self.base_moment), core.action_map.inverse,
                                 self._residual, self.requested_thrust, actions)
         return actions
+
+    def gated(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``residual`` clipped and scaled by the authority the observed disturbance gives
+        (module docstring); unchanged without ``authority_gate``."""
+        if self.authority_gate is None:
+            return residual
+        seen = np.linalg.norm(self.extra_observation[:, 4:7], axis=1)  # |d̂x| / (m g)
+        authority = np.clip(2.0 * seen / self.authority_gate - 1.0, 0.0, 1.0)
+        return np.clip(residual, -1.0, 1.0) * authority[:, None]
 
     def record(self) -> None:
         """After the core flew ``command``'s actions: tell the controller what was applied

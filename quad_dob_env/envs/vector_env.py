@@ -74,7 +74,8 @@ class QuadrotorVectorEnv(VectorEnv):
                  moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
                  invalid_actions: str = "raise", fused_pass: Any = None,
                  max_episode_steps: int | None = None,
-                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP) -> None:
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+                 authority_gate: float | None = None) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -102,7 +103,7 @@ class QuadrotorVectorEnv(VectorEnv):
                              + ", ".join(mode.value for mode in modes))
         self.residual = None if base_controller is None else ResidualCommand(
             self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
-            fused_pass)
+            fused_pass, authority_gate)
         # None without a base; with one, its name and gains (also in the reset info)
         self.base_controller = (None if self.residual is None
                                 else self.residual.controller.describe())
