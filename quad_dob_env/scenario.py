@@ -55,6 +55,9 @@ class Scenario:
     initial_angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     initial_position_noise: float = 0.0
     initial_attitude_noise: float = 0.0
+    # [s] each episode starts at a point of the reference drawn uniformly from [0, this],
+    # on it (position, velocity, flat attitude); time and the disturbances still start at 0
+    reference_start_spread: float = 0.0
     dt: float = 0.01
     substeps: int = 1
     actuation: str = "rotors"
@@ -111,6 +114,7 @@ class Scenario:
         if self.actuation not in ACTUATIONS:
             raise unknown_name_error("actuation", self.actuation, ACTUATIONS)
         as_finite(self.initial_position_noise, "Scenario.initial_position_noise", 0.0)
+        as_finite(self.reference_start_spread, "Scenario.reference_start_spread", 0.0)
         if as_finite(self.initial_attitude_noise, "Scenario.initial_attitude_noise", 0.0) > np.pi:
             raise ValueError("Scenario.initial_attitude_noise is a rotation angle per axis in "
                              f"[0, pi], got {self.initial_attitude_noise!r}")
@@ -131,7 +135,8 @@ class Scenario:
         family = isinstance(self.trajectory, TrajectoryFamily)
         members = self.trajectory.members if family else (self.trajectory,)
         # a family is as feasible as its hardest member
-        checks = [check_reference(member, self.vehicle, self.actuation, duration, dt)
+        checks = [check_reference(member, self.vehicle, self.actuation,
+                                  duration + self.reference_start_spread, dt)
                   for member in members]
         hardest = min(range(len(checks)), key=lambda k: checks[k].worst.margin)
         feasibility = checks[hardest]

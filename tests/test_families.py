@@ -96,3 +96,27 @@ def test_native_vector_env_equals_single_envs_on_a_family():
         np.testing.assert_allclose(obs, obs2, rtol=0, atol=1e-5)
         np.testing.assert_allclose(rewards, rewards2, rtol=0, atol=1e-5)
         assert np.array_equal(terminated | truncated, terminated2 | truncated2)
+
+
+def test_a_spread_start_begins_each_episode_on_a_drawn_point_of_the_reference():
+    options = {"reference_start_spread": 2.0, "duration": 0.5}
+    env = make_vector_env(8, "dryden-helix-gusts", scenario_options=options)
+    env.reset(seed=4)
+    core = env.core
+    starts = core.reference_start.copy()
+    assert len(set(starts.tolist())) > 4 and starts.max() <= 200
+    assert (core.step_count == 0).all() and np.all(core.time == 0.0)  # the clock starts at 0
+    reference = core.reference
+    helix = core.scenario.trajectory.evaluate(starts * core.scenario.dt)
+    np.testing.assert_allclose(reference.position, helix.position, atol=1e-12)
+    assert np.allclose(core.state.position, reference.position, atol=1e-12)
+    assert np.allclose(core.state.velocity, reference.velocity, atol=1e-12)
+    flat = flat_attitude(reference, core.vehicle.mass, core.vehicle.gravity).rotation
+    assert np.allclose(core.state.rotation, flat, atol=1e-12)
+    for _ in range(50):  # past the end of the episode: the table grows as the rows run on
+        env.step(np.zeros((8, 4)))
+    again = make_vector_env(8, "dryden-helix-gusts", scenario_options=options)
+    again.reset(seed=4)
+    assert np.array_equal(again.core.reference_start, starts)
+    with pytest.raises(ValueError, match="reference_start_spread"):
+        make_scenario("dryden-helix", reference_start_spread=-1.0)

@@ -308,6 +308,9 @@ def plot_training_curve(evaluations: Path, path: Path) -> None:
     if "base_rms_position" in rows[0]:
         axis.axhline(float(rows[0]["base_rms_position"]), color="k", linestyle="--",
                      label="base controller alone")
+    errors = [float(row["rms_position"]) for row in rows]
+    if max(errors) > 20 * min(errors) > 0:  # from a crash to millimetres: on a log scale
+        axis.set_yscale("log")
     axis.set_xlabel("timesteps")
     axis.set_ylabel("RMS position error, t ≥ 2 s [m]")
     axis.set_title(f"held-out seeds {EVAL_SEEDS[0]}-{EVAL_SEEDS[-1]}", fontsize=9)

@@ -14,6 +14,7 @@ integration -> observation, reward, termination.
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -32,11 +33,11 @@ from quad_dob_env.envs.info import INFO_COLUMNS, INFO_WIDTH, info_kernel
 from quad_dob_env.envs.kernels import (
     StartArguments,
     StepArguments,
-    sensor_kernel,
     start_kernel,
     step_kernel,
 )
 from quad_dob_env.envs.limits import EpisodeLimits, RewardWeights
+from quad_dob_env.envs.sensing import SensorStage
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.so3 import exp as so3_exp
@@ -84,9 +85,11 @@ class QuadrotorBatch:
                          else (trajectory,))
         # which member each vehicle flies, and its row in the stacked reference table
         self.reference_member = np.zeros(n, dtype=np.int64)
+        self.reference_start = np.zeros(n, dtype=np.int64)  # its start's row in the member
         self.reference_row = np.zeros(n, dtype=np.int64)
         self.step_count = np.zeros(n, dtype=np.int64)
-        self._tabulate(scenario.steps + 1)
+        self._start_steps = math.floor(scenario.reference_start_spread / scenario.dt + 1e-9)
+        self._tabulate(scenario.steps + 1 + self._start_steps)
         # an episode is truncated after this many steps: the scenario's, or fewer where a
         # client asks for a shorter time limit (``set_time_limit``)
         self.episode_steps = scenario.steps
@@ -109,7 +112,6 @@ class QuadrotorBatch:
         self.mass, self.inertia, self.inertia_inverse, self.drag = physics_arrays(
             self.vehicle, n, scenario.drag)
         self.sampled: list[dict[str, float]] = [{} for _ in range(n)]
-        self._setup_sensors(scenario.sensors)
         self.actuator_state = np.zeros((n, 4))
         self._actuation = self.actuator.kernel_arguments()
         time_constant = self.vehicle.motor_time_constant if scenario.motor_lag else 0.0
@@ -123,44 +125,15 @@ class QuadrotorBatch:
         self._reward = (float(self.reward_weights.position_scale),
                         float(self.reward_weights.effort_weight))
         self._rotation_mode = 0 if rotation_representation == "matrix" else 1
+        self.sensors = scenario.sensors
+        self._sensing = SensorStage(scenario.sensors, self.obs, self._rotation_mode)
+        self._all = np.arange(n)
         # what a reset writes, looked up once: a reset of a few vehicles is mostly fixed cost
         self._start = tuple(np.asarray(value, dtype=float) for value in (
             scenario.initial_position, scenario.initial_velocity,
             scenario.initial_angular_velocity))
         self._initial_rotation = scenario.initial_rotation_matrix()
         self._hover_output = self.actuator.hover_output()
-
-    def _setup_sensors(self, sensors) -> None:
-        """Without sensor noise or delay the kernel writes the observation itself; with them
-        it writes the clean one here, and the sensor stage makes what the agent sees."""
-        n = self.n
-        self.sensors = sensors
-        self._all = np.arange(n)
-        self._clean_obs = self.obs if sensors is None else np.zeros_like(self.obs)
-        if sensors is None:
-            return
-        self._sensor_stds = (float(sensors.position_std), float(sensors.velocity_std),
-                             float(sensors.attitude_std), float(sensors.rate_std))
-        self._sensor_keys = np.zeros(n, dtype=np.uint64)
-        self._sensor_counters = np.zeros(n, dtype=np.int64)
-        self._history = np.zeros((sensors.delay_steps + 1, n, self.observation_size),
-                                 dtype=np.float32)
-        self._history_slot = 0
-
-    def _measure(self, indices: NDArray[np.intp], reset: bool) -> None:
-        """Apply the sensor model to vehicles ``indices`` (all of them after a step)."""
-        if self.sensors is None:
-            return
-        history, slot = self._history, self._history_slot
-        if not reset:  # a step: the ring turns; a reset overwrites the newest reading
-            slot = self._history_slot = (slot + 1) % len(history)
-        sensor_kernel(indices, self._clean_obs, self.state.rotation, self._sensor_keys,
-                      self._sensor_counters, self._sensor_stds, self._rotation_mode,
-                      history[slot])
-        if reset:
-            history[:, indices] = history[slot, indices]  # no older readings yet
-        # the reading taken delay_steps ago, the oldest in the ring
-        self.obs[indices] = history[(slot + 1) % len(history), indices]
 
     def _split_disturbance(self, disturbance: Disturbance | None) -> None:
         """Tabulate what depends on time alone; keep random parts to evaluate each step."""
@@ -182,12 +155,8 @@ class QuadrotorBatch:
         self._reference_table = np.ascontiguousarray(
             np.concatenate([member.table(times) for member in self._members]))
         self._member_rows = rows
-        # a member's start (noise aside): position, velocity and the attitude that flies it
-        firsts = self._reference_table[::rows]
-        self._member_starts = firsts[:, :2].reshape(-1, 6)
-        self._member_rotations = flat_attitude(Reference(*firsts.transpose(1, 0, 2)),
-                                               self.vehicle.mass, self.vehicle.gravity).rotation
-        self.reference_row[:] = self.reference_member * rows + self.step_count
+        self.reference_row[:] = (self.reference_member * rows + self.reference_start
+                                 + self.step_count)
         grid = times[:, None] + self._sample_offsets
         channels = [np.zeros((*grid.shape, 3)) for _ in range(3)]  # force, torque, wind
         for part in self._timed_parts:
@@ -237,30 +206,34 @@ class QuadrotorBatch:
         sc = self.scenario
         count = len(indices)
         members = np.zeros(count, dtype=np.int64)  # which reference of a family
+        starts = np.zeros(count, dtype=np.int64)  # from which of its rows
         draws = np.empty((count, 6))  # position offset, attitude offset (rotation vector)
         scales = np.ones((count, 3))  # mass, inertia, drag
         randomization = sc.randomization
         for j, rng in enumerate(rngs):
-            # fixed draw order per vehicle: a family's member (the start is relative to it),
-            # position, attitude (one call, the same numbers as two), randomisation, sensor
-            # key, then the disturbance
+            # fixed draw order per vehicle: a family's member and the start's row on it (the
+            # start is relative to them), position, attitude (one call, the same numbers as
+            # two), randomisation, sensor key, then the disturbance
             if len(self._members) > 1:
                 members[j] = rng.integers(len(self._members))
+            if self._start_steps:
+                starts[j] = rng.integers(self._start_steps + 1)
             draws[j] = rng.uniform(-1.0, 1.0, 6)
             if randomization is not None:
                 r = randomization
                 scales[j] = [rng.uniform(*r.mass), rng.uniform(*r.inertia), rng.uniform(*r.drag)]
-            if self.sensors is not None:
-                self._sensor_keys[indices[j]] = rng.integers(0, 2**63, dtype=np.uint64)
-                self._sensor_counters[indices[j]] = 0
+            self._sensing.start(int(indices[j]), rng)
         offsets = np.zeros((count, 6))  # position, velocity
         offsets[:, :3] = draws[:, :3] * sc.initial_position_noise
+        rows = members * self._member_rows + starts
+        self.reference_member[indices], self.reference_start[indices] = members, starts
+        self.reference_row[indices] = rows
         first = self._initial_rotation
-        if len(self._members) > 1:  # on the member's start and attitude, not the scenario's
-            offsets += self._member_starts[members] - np.concatenate(self._start[:2])
-            first = self._member_rotations[members]
-        self.reference_member[indices] = members
-        self.reference_row[indices] = members * self._member_rows
+        if len(self._members) > 1 or self._start_steps:  # on its reference where it starts:
+            firsts = self._reference_table[rows]  # position, velocity, the attitude flying it
+            offsets += firsts[:, :2].reshape(-1, 6) - np.concatenate(self._start[:2])
+            first = flat_attitude(Reference(*firsts.transpose(1, 0, 2)), self.vehicle.mass,
+                                  self.vehicle.gravity).rotation
         rotations = first @ so3_exp(draws[:, 3:] * sc.initial_attitude_noise)
         start_kernel(indices, offsets, rotations, scales, *self._kernel_arguments()[1])
         random = self.random_disturbance
@@ -274,7 +247,7 @@ class QuadrotorBatch:
                 **({} if random is None else random.sampled_parameters(index)),
             }
         self._reference_now = None
-        self._measure(indices, reset=True)
+        self._sensing.measure(indices, self.state.rotation, reset=True)
 
     # --- step -----------------------------------------------------------------------------
     def step(self, actions: NDArray[np.float64]) -> None:
@@ -295,9 +268,10 @@ class QuadrotorBatch:
         disturbances sampled over the step."""
         self._reference_now = None
         rows = self._reference_table.shape[0]
-        if self._most_steps + 1 >= rows:  # maybe flown past the scenario's end
+        ahead = self._start_steps + 1  # the most rows a reference may be ahead of time
+        if self._most_steps + ahead >= rows:  # maybe flown past the scenario's end
             self._most_steps = int(self.step_count.max())
-            if self._most_steps + 1 >= rows:
+            if self._most_steps + ahead >= rows:
                 self._tabulate(2 * rows)
         self._most_steps += 1  # every vehicle's count grows by one; a reset only lowers it
         random = self.random_disturbance
@@ -323,7 +297,7 @@ class QuadrotorBatch:
                 step_count=self.step_count, reference_row=self.reference_row,
                 actuator_state=self.actuator_state,
                 hover=self._hover_output, reference=self._reference_table,
-                rotation_mode=self._rotation_mode, limits=self._limits, obs=self._clean_obs,
+                rotation_mode=self._rotation_mode, limits=self._limits, obs=self._sensing.clean,
                 code=self.termination_code)
             self._kernel_tuples = (tuple(self.step_arguments()), tuple(start))
             self._kernel_tables = self._reference_table
@@ -342,14 +316,14 @@ class QuadrotorBatch:
                      self.drag),
             dt=sc.dt, substeps=sc.substeps, law=self._law, limits=self._limits,
             reward_weights=self._reward, rotation_mode=self._rotation_mode,
-            obs=self._clean_obs, reward=self.rewards, code=self.termination_code,
+            obs=self._sensing.clean, reward=self.rewards, code=self.termination_code,
             applied_thrust=applied.thrust, applied_moment=applied.moment,
             rotor_thrusts=applied.rotor_thrusts, saturated=applied.saturated,
             disturbance_force=self.disturbance_force, disturbance_torque=self.disturbance_torque)
 
     def finish_step(self) -> None:
         """After the compiled pass: the sensor model on the new observations."""
-        self._measure(self._all, reset=False)
+        self._sensing.measure(self._all, self.state.rotation, reset=False)
 
     def info_arrays(self) -> dict[str, NDArray]:
         """Every vehicle's ``info`` numbers now, (N,) or (N, k) each: ``time``, the position

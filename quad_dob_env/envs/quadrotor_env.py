@@ -124,7 +124,10 @@ class QuadrotorEnv(gym.Env):
       turbulence computed for that altitude and a mean wind set apart from the turbulence
       (calm / light / moderate presets); landings end at 8 cm, inside the ground-effect
       law's range; the residual ids default to the recommended ``geometric-ndob:tuned``
-      and to a windy scenario (``gusty-hover``, ``dryden-helix-gusts``).
+      and to a windy scenario (``gusty-hover``, ``dryden-helix-gusts``). Added within v1,
+      nothing existing changed: ``action_mode="thrust_rates"``, reference families
+      (``random-tracks``, ``random-lemniscates``, ``QuadDOB/TracksResidual-v1``) and the
+      residual's ``authority_gate``.
     - v0: the first release (the paper's vehicle and scenarios, Dryden wind, residual RL).
     """
 
