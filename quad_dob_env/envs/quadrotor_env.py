@@ -126,8 +126,8 @@ class QuadrotorEnv(gym.Env):
       law's range; the residual ids default to the recommended ``geometric-ndob:tuned``
       and to a windy scenario (``gusty-hover``, ``dryden-helix-gusts``). Added within v1,
       nothing existing changed: ``action_mode="thrust_rates"``, reference families
-      (``random-tracks``, ``random-lemniscates``, ``QuadDOB/TracksResidual-v1``) and the
-      residual's ``authority_gate``.
+      (``random-tracks``, ``random-lemniscates``, ``QuadDOB/TracksResidual-v1``), the
+      scenario option ``reference_start_spread`` and the residual's ``authority_gate``.
     - v0: the first release (the paper's vehicle and scenarios, Dryden wind, residual RL).
     """
 
