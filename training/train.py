@@ -330,22 +330,24 @@ def main(algo: str, mode: str, env_id: str, scenario: str | None, timesteps: int
     if resume is not None and not Path(resume).exists():
         raise ValueError(f"--resume {str(resume)!r} does not exist: give a run folder, a "
                          "checkpoint's .state or a model .zip")
-    state_path = None
     if resume is not None and Path(resume).suffix != ".zip":
+        # a checkpoint carries its run's whole config: nothing is resolved again (the
+        # hyperparameter file may have changed, or be a --conf-file given no longer)
         state_path = Path(resume) if Path(resume).is_file() else latest_checkpoint(resume)
         saved = load_state(state_path)["config"]
-        algo, mode, env_id, seed = saved["algo"], saved["mode"], saved["env_id"], saved["seed"]
-        timesteps = timesteps or saved["n_timesteps"]
-        out = out or state_path.parent.parent
+        config = {**saved, "n_timesteps": int(timesteps or saved["n_timesteps"])}
+        train(config, Path(out or state_path.parent.parent), state_path, checkpoint_every,
+              evaluate_every, progress_bar)
+        return 0
     config = resolve_config(algo, mode, env_id, scenario, timesteps, n_envs, seed,
                             base_controller, hyperparams)
-    if resume is not None and state_path is None:
+    if resume is not None:
         # a bare model: the run's observation statistics, from its config.yaml
         for folder in (Path(resume).parent, Path(resume).parent.parent):
             if (folder / "config.yaml").is_file():
                 saved = yaml.safe_load((folder / "config.yaml").read_text())
                 config["observation_normalization"] = saved.get("observation_normalization")
                 break
-    train(config, Path(out or f"runs/{algo}"), state_path or resume, checkpoint_every,
-          evaluate_every, progress_bar)
+    train(config, Path(out or f"runs/{algo}"), resume, checkpoint_every, evaluate_every,
+          progress_bar)
     return 0

@@ -266,10 +266,12 @@ class QuadrotorVectorEnv(VectorEnv):
         ``base_controller``, merged as Gymnasium's vector envs merge each env's reset info
         (every value an (N, ...) array, nested dicts alike, each with its ``_key`` mask)."""
         merged: dict[str, Any] = {}
+        # one copy for the call: the merge copies leaf values into its own arrays
+        base = None if self.base_controller is None else copy.deepcopy(self.base_controller)
         for i in indices:
             vehicle = {"sampled": self.core.sampled[i]}
-            if self.base_controller is not None:
-                vehicle["base_controller"] = copy.deepcopy(self.base_controller)
+            if base is not None:
+                vehicle["base_controller"] = base
             _add_vehicle_info(merged, vehicle, int(i), self.num_envs)
         return merged
 

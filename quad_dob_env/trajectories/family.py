@@ -44,9 +44,6 @@ class TrajectoryFamily:
             raise ValueError(f"TrajectoryFamily: {len(self.kinds)} kinds for "
                              f"{len(self.members)} members")
 
-    def __len__(self) -> int:
-        return len(self.members)
-
 
 def random_references(seed: int, count: int, kinds: Sequence[str] = REFERENCE_KINDS,
                       altitude: tuple[float, float] = (1.5, 2.5)) -> TrajectoryFamily:
