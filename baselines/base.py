@@ -37,6 +37,9 @@ class Controller:
     as ``desired_rotation``, ``attitude_error`` and disturbance estimates."""
 
     name = "controller"
+    # whether ``compute`` takes ``acceleration_correction`` (N, 3), an outer loop's addition
+    # to the reference acceleration (what an acceleration residual flies through)
+    accepts_acceleration_correction = False
 
     def __init__(self) -> None:
         self.vehicle: VehicleParams | None = None

@@ -1,12 +1,14 @@
 """Geometric tracking control on SE(3) (Lee, Leok, McClamroch, CDC 2010), z up, with an
 optional nonlinear disturbance observer.
 
-``F = -kx ex - kv ev + m g e3 + m ẍd - d̂x``, ``f = F · R e3``, ``Rd`` from ``F`` and ``b1d``,
+``F = -kx ex - kv ev + m g e3 + m (ẍd + Δa) - d̂x``, ``f = F · R e3``, ``Rd`` from ``F`` and ``b1d``,
 ``M = -kR eR - kΩ eΩ + Ω × JΩ - J(hat(Ω) RᵀRd Ωd - RᵀRd Ω̇d) - d̂Ω``.
 
 Ωd and Ω̇d come from differentiating Rd analytically: F's first two derivatives use the
 trajectory's jerk and snap and the model's prediction of the vehicle's acceleration and
-jerk, ``v̇ = -g e3 + (f R e3 + d̂x)/m`` (the estimate d̂x is held constant in them).
+jerk, ``v̇ = -g e3 + (f R e3 + d̂x)/m`` (the estimate d̂x is held constant in them). Δa is
+zero unless an outer loop (a residual policy, ``residual_mode="acceleration"``) passes
+``acceleration_correction`` to ``compute``; it is held constant in them too.
 The equations are written once, per vehicle, in ``quad_dob_baselines.kernels.geometric_law``.
 """
 
@@ -73,11 +75,16 @@ class GeometricController(Controller):
         its mass)."""
         return self._kx, self._kv
 
-    def compute(self, time: NDArray, state: VehicleState,
-                reference: Reference) -> tuple[NDArray, NDArray]:
-        """One compiled call for the batch (``kernels.geometric_law`` per vehicle)."""
+    accepts_acceleration_correction = True
+
+    def compute(self, time: NDArray, state: VehicleState, reference: Reference,
+                acceleration_correction: NDArray | None = None) -> tuple[NDArray, NDArray]:
+        """One compiled call for the batch (``kernels.geometric_law`` per vehicle);
+        ``acceleration_correction`` (N, 3) [m/s²], an outer loop's Δa added to ẍd in F."""
         vehicle = self.vehicle
         n = len(state.position)
+        correction = (np.zeros((n, 3)) if acceleration_correction is None
+                      else np.ascontiguousarray(acceleration_correction, dtype=float))
         if self.observer is not None:
             force_estimate, torque_estimate = self.observer.estimate(state)
         else:
@@ -97,7 +104,8 @@ class GeometricController(Controller):
         run_over_batch(geometric_batch, n, state.position, state.velocity, state.rotation,
                        state.angular_velocity, reference_arrays, vehicle.mass, vehicle.gravity,
                        vehicle.inertia_matrix, self._kx, self._kv, self.gains["kR"],
-                       self.gains["kOmega"], force_estimate, torque_estimate, thrust, moment,
+                       self.gains["kOmega"], force_estimate, torque_estimate, correction,
+                       thrust, moment,
                        *(self.diagnostics[key] for key in _DIAGNOSTICS),
                        min_batch=4 * PARALLEL_MIN_BATCH)  # ~1/4 of a physics step's work
         return thrust, moment

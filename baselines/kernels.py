@@ -64,19 +64,22 @@ def attitude_errors(rotation, angular_velocity, desired_rotation, desired_rate):
 
 @njit(cache=True)
 def geometric_law(x, v, R, w, reference, mass, gravity, inertia, kx, kv, kR, kOmega,
-                  force_estimate, torque_estimate):
+                  force_estimate, torque_estimate, acceleration_correction):
     """Lee 2010 with NDOB compensation for one vehicle; ``reference`` is (xd, ẋd, ẍd, x⃛d,
-    x⃜d, b1d, ḃ1d, b̈1d). Returns thrust, moment, F, Rd, Ωd, eR, eΩ."""
+    x⃜d, b1d, ḃ1d, b̈1d), ``acceleration_correction`` Δa an outer loop's (a residual
+    policy's) addition to ẍd in F, held constant in Ḟ and F̈ as d̂x is (so a constant Δa
+    moves the equilibrium by kx ex = m Δa and asks for no rotation). Returns thrust,
+    moment, F, Rd, Ωd, eR, eΩ."""
     position, velocity, acceleration, jerk, snap, heading, heading_rate, heading_accel = reference
     position_error = combine(1.0, x, -1.0, position)
     velocity_error = combine(1.0, v, -1.0, velocity)
-    # F = -kx ex - kv ev + m g e3 + m ẍd - d̂x
-    force = (-kx[0] * position_error[0] - kv[0] * velocity_error[0] + mass * acceleration[0]
-             - force_estimate[0],
-             -kx[1] * position_error[1] - kv[1] * velocity_error[1] + mass * acceleration[1]
-             - force_estimate[1],
+    # F = -kx ex - kv ev + m g e3 + m (ẍd + Δa) - d̂x
+    force = (-kx[0] * position_error[0] - kv[0] * velocity_error[0]
+             + mass * (acceleration[0] + acceleration_correction[0]) - force_estimate[0],
+             -kx[1] * position_error[1] - kv[1] * velocity_error[1]
+             + mass * (acceleration[1] + acceleration_correction[1]) - force_estimate[1],
              -kx[2] * position_error[2] - kv[2] * velocity_error[2] + mass * gravity
-             + mass * acceleration[2] - force_estimate[2])
+             + mass * (acceleration[2] + acceleration_correction[2]) - force_estimate[2])
     body_z = (R[2], R[5], R[8])
     thrust = dot(force, body_z)
     body_z_dot = mat_vec_tuple(R, (w[1], -w[0], 0.0))  # d/dt R e3 = R hat(Ω) e3
@@ -115,12 +118,13 @@ def geometric_law(x, v, R, w, reference, mass, gravity, inertia, kx, kv, kR, kOm
 
 @njit(cache=True, inline="always")
 def geometric_vehicle(i, x, v, R, w, reference, mass, gravity, inertia, gains, force_estimate,
-                      torque_estimate, thrust, moment, desired_force, desired_rotation,
-                      desired_rate, attitude_error, rate_error):
-    """``geometric_law`` for vehicle i, its outputs written to row i."""
+                      torque_estimate, acceleration_correction, thrust, moment, desired_force,
+                      desired_rotation, desired_rate, attitude_error, rate_error):
+    """``geometric_law`` for vehicle i (``acceleration_correction`` its 3-tuple), its
+    outputs written to row i."""
     f, m, force, rd, rate_d, e_r, e_w = geometric_law(
         x, v, R, w, reference, mass, gravity, inertia, gains[0], gains[1], gains[2], gains[3],
-        vector_at(force_estimate, i), vector_at(torque_estimate, i))
+        vector_at(force_estimate, i), vector_at(torque_estimate, i), acceleration_correction)
     thrust[i] = f
     store_vector(moment, i, m)
     store_vector(desired_force, i, force)
@@ -134,8 +138,8 @@ def geometric_vehicle(i, x, v, R, w, reference, mass, gravity, inertia, gains, f
 @njit(cache=True, nogil=True)
 def geometric_batch(start, stop, position, velocity, rotation, angular_velocity, reference,
                     mass, gravity, inertia, kx, kv, kR, kOmega, force_estimate,
-                    torque_estimate, thrust, moment, desired_force, desired_rotation,
-                    desired_rate, attitude_error, rate_error):
+                    torque_estimate, acceleration_correction, thrust, moment, desired_force,
+                    desired_rotation, desired_rate, attitude_error, rate_error):
     inertia_tuple = matrix_entries(inertia)
     gains = (as_vector(kx), as_vector(kv), as_vector(kR), as_vector(kOmega))
     for i in range(start, stop):
@@ -144,7 +148,8 @@ def geometric_batch(start, stop, position, velocity, rotation, angular_velocity,
                vector_at(reference[6], i), vector_at(reference[7], i))
         geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i), matrix_at(rotation, i),
                           vector_at(angular_velocity, i), ref, mass, gravity, inertia_tuple, gains,
-                          force_estimate, torque_estimate, thrust, moment, desired_force,
+                          force_estimate, torque_estimate,
+                          vector_at(acceleration_correction, i), thrust, moment, desired_force,
                           desired_rotation, desired_rate, attitude_error, rate_error)
 
 

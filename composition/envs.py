@@ -15,14 +15,16 @@ from quad_dob_env.wrappers import ResidualActionWrapper
 def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_scale: float = 0.1,
                       moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
                       authority_gate: float | None = None,
-                      **env_kwargs: Any) -> ResidualActionWrapper:
+                      residual_mode: str = "thrust_moments", acceleration_scale: float = 3.0,
+                      vertical_floor: float = 0.5, **env_kwargs: Any) -> ResidualActionWrapper:
     """``ResidualActionWrapper(QuadrotorEnv(**env_kwargs))`` flown by ``base_controller``
     (a name or a controller), the env's own effort term off."""
     env_kwargs.setdefault("reward_effort_weight", 0.0)
     env = QuadrotorEnv(**env_kwargs)
     base = make_base(base_controller, env.unwrapped.core.vehicle)
     return ResidualActionWrapper(env, base, thrust_scale, moment_scale, residual_effort_weight,
-                                 authority_gate)
+                                 authority_gate, residual_mode, acceleration_scale,
+                                 vertical_floor)
 
 
 class ResidualVectorEnv(QuadrotorVectorEnv):

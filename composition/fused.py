@@ -128,7 +128,8 @@ def plan_kernel(indices, position, velocity, rotation, angular_velocity, referen
         geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i),
                           matrix_at(rotation, i), vector_at(angular_velocity, i),
                           reference_at(reference, row), mass, gravity, inertia_entries,
-                          law_gains, force_estimate, torque_estimate, thrust, moment,
+                          law_gains, force_estimate, torque_estimate, (0.0, 0.0, 0.0),
+                          thrust, moment,
                           desired_force, desired_rotation, desired_rate, attitude_error,
                           rate_error)
         residual_observation_vehicle(i, thrust, moment, force_estimate, torque_estimate,

@@ -23,6 +23,7 @@ from quad_dob_env.disturbances import (
     GroundEffect,
     Gust,
 )
+from quad_dob_env.feasibility import BENCHMARK_MARGIN, check_reference
 from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.scenario import Scenario
 from quad_dob_env.trajectories import (
@@ -31,6 +32,7 @@ from quad_dob_env.trajectories import (
     TakeoffHoverLanding,
     random_references,
 )
+from quad_dob_env.trajectories.family import LANDING_HEIGHT
 from quad_dob_env.validation import as_finite, unknown_name_error
 from quad_dob_env.variation import Randomization
 
@@ -53,8 +55,8 @@ WIND_PRESETS: dict[str, tuple[float, float]] = {
     "moderate": (6.0, DRYDEN_INTENSITIES["moderate"]),
 }
 HELIX_ALTITUDE = 2.0  # [m] centre of the wind helix: it flies 1.4-2.6 m above the floor
-# The landings end at 8 cm: the ground-effect laws are clamped at R/2 = 6.35 cm below that.
-LANDING_HEIGHT = 0.08
+# The landings end at LANDING_HEIGHT, 8 cm (trajectories.family, whose take-off and landing
+# references use it too): the ground-effect laws are clamped at R/2 = 6.35 cm below that.
 
 
 def _paper(kind: str, *, vehicle: str | VehicleParams = "paper",
@@ -188,7 +190,8 @@ def _takeoff_landing_wind(*, vehicle: str | VehicleParams = "paper", wind: str =
     )
 
 
-TRAINING_KINDS = ("circle", "sinusoids", "hover")  # random-tracks; lemniscates held out
+TRACK_DURATION = 10.0  # [s] an episode of the reference families
+TRAINING_KINDS = ("circle", "sinusoids", "hover", "helix", "landing")  # lemniscates held out
 
 
 def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRAINING_KINDS,
@@ -197,21 +200,29 @@ def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRA
     """Each vehicle flies a reference of the pool, drawn at reset, in wind drawn per vehicle
     from none to the moderate preset (direction uniform), the two gusts, mass, inertia and
     drag randomised: the task distribution generalists train on."""
-    family = random_references(pool_seed, count, kinds)
+    vehicle = get_vehicle(vehicle)
+    # each member keeps Benchmark v1's margin on every axis, or is drawn again (the bounds
+    # alone let one helix, its plane at an angle to the rotor arms, keep only 15 %)
+    family = random_references(
+        pool_seed, count, kinds,
+        accept=lambda member: check_reference(member, vehicle, "rotors", TRACK_DURATION,
+                                              0.01).worst.margin >= BENCHMARK_MARGIN)
     start = family.members[0].evaluate(0.0)
     dryden = Dryden(wind_speed_6m=WIND_PRESETS["moderate"][1], altitude=HELIX_ALTITUDE,
                     direction=None, mean_wind_speed=WIND_PRESETS["moderate"][0],
                     intensity_scale=(0.0, as_finite(wind_scale, "wind_scale", 0.0)))
     return Scenario(
-        name=name, vehicle=get_vehicle(vehicle), trajectory=family, duration=10.0,
+        name=name, vehicle=vehicle, trajectory=family, duration=TRACK_DURATION,
         disturbance=dryden + _gust_pair(), drag=True, motor_lag=True, floor_height=0.0,
+        ground_effect=GroundEffect("paper"),
         initial_position=tuple(start.position[0]), initial_velocity=tuple(start.velocity[0]),
         randomization=Randomization(mass=(0.9, 1.1), inertia=(0.9, 1.1), drag=(0.8, 1.2)),
         description=f"{count} random references ({', '.join(kinds)}; pool seed {pool_seed}) at "
-                    "1.5-2.5 m, one drawn per vehicle at reset and started on; wind from none "
-                    "to the moderate preset (6 m/s mean, W20 30 kt) per vehicle from a random "
-                    "direction, the two gusts; mass and inertia x0.9-1.1, drag x0.8-1.2; "
-                    "drag, motor lag, physical rotors")
+                    "1.5-2.5 m (take-offs and landings from and to the floor), one drawn per "
+                    "vehicle at reset and started on; wind from none to the moderate preset "
+                    "(6 m/s mean, W20 30 kt) per vehicle from a random direction, the two "
+                    "gusts; mass and inertia x0.9-1.1, drag x0.8-1.2; ground effect, drag, "
+                    "motor lag, physical rotors")
 
 
 SCENARIOS: dict[str, Callable[..., Scenario]] = {

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from quad_dob_env.feasibility import check_reference
+from quad_dob_env.feasibility import BENCHMARK_MARGIN, check_reference
 from quad_dob_env.flatness import flat_inputs
 from quad_dob_env.params import LEE_TORQUE_COEFFICIENT, get_vehicle
 from quad_dob_env.scenarios import list_scenarios, make_scenario
@@ -90,7 +90,7 @@ def test_rotor_row_is_the_mixer_applied_to_the_flat_wrench():
 def test_every_scenario_is_flyable_with_a_margin(name):
     scenario = make_scenario(name)
     margins = scenario.feasibility.margins()
-    assert min(margins.values()) >= 0.2, scenario.feasibility.summary()
+    assert min(margins.values()) >= BENCHMARK_MARGIN == 0.2, scenario.feasibility.summary()
     if scenario.actuation == "rotors":
         assert "rotors" in margins
 

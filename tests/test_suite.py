@@ -23,3 +23,25 @@ def test_the_suite_flies_every_family_and_writes_a_leaderboard_with_intervals(tm
     worse = summary.split("|")[3]
     for scenario in ("dryden-helix-gusts", "gusty-hover", "paper-II"):
         assert scenario in worse
+
+
+def test_a_generalist_trained_a_few_thousand_steps_round_trips_through_the_suite(tmp_path):
+    # the generalist's own recipe (acceleration residual, normalised observations), cut to
+    # 4096 timesteps: saved, loaded by path, flown over every family, normalisation applied
+    from quad_dob_training.policies import load_model
+    from quad_dob_training.train import resolve_config, train
+
+    config = resolve_config("ppo", "residual", "QuadDOB/TracksResidual-v1", None, 4096, 32,
+                            seed=5)
+    config["algo_kwargs"].update(n_steps=64, batch_size=512, n_epochs=1)
+    train(config, tmp_path / "run", evaluate_every=10**9, progress_bar=False)
+    model, saved = load_model(tmp_path / "run" / "model.zip")
+    assert saved["env_kwargs"]["residual_mode"] == "acceleration"
+    assert len(saved["observation_normalization"]["mean"]) == model.observation_space.shape[0]
+    assert cli.main(["evaluate", "--suite", "--policies",
+                     f"geometric-ndob:tuned,residual:{tmp_path / 'run' / 'model.zip'}",
+                     "--seeds", "9001-9002", "--out", str(tmp_path / "suite")]) == 0
+    board = (tmp_path / "suite" / "leaderboard.md").read_text()
+    for scenarios in SUITE.values():
+        for scenario in scenarios:
+            assert f"| {scenario} | residual:run |" in board

@@ -124,6 +124,16 @@ def test_the_shipped_residual_beats_its_base_in_gusty_turbulence():
     assert residual["rms_position_settled_diff_high"] < 0 == base["rms_position_settled_diff_mean"]
 
 
+def test_the_shipped_residual_stays_out_of_the_way_in_calm_air():
+    # the generalist's authority gate: where the observer sees no disturbance it flies its
+    # base exactly, so its calm scores are the base's to the last bit
+    rows = evaluate(["geometric-ndob:tuned", "residual"], ["hover-calm", "paper-none"],
+                    parse_seeds("9001-9003"))
+    for base, residual in zip(rows[::2], rows[1::2], strict=True):
+        assert residual["policy"] == "residual" and base["scenario"] == residual["scenario"]
+        assert residual["rms_position_settled_mean"] == base["rms_position_settled_mean"]
+
+
 def test_a_typo_in_the_hyperparameter_file_is_named(tmp_path):
     hyperparams = tmp_path / "ppo.yml"
     hyperparams.write_text("QuadDOB/Track-v1:\n  n_step: 64\n")
@@ -152,3 +162,22 @@ def test_a_cut_off_or_corrupted_model_is_named_not_a_deep_traceback(tmp_path):
     (tmp_path / "broken.yaml").write_text("mode: residual\n")
     with pytest.raises(ValueError, match=r"broken\.zip' could not be loaded .*damaged"):
         load_model(broken)
+
+
+def test_evaluation_records_each_state_with_the_desired_attitude_asked_for_it():
+    # the compiled residual pass overwrites the controller's diagnostics in place each step:
+    # flown through it, a base must still be recorded as the plain controller loop records
+    # it (rollout.fly, whose controller makes new arrays each step), step for step
+    from quad_dob_baselines import make_controller
+    from quad_dob_env.scenarios import make_scenario
+    from quad_dob_training.policies import Policy, fly_policy
+    from quad_dob_training.rollout import fly
+
+    scenario = make_scenario("dryden-helix-gusts", duration=1.0)
+    evaluated = fly_policy(Policy("base", "geometric-ndob:tuned"), scenario, [4])[0]
+    plain = fly(make_controller("geometric-ndob:tuned"), [scenario], seed=4)[0]
+    np.testing.assert_array_equal(evaluated.position, plain.position)
+    np.testing.assert_allclose(evaluated.desired_rotation, plain.desired_rotation,
+                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(evaluated.force_estimate, plain.force_estimate,
+                               rtol=0, atol=1e-12)

@@ -38,10 +38,10 @@ from quad_dob_training.rollout import Flight, FlightRecorder
 
 ALGORITHMS = ("ppo", "sac")  # what quad-dob train trains and ppo:PATH / residual:PATH load
 PRETRAINED = Path(__file__).parent / "pretrained"
-SHIPPED_RESIDUAL = PRETRAINED / "residual_dryden_helix_gusts.zip"
+SHIPPED_RESIDUAL = PRETRAINED / "residual_random_tracks.zip"
 # sha256 of the shipped zip: SB3 zips hold pickled objects that run code when loaded, so the
 # shipped file is checked before it is opened
-SHIPPED_RESIDUAL_SHA256 = "e592a1301007e5f726b76d98f6a25c0acc0f75e26b623c33f97fb6d6b1844146"
+SHIPPED_RESIDUAL_SHA256 = "e75e4b59ef3afc351ddd0338b92b0eef63d56328f909f2d2300c88d5b7db34e5"
 
 
 @dataclass
@@ -193,18 +193,19 @@ def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Fli
     check_spaces(policy, env)
     obs, _ = env.reset(seed=[int(s) for s in seeds])
     core, residual = env.core, env.residual
+    # an acceleration residual's base runs within the step, from the state before it: its
+    # desired attitude and estimates for that state are there after the step, not before
+    planned_in_step = residual is not None and residual.residual_mode == "acceleration"
     recorder = FlightRecorder(n, core.vehicle)
     zeros = np.zeros((n, 3))
     for _ in range(scenario.steps):
         actions = np.zeros((n, 4)) if policy.model is None else policy.act(obs)
         state, reference = core.state.copy(), core.reference
-        diagnostics = residual.controller.diagnostics if residual is not None else {}
-        desired = diagnostics.get("desired_rotation")
-        if desired is None:
-            desired = _flat_attitude(core)
-        estimates = (diagnostics.get("force_estimate", zeros),
-                     diagnostics.get("torque_estimate", zeros))
+        if not planned_in_step:
+            desired, estimates = _diagnostics(core, residual, zeros)
         obs, _, terminated, truncated, _ = env.step(actions)
+        if planned_in_step:
+            desired, estimates = _diagnostics(core, residual, zeros)
         requested = (residual.requested_thrust if residual is not None
                      else core.action_map.to_command(actions)[0])
         if not recorder.add(
@@ -218,6 +219,17 @@ def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Fli
                 torque_estimate=estimates[1]):
             break
     return recorder.flights([scenario.name] * n, policy.name, scenario.dt)
+
+
+def _diagnostics(core, residual, zeros: NDArray) -> tuple[NDArray, tuple[NDArray, NDArray]]:
+    """The base's desired attitude (the flat one without a base) and its observer's force
+    and torque estimates, copied."""
+    diagnostics = residual.controller.diagnostics if residual is not None else {}
+    desired = diagnostics.get("desired_rotation")
+    if desired is None:
+        desired = _flat_attitude(core)
+    return desired.copy(), (diagnostics.get("force_estimate", zeros).copy(),
+                            diagnostics.get("torque_estimate", zeros).copy())
 
 
 def _flat_attitude(core) -> NDArray:

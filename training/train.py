@@ -152,6 +152,8 @@ class BaselineEvaluation(BaseCallback):
         self.config, self.out, self.every = config, out, every
         self._next: int | None = None
         self._best: tuple[float, float] | None = None
+        self.first_better: str | None = None  # when the policy first beat the base
+        self._started = 0.0
         self._scenario = quad_dob_env.make_scenario(config["env_kwargs"]["scenario"])
         self.base_scores = None
         if config["base_controller"]:
@@ -159,10 +161,11 @@ class BaselineEvaluation(BaseCallback):
                                                   config["base_controller"]))
 
     def checkpoint_state(self) -> dict[str, Any]:
-        return {"next": self._next, "best": self._best}
+        return {"next": self._next, "best": self._best, "first_better": self.first_better}
 
     def restore(self, state: dict[str, Any]) -> None:
         self._next, self._best = state["next"], state["best"]
+        self.first_better = state.get("first_better")
 
     def _score(self, policy: Policy) -> tuple[float, float]:
         metrics = [flight_metrics(f) for f in fly_policy(policy, self._scenario, EVAL_SEEDS)]
@@ -170,6 +173,7 @@ class BaselineEvaluation(BaseCallback):
                 float(np.mean([m["crashed"] for m in metrics])))
 
     def _on_training_start(self) -> None:
+        self._started = time.perf_counter()
         if self._next is None:
             self._next = self.num_timesteps + self.every
         self._evaluate()
@@ -194,6 +198,13 @@ class BaselineEvaluation(BaseCallback):
         if self.base_scores is not None:
             self.logger.record("eval/base_rms_position", self.base_scores[0])
             row.update(base_rms_position=self.base_scores[0], base_crash_rate=self.base_scores[1])
+            base_rms, base_crashes = self.base_scores
+            if (self.first_better is None and self.num_timesteps > 0
+                    and (crashes, rms) < (base_crashes, base_rms) and crashes <= base_crashes):
+                self.first_better = (f"first better than the base at {self.num_timesteps:,} "
+                                     f"timesteps, {time.perf_counter() - self._started:.1f} s "
+                                     f"into this session ({rms:.4f} m against {base_rms:.4f} m)")
+                print(self.first_better, flush=True)
         if self._best is None or (crashes, rms) < self._best:
             self._best = (crashes, rms)
             self.model.save(self.out / "best_model.zip")
@@ -288,6 +299,8 @@ def train(config: dict[str, Any], out: Path, resume: Path | None = None,
     print(message)
     with open(out / "train.log", "a") as log:
         log.write(message + "\n")
+        if evaluation.first_better:
+            log.write(evaluation.first_better + "\n")
     plot_training_curve(out / "evaluations.csv", out / "training_curve.png")
     return model
 

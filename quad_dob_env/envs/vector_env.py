@@ -53,12 +53,15 @@ class QuadrotorVectorEnv(VectorEnv):
     Residual mode: with ``base_controller`` (a controller object; by name through
     ``quad_dob_composition.ResidualVectorEnv``, what the residual ids build) every vehicle is
     flown by that controller, run once per step for the whole batch, plus the action as a
-    residual scaled by ``thrust_scale`` and ``moment_scale`` (``quad_dob_env.envs.residual``:
-    the command, the 16 extra observation entries, the reward); ``fused_pass`` runs it all
-    in one compiled pass per step. ``info`` then adds ``base_thrust``, ``base_moment``,
-    ``force_estimate`` and ``torque_estimate``. ``reward_effort_weight`` defaults to 0.01
-    without a base and to 0 with one (the residual's own effort is
-    ``residual_effort_weight``).
+    residual scaled by ``thrust_scale`` and ``moment_scale``, or with
+    ``residual_mode="acceleration"`` an acceleration correction of up to
+    ``acceleration_scale`` m/s² in the base's force law (``vertical_floor``: how low it may
+    take the force's vertical part) and a yaw moment (``quad_dob_env.envs.residual``: the
+    command, the 16 extra observation entries, the reward); ``fused_pass`` runs
+    thrust-and-moment residuals in one compiled pass per step. ``info`` then adds
+    ``base_thrust``, ``base_moment``, ``force_estimate`` and ``torque_estimate``.
+    ``reward_effort_weight`` defaults to 0.01 without a base and to 0 with one (the
+    residual's own effort is ``residual_effort_weight``).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 100,
@@ -75,7 +78,8 @@ class QuadrotorVectorEnv(VectorEnv):
                  invalid_actions: str = "raise", fused_pass: Any = None,
                  max_episode_steps: int | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-                 authority_gate: float | None = None) -> None:
+                 authority_gate: float | None = None, residual_mode: str = "thrust_moments",
+                 acceleration_scale: float = 3.0, vertical_floor: float = 0.5) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -103,7 +107,7 @@ class QuadrotorVectorEnv(VectorEnv):
                              + ", ".join(mode.value for mode in modes))
         self.residual = None if base_controller is None else ResidualCommand(
             self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
-            fused_pass, authority_gate)
+            fused_pass, authority_gate, residual_mode, acceleration_scale, vertical_floor)
         # None without a base; with one, its name and gains (also in the reset info)
         self.base_controller = (None if self.residual is None
                                 else self.residual.controller.describe())

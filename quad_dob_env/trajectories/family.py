@@ -8,7 +8,10 @@ the same reference and the vehicles of one batch fly different ones.
 ``random_references(seed, count, ...)`` builds a seeded pool of smooth random references with
 closed-form derivatives to snap: horizontal circles and figure eights of random size, speed,
 centre, direction and heading, random sums of sinusoids on the three axes (smooth random
-paths), and hovers; ``families=`` picks which kinds, so some can be held out of training.
+paths), helices (a circle in a vertical plane of random direction, radius and rate, drifting
+along its axis, as the v1 helix does), take-offs to a hover and landings (from and to
+``LANDING_HEIGHT`` above the floor, through ground effect where the scenario has it), and
+hovers; ``families=`` picks which kinds, so some can be held out of training.
 The draws are bounded so the references stay within what the vehicle's actuators give; the
 scenario built on a family checks every member (``feasibility``) and refuses any that does
 not fit.
@@ -17,19 +20,28 @@ not fit.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from quad_dob_env.trajectories.base import Trajectory
-from quad_dob_env.trajectories.library import Harmonic, Hover, Lemniscate
+from quad_dob_env.trajectories.library import Harmonic, Hover, Lemniscate, TakeoffHoverLanding
 from quad_dob_env.validation import unknown_name_error
 
-REFERENCE_KINDS = ("circle", "lemniscate", "sinusoids", "hover")
+REFERENCE_KINDS = ("circle", "lemniscate", "sinusoids", "hover", "helix", "landing")
+LANDING_HEIGHT = 0.08  # m: where take-offs start and landings end, as in the v1 scenarios
 # the speeds and accelerations the draws keep within: the v1 helix's own peak acceleration
 # is 5.9 m/s² and its speed 1.3 m/s, which the feasibility check accepts with margin
 MAX_ACCELERATION = 4.0  # m/s²
 MAX_SPEED = 2.0  # m/s
+# helices turn in a vertical plane, where the thrust itself must swing by r ω² (the v1
+# helix's 5.9 m/s² nearly unloads the rotors at its top): up to 6 m/s² there
+MAX_VERTICAL_ACCELERATION = 6.0  # m/s²
+MAX_DRIFT = 0.6  # m/s, a helix's speed along its axis (the v1 helix: 0.4)
+# and at most the v1 helix's rate, π rad/s: its snap r ω⁴ is what the rotors' moment
+# range must follow (4.1 rad/s at 0.33 m asked for three times the yaw moment there is)
+MAX_HELIX_RATE = math.pi  # rad/s
+MAX_REDRAWS = 100  # draws of one member that ``accept`` may refuse before it is an error
 
 
 class TrajectoryFamily:
@@ -46,8 +58,11 @@ class TrajectoryFamily:
 
 
 def random_references(seed: int, count: int, kinds: Sequence[str] = REFERENCE_KINDS,
-                      altitude: tuple[float, float] = (1.5, 2.5)) -> TrajectoryFamily:
-    """``count`` references drawn from ``seed``, cycling through ``kinds``."""
+                      altitude: tuple[float, float] = (1.5, 2.5),
+                      accept: Callable[[Trajectory], bool] | None = None) -> TrajectoryFamily:
+    """``count`` references drawn from ``seed``, cycling through ``kinds``; a draw that
+    ``accept`` refuses is drawn again (from the same generator, so still seeded): a
+    scenario passes the vehicle's feasibility margin, which this layer does not know."""
     for kind in kinds:
         if kind not in REFERENCE_KINDS:
             raise unknown_name_error("reference kind", kind, REFERENCE_KINDS)
@@ -59,7 +74,15 @@ def random_references(seed: int, count: int, kinds: Sequence[str] = REFERENCE_KI
         kind = kinds[index % len(kinds)]
         centre = (rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(*altitude))
         yaw = rng.uniform(-math.pi, math.pi)
-        members.append(_draw(kind, rng, centre, yaw))
+        member = _draw(kind, rng, centre, yaw)
+        for _ in range(MAX_REDRAWS):
+            if accept is None or accept(member):
+                break
+            member = _draw(kind, rng, centre, yaw)
+        else:
+            raise ValueError(f"random_references: {MAX_REDRAWS} draws of a {kind} in a row "
+                             "were refused; loosen the bounds or the acceptance test")
+        members.append(member)
         names.append(kind)
     return TrajectoryFamily(members, names)
 
@@ -76,6 +99,31 @@ def _draw(kind: str, rng: np.random.Generator, centre: tuple[float, float, float
         phase = rng.uniform(-math.pi, math.pi)
         return Harmonic(offset=centre, yaw=yaw, terms=[
             (0, radius, omega, phase + math.pi / 2), (1, turn * radius, omega, phase)])
+    if kind == "landing":
+        climb, hover, descent = (rng.uniform(2.0, 3.5), rng.uniform(1.0, 3.0),
+                                 rng.uniform(2.0, 3.5))
+        return TakeoffHoverLanding(xy=centre[:2], start_height=LANDING_HEIGHT,
+                                   hover_height=rng.uniform(0.6, 1.5), end_height=LANDING_HEIGHT,
+                                   climb_time=climb, hover_time=hover, descent_time=descent,
+                                   yaw=yaw)
+    if kind == "helix":
+        radius = rng.uniform(0.3, 0.8)
+        drift = rng.uniform(0.0, MAX_DRIFT)
+        omega = min(math.sqrt(rng.uniform(2.0, MAX_VERTICAL_ACCELERATION) / radius),
+                    (MAX_SPEED - drift) / radius, MAX_HELIX_RATE)
+        # the axis it drifts along, which the heading holds (as in v1): a heading across the
+        # plane swings the thrust about a tilted body axis and asks for a yaw moment beyond
+        # the rotors' (a draw with a random heading needed 145 % of it)
+        heading = yaw
+        across = (-math.sin(heading), math.cos(heading))  # the plane's horizontal direction
+        # started within 45° of the top, as the v1 helix starts at it: there the thrust
+        # must fall to m (g - r ω²) while the motors still spin at hover, the hardest start
+        phase = rng.uniform(-math.pi / 4, math.pi / 4)
+        return Harmonic(offset=centre, yaw=yaw,
+                        drift=(drift * math.cos(heading), drift * math.sin(heading), 0.0),
+                        terms=[(0, radius * across[0], omega, phase),
+                               (1, radius * across[1], omega, phase),
+                               (2, radius, omega, phase + math.pi / 2)])
     if kind == "lemniscate":
         amplitude = rng.uniform(0.4, 1.5)
         # the y term at 2ω has the larger acceleration: (a/2)(2ω)² = 2 a ω²

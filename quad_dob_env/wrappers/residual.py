@@ -28,7 +28,8 @@ class ResidualActionWrapper(gym.Wrapper):
     def __init__(self, env: gym.Env, base_controller: Any,
                  thrust_scale: float = 0.1, moment_scale: float = 0.1,
                  residual_effort_weight: float = 0.01,
-                 authority_gate: float | None = None) -> None:
+                 authority_gate: float | None = None, residual_mode: str = "thrust_moments",
+                 acceleration_scale: float = 3.0, vertical_floor: float = 0.5) -> None:
         super().__init__(env)
         core = getattr(env.unwrapped, "core", None)
         if core is None or core.n != 1:
@@ -36,7 +37,10 @@ class ResidualActionWrapper(gym.Wrapper):
         # the env steps itself, so the residual runs as separate stages around its step
         self.residual = ResidualCommand(core, base_controller, thrust_scale, moment_scale,
                                         residual_effort_weight,
-                                        authority_gate=authority_gate)
+                                        authority_gate=authority_gate,
+                                        residual_mode=residual_mode,
+                                        acceleration_scale=acceleration_scale,
+                                        vertical_floor=vertical_floor)
         env.unwrapped.base_controller = self.residual.controller.describe()
         self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.observation_space = gym.spaces.Box(
