@@ -186,3 +186,22 @@ def test_geometric_ndob_stays_bounded_in_every_new_scenario():
         for flight in fly(make_controller("geometric-ndob:tuned"), scenarios, seed=seed):
             assert flight.termination_reason == "time_limit", (flight.scenario, seed)
             assert flight_metrics(flight)["rms_position_settled"] < 0.5
+
+
+def test_a_gust_at_a_random_time_is_the_fixed_gust_at_each_vehicles_drawn_start():
+    random_gust = Gust(4.0, direction=(1.0, 0.0, 0.0), start=(0.5, 8.0), length=10.0,
+                       speed=10.0, hold=1.0, name="gust_x")
+    assert random_gust.is_random and not Gust(4.0).is_random
+    random_gust.bind(3, 0.01)
+    random_gust.resample(np.arange(3), [np.random.default_rng(s) for s in (1, 2, 1)])
+    starts = random_gust.starts
+    assert starts[0] == starts[2] != starts[1] and np.all((starts >= 0.5) & (starts <= 8.0))
+    assert random_gust.sampled_parameters(1) == {"gust_x_start": starts[1]}
+    times = np.tile(np.linspace(0.0, 10.0, 1001), (3, 1))
+    wind = random_gust.evaluate(times)[2]
+    for i, start in enumerate(starts):
+        fixed = Gust(4.0, direction=(1.0, 0.0, 0.0), start=start, length=10.0, speed=10.0,
+                     hold=1.0)
+        np.testing.assert_array_equal(wind[i], fixed.evaluate(times[i][None])[2][0])
+    with pytest.raises(ValueError, match=r"Gust.start range needs low <= high"):
+        Gust(4.0, start=(3.0, 1.0))

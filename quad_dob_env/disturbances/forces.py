@@ -18,6 +18,18 @@ from quad_dob_env.validation import as_finite, as_vector3
 ZERO = (0.0, 0.0, 0.0)
 
 
+def time_or_range(value: float | tuple[float, float], name: str) -> tuple[float, float]:
+    """``(t, t)`` for a time, ``(low, high)`` for a range a vehicle draws from uniformly."""
+    if np.ndim(value) == 0:
+        return (as_finite(value, name),) * 2
+    if len(value) != 2:
+        raise ValueError(f"{name} must be a time or a (low, high) range, got {value!r}")
+    low, high = (as_finite(v, name) for v in value)
+    if high < low:
+        raise ValueError(f"{name} range needs low <= high, got {value!r}")
+    return low, high
+
+
 class _Profile(Disturbance):
     """A force, a torque and a wind vector scaled by one scalar profile of time."""
 
@@ -116,16 +128,7 @@ class Impulse(Disturbance):
         self.force_impulse = as_vector3(force_impulse, "Impulse.force_impulse")
         self.torque_impulse = as_vector3(torque_impulse, "Impulse.torque_impulse")
         self.duration = as_finite(duration, "Impulse.duration", 0.0, strictly=True)
-        if np.ndim(start) == 0:
-            self.start_range = (as_finite(start, "Impulse.start"),) * 2
-        else:
-            if len(start) != 2:
-                raise ValueError(
-                    f"Impulse.start must be a time or a (low, high) range, got {start!r}")
-            low, high = (as_finite(v, "Impulse.start") for v in start)
-            if high < low:
-                raise ValueError(f"Impulse.start range needs low <= high, got {start!r}")
-            self.start_range = (low, high)
+        self.start_range = time_or_range(start, "Impulse.start")
         self.is_random = self.start_range[1] > self.start_range[0]
         self.channels = (True, True, False)
         self.starts = np.full(1, self.start_range[0])

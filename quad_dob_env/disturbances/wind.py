@@ -15,7 +15,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_env.disturbances.base import Disturbance
-from quad_dob_env.disturbances.forces import ZERO, _Profile
+from quad_dob_env.disturbances.forces import ZERO, _Profile, time_or_range
 from quad_dob_env.linalg import discretize_noise, stationary_covariance
 from quad_dob_env.rng import gaussian_pair
 from quad_dob_env.threads import run_over_batch
@@ -30,22 +30,43 @@ DRYDEN_INTENSITIES = {"light": 15 * KNOT, "moderate": 30 * KNOT, "severe": 45 * 
 class Gust(_Profile):
     """A discrete gust of ``amplitude`` m/s along ``direction``: the MIL-F-8785C 1-cosine
     rise over ``length`` metres (crossed at ``speed`` m/s, so it lasts ``length/speed`` s)
-    from ``start``, held for ``hold`` s, then the mirrored 1-cosine fall."""
+    from ``start``, held for ``hold`` s, then the mirrored 1-cosine fall.
+
+    ``start`` may be a ``(low, high)`` range: each vehicle then draws its own start time,
+    uniformly, from its generator at reset, reported in the reset info as
+    ``NAME_start`` (``name``, "gust" unless given, tells two gusts apart)."""
 
     def __init__(self, amplitude: float, direction: ArrayLike = (1.0, 0.0, 0.0),
-                 start: float = 1.0, length: float = 5.0, speed: float = 5.0,
-                 hold: float = 0.0) -> None:
+                 start: float | tuple[float, float] = 1.0, length: float = 5.0,
+                 speed: float = 5.0, hold: float = 0.0, name: str = "gust") -> None:
         unit = as_vector3(direction, "Gust.direction")
         if not np.linalg.norm(unit) > 0:
             raise ValueError(f"Gust.direction must be non-zero, got {direction!r}")
         super().__init__(wind=as_finite(amplitude, "Gust.amplitude") * unit / np.linalg.norm(unit))
-        self.start = as_finite(start, "Gust.start")
+        self.start_range = time_or_range(start, "Gust.start")
+        self.start = self.start_range[0]
+        self.is_random = self.start_range[1] > self.start_range[0]
+        self.starts = np.full(1, self.start)
+        self.name = str(name)
         self.rise = (as_finite(length, "Gust.length", 0.0, strictly=True)
                      / as_finite(speed, "Gust.speed", 0.0, strictly=True))
         self.hold = as_finite(hold, "Gust.hold", 0.0)
 
+    def bind(self, num_vehicles: int, dt: float) -> None:
+        self.starts = np.full(num_vehicles, self.start)
+
+    def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
+        if self.is_random:
+            low, high = self.start_range
+            for index, rng in zip(indices, rngs, strict=True):
+                self.starts[index] = rng.uniform(low, high)
+
+    def sampled_parameters(self, index: int) -> dict[str, float]:
+        return {f"{self.name}_start": float(self.starts[index])} if self.is_random else {}
+
     def profile(self, times: NDArray) -> NDArray:
-        tau = times - self.start
+        # random starts: times are (N, K), one row per vehicle of the batch
+        tau = times - (self.starts[:, None] if self.is_random else self.start)
         rise = 0.5 * (1 - np.cos(np.pi * np.clip(tau / self.rise, 0.0, 1.0)))
         fall_tau = tau - self.rise - self.hold
         fall = 0.5 * (1 + np.cos(np.pi * np.clip(fall_tau / self.rise, 0.0, 1.0)))
