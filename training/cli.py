@@ -184,7 +184,9 @@ def build_parser() -> argparse.ArgumentParser:
         "tune", help="choose the baselines' gains and the observer rates on tuning seeds "
         "(100-109), by the procedure in training/tune.py")
     tune.add_argument("--controllers", default="geometric-ndob,pid,smc",
-                      help="comma-separated: pid, smc, geometric-ndob (default: %(default)s)")
+                      help="comma-separated: pid, smc, geometric-ndob (its observer rates), "
+                      "geometric-ndob:tuned (the geometric gains; the winner is "
+                      "geometric-ndob:gains-tuned) (default: %(default)s)")
     tune.add_argument("--out", type=Path, default=Path("results/tuning"))
     tune.set_defaults(handler=_tune)
     replay = commands.add_parser(
