@@ -200,10 +200,11 @@ class BaselineEvaluation(BaseCallback):
             row.update(base_rms_position=self.base_scores[0], base_crash_rate=self.base_scores[1])
             base_rms, base_crashes = self.base_scores
             if (self.first_better is None and self.num_timesteps > 0
-                    and (crashes, rms) < (base_crashes, base_rms) and crashes <= base_crashes):
+                    and (crashes, rms) < (base_crashes, base_rms)):
                 self.first_better = (f"first better than the base at {self.num_timesteps:,} "
                                      f"timesteps, {time.perf_counter() - self._started:.1f} s "
-                                     f"into this session ({rms:.4f} m against {base_rms:.4f} m)")
+                                     f"after training (re)started ({rms:.4f} m against "
+                                     f"{base_rms:.4f} m)")
                 print(self.first_better, flush=True)
         if self._best is None or (crashes, rms) < self._best:
             self._best = (crashes, rms)

@@ -156,7 +156,6 @@ class ResidualCommand:
         self._started = False
         by_acceleration = residual_mode == "acceleration"
         self._fused = None if fused_pass is None or by_acceleration else fused_pass(self)
-        self._flown_yet = np.zeros(n, dtype=bool)  # acceleration mode: a command since start
 
     def restart(self, indices: NDArray[np.intp]) -> None:
         """After ``core.reset(indices)``: restart those vehicles' controller state (all of
@@ -170,7 +169,14 @@ class ResidualCommand:
             self.controller.reset(core.n, core.vehicle, core.scenario.dt, indices,
                                   actuation=core.scenario.actuation)
         self.rewards[indices] = 0.0
-        self._flown_yet[indices] = False
+        if self.residual_mode == "acceleration":
+            # the base runs in ``command``: until a vehicle's first one it shows hover, no
+            # residual and no estimate
+            hover = core.vehicle.mass * core.vehicle.gravity
+            self.base_thrust[indices] = self.requested_thrust[indices] = hover
+            for array in (self.base_moment, self._residual, self.force_estimate,
+                          self.torque_estimate):
+                array[indices] = 0.0
         if self._fused is None:
             self.plan()
         else:
@@ -205,7 +211,10 @@ class ResidualCommand:
                 clipped[:, :3] = guarded / self.acceleration_scale
                 self.base_thrust, self.base_moment = self.controller.compute(
                     core.time, core.state, core.reference, acceleration_correction=guarded)
-            self._flown_yet[:] = True
+            zeros = np.zeros((core.n, 3))
+            self.force_estimate, self.torque_estimate = (
+                self.controller.diagnostics.get(key, zeros).copy()
+                for key in ("force_estimate", "torque_estimate"))
             residual = np.zeros_like(clipped)
             residual[:, 3] = clipped[:, 3]  # the yaw moment: the only part added after it
         residual_command_kernel(0, core.n, residual,
@@ -258,28 +267,14 @@ class ResidualCommand:
     def plan(self) -> None:
         """Every vehicle's base command for the coming step, and the extra observation."""
         core, controller = self.core, self.controller
-        zeros = np.zeros((core.n, 3))
         if self.residual_mode == "acceleration":
-            # the base runs in ``command``, with the corrected reference; the observation
-            # shows the command flown last, and hover with no estimate before a vehicle's
-            # first command
-            waiting = ~self._flown_yet
-            hover = core.vehicle.mass * core.vehicle.gravity
-            if waiting.all() or not controller.diagnostics:
-                self.base_thrust = np.full(core.n, hover)
-                self.base_moment = np.zeros((core.n, 3))
-                self.force_estimate, self.torque_estimate = zeros, zeros.copy()
-                seen_thrust, seen_moment = self.base_thrust, self.base_moment
-            else:
-                seen_thrust, seen_moment = self.requested_command()
-                seen_thrust[waiting], seen_moment[waiting] = hover, 0.0
-                self.base_thrust[waiting], self.base_moment[waiting] = hover, 0.0
-                self.force_estimate, self.torque_estimate = (
-                    np.where(waiting[:, None], 0.0, controller.diagnostics.get(key, zeros))
-                    for key in ("force_estimate", "torque_estimate"))
+            # the base ran in ``command``: the observation shows the command flown and the
+            # estimates of that step's start state
+            seen_thrust, seen_moment = self.requested_command()
         else:
             self.base_thrust, self.base_moment = controller.compute(core.time, core.state,
                                                                     core.reference)
+            zeros = np.zeros((core.n, 3))
             self.force_estimate = controller.diagnostics.get("force_estimate", zeros)
             self.torque_estimate = controller.diagnostics.get("torque_estimate", zeros)
             seen_thrust, seen_moment = self.base_thrust, self.base_moment

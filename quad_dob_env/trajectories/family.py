@@ -11,7 +11,7 @@ centre, direction and heading, random sums of sinusoids on the three axes (smoot
 paths), helices (a circle in a vertical plane of random direction, radius and rate, drifting
 along its axis, as the v1 helix does), take-offs to a hover and landings (from and to
 ``LANDING_HEIGHT`` above the floor, through ground effect where the scenario has it), and
-hovers; ``families=`` picks which kinds, so some can be held out of training.
+hovers; ``kinds=`` picks which, so some can be held out of training.
 The draws are bounded so the references stay within what the vehicle's actuators give; the
 scenario built on a family checks every member (``feasibility``) and refuses any that does
 not fit.
@@ -111,16 +111,15 @@ def _draw(kind: str, rng: np.random.Generator, centre: tuple[float, float, float
         drift = rng.uniform(0.0, MAX_DRIFT)
         omega = min(math.sqrt(rng.uniform(2.0, MAX_VERTICAL_ACCELERATION) / radius),
                     (MAX_SPEED - drift) / radius, MAX_HELIX_RATE)
-        # the axis it drifts along, which the heading holds (as in v1): a heading across the
-        # plane swings the thrust about a tilted body axis and asks for a yaw moment beyond
-        # the rotors' (a draw with a random heading needed 145 % of it)
-        heading = yaw
-        across = (-math.sin(heading), math.cos(heading))  # the plane's horizontal direction
+        # it drifts along its heading ``yaw`` (as in v1): a heading across the plane swings
+        # the thrust about a tilted body axis and asks for a yaw moment beyond the rotors'
+        # (a draw with a random heading needed 145 % of it)
+        across = (-math.sin(yaw), math.cos(yaw))  # the plane's horizontal direction
         # started within 45° of the top, as the v1 helix starts at it: there the thrust
         # must fall to m (g - r ω²) while the motors still spin at hover, the hardest start
         phase = rng.uniform(-math.pi / 4, math.pi / 4)
         return Harmonic(offset=centre, yaw=yaw,
-                        drift=(drift * math.cos(heading), drift * math.sin(heading), 0.0),
+                        drift=(drift * math.cos(yaw), drift * math.sin(yaw), 0.0),
                         terms=[(0, radius * across[0], omega, phase),
                                (1, radius * across[1], omega, phase),
                                (2, radius, omega, phase + math.pi / 2)])
