@@ -57,9 +57,10 @@ def _register() -> None:
                                   else "quad_dob_env.envs:QuadrotorEnv"),
                      vector_entry_point=("quad_dob_composition.envs:ResidualVectorEnv"
                                          if residual else "quad_dob_env.envs:QuadrotorVectorEnv"),
-                     # the default scenario's length, so TimeLimit-aware clients
-                     # (TimeAwareObservation, make_vec(max_episode_steps=...)) see it
-                     max_episode_steps=make_scenario(scenario).steps,
+                     # no max_episode_steps: gym.make would wrap a TimeLimit of the
+                     # default scenario's length around an env whose scenario_options
+                     # make it longer; each env ends its episodes at its scenario's end
+                     # and its spec reports that length (envs.limits)
                      kwargs={"scenario": scenario,
                              **({"base_controller": DEFAULT_BASE_CONTROLLER} if residual else {})})
 

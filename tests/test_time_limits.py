@@ -1,6 +1,7 @@
-"""The time limit is in the spec, and every client's way of asking for one ends episodes on
-the same step: TimeLimit and friends on single envs, make_vec(max_episode_steps=N) in every
-vectorisation mode."""
+"""Episodes run to their scenario's end, whatever scenario_options make of its length; a
+made env's spec says how long that is; and every client's way of asking for a shorter limit
+ends episodes on the same step: TimeLimit and friends on single envs,
+make_vec(max_episode_steps=N) in every vectorisation mode."""
 
 from __future__ import annotations
 
@@ -16,9 +17,56 @@ IDS = list(quad_dob_env.ENV_IDS)
 
 
 @pytest.mark.parametrize("env_id", IDS)
-def test_every_id_carries_its_default_scenarios_length(env_id):
-    spec = gym.spec(env_id)
-    assert spec.max_episode_steps == make_scenario(quad_dob_env.ENV_IDS[env_id]).steps
+def test_a_made_env_reports_its_default_scenarios_length(env_id):
+    steps = make_scenario(quad_dob_env.ENV_IDS[env_id]).steps
+    assert gym.spec(env_id).max_episode_steps is None  # a registered one would cut (below)
+    env = gym.make(env_id)
+    assert env.spec.max_episode_steps == steps
+    envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    assert envs.spec.max_episode_steps == steps
+    assert gym.make(env_id, max_episode_steps=7).spec.max_episode_steps == 7
+
+
+def _single_episode_length(env: gym.Env) -> tuple[int, dict]:
+    env.reset(seed=0)
+    for step in range(1, 10**6):
+        _, _, terminated, truncated, info = env.step(np.zeros(4, np.float32))
+        if terminated or truncated:
+            return step, info
+    raise AssertionError("the episode never ended")
+
+
+# Before the fix gym.make wrapped a TimeLimit of the default 1,000 steps around these, so
+# the halved dt ended at 5 s of a 10 s scenario and the longer duration at 10 s of 30 s.
+@pytest.mark.parametrize(("env_id", "options", "steps"), [
+    ("QuadDOB/HoverResidual-v1", {"dt": 0.005}, 2000),
+    ("QuadDOB/TrackResidual-v1", {"duration": 30.0}, 3000),
+])
+def test_episodes_run_to_the_scenarios_end_when_options_change_its_length(env_id, options,
+                                                                           steps):
+    env = gym.make(env_id, scenario_options=options)
+    assert env.spec.max_episode_steps == steps
+    length, info = _single_episode_length(env)
+    assert length == steps and info["termination_reason"] == "time_limit"
+    assert info["time"] == pytest.approx(make_scenario(
+        quad_dob_env.ENV_IDS[env_id], **options).duration)
+    timed = TimeAwareObservation(gym.make(env_id, scenario_options=options))
+    assert timed.max_timesteps == steps
+    envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point",
+                        scenario_options=options)
+    assert envs.spec.max_episode_steps == steps and envs.core.episode_steps == steps
+    envs.reset(seed=0)
+    for _ in range(steps - 1):
+        _, _, terminated, truncated, _ = envs.step(np.zeros((2, 4)))
+        assert not (terminated.any() or truncated.any())
+    *_, truncated, info = envs.step(np.zeros((2, 4)))
+    assert truncated.all() and list(info["termination_reason"]) == ["time_limit"] * 2
+
+
+def test_a_shorter_limit_the_user_asks_for_still_applies_to_a_longer_scenario():
+    env = gym.make("QuadDOB/HoverResidual-v1", scenario_options={"dt": 0.005},
+                   max_episode_steps=150)
+    assert _single_episode_length(env)[0] == 150
 
 
 @pytest.mark.parametrize("env_id", IDS)

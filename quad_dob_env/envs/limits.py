@@ -1,10 +1,13 @@
-"""When an episode ends early, and what the reward weighs: the core's two settings records."""
+"""When an episode ends, and what the reward weighs: the core's two settings records, and
+the time limit an env's spec reports."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+from gymnasium.envs.registration import EnvSpec
 
 from quad_dob_env.validation import as_finite
 
@@ -35,3 +38,17 @@ class RewardWeights:
     def __post_init__(self) -> None:
         as_finite(self.position_scale, "reward position_scale", 0.0, strictly=True)
         as_finite(self.effort_weight, "reward effort_weight", 0.0)
+
+
+def spec_with_episode_steps(spec: EnvSpec | None, steps: int) -> EnvSpec | None:
+    """``spec`` as ``gym.make``/``gym.make_vec`` set it, with the episode's own length.
+
+    The ids register no ``max_episode_steps``: ``gym.make`` would wrap every env in a
+    ``TimeLimit`` of the default scenario's length before it could see that
+    ``scenario_options`` changed ``dt`` or ``duration``, cutting such episodes short. The env
+    ends its episodes itself at its scenario's end and reports that length here, so
+    ``TimeAwareObservation`` and other clients that read ``env.spec.max_episode_steps`` see
+    the limit that really applies (a ``TimeLimit`` the user asked for reports its own)."""
+    if spec is None or spec.max_episode_steps is not None:
+        return spec
+    return dataclasses.replace(spec, max_episode_steps=int(steps))

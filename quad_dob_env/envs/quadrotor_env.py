@@ -6,11 +6,13 @@ from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.envs.registration import EnvSpec
 from numpy.typing import NDArray
 
 from quad_dob_env.envs.actions import INVALID_ACTION_MODES, screen_actions
 from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
+from quad_dob_env.envs.limits import spec_with_episode_steps
 from quad_dob_env.envs.rendering import (
     RENDER_MODES,
     FlightRenderer,
@@ -85,11 +87,16 @@ class QuadrotorEnv(gym.Env):
     | ``non_finite_state`` | the step produced NaN/inf; the last finite state is kept      |
     | ``invalid_action``   | a NaN/inf action with ``invalid_actions="terminate"``         |
 
-    ``truncated`` with reason ``time_limit`` after the scenario's duration. The registered
-    ids carry it as ``spec.max_episode_steps`` too (the default scenario's steps), so
-    ``gym.make`` adds Gymnasium's ``TimeLimit``; pass ``max_episode_steps=`` to ``gym.make``
-    for another limit, and a longer scenario (``scenario_options={"duration": ...}``) with
-    a matching one.
+    ``truncated`` with reason ``time_limit`` at the scenario's end, ``scenario.steps`` steps
+    (``duration / dt``), whatever ``scenario_options`` made of it: the env ends its episodes
+    itself and a made env's ``spec.max_episode_steps`` reports that length, so
+    ``TimeAwareObservation`` sees it. ``gym.make(..., max_episode_steps=N)`` adds
+    Gymnasium's ``TimeLimit`` for a shorter limit; it sets ``truncated`` and, as for any
+    env, leaves ``info`` without a ``termination_reason`` (the env cannot see it; the
+    native vector env's ``max_episode_steps`` names it ``time_limit``). The ids register
+    no ``max_episode_steps`` (``gym.spec(id).max_episode_steps`` is None): a registered one
+    would be wrapped around every env before its options are known, and cut a longer
+    scenario at the default's length.
 
     ## Info
     A fresh dict each step: ``time``; ``position_error``, ``velocity_error``;
@@ -115,6 +122,12 @@ class QuadrotorEnv(gym.Env):
     ``terminate``).
 
     ## Version history
+    - v1, bug fix (2026-12, no id bumped: default episodes are unchanged): episodes run to
+      their scenario's end. Until then ``gym.make`` wrapped every env in a ``TimeLimit`` of
+      the default scenario's steps, so ``scenario_options`` with a smaller ``dt`` or a longer
+      ``duration`` ended at the default's length, and the vector env reported that as
+      ``time_limit``; the ids now register no ``max_episode_steps`` and a made env's
+      ``spec.max_episode_steps`` is its scenario's.
     - v1 (Benchmark v1; the time limit in the spec too, same episodes): every scenario's
       reference is checked flyable (thrust, moments, rotor thrusts, body rate by
       differential flatness) or refused; the paper vehicle's
@@ -161,6 +174,17 @@ class QuadrotorEnv(gym.Env):
         # (set by ResidualActionWrapper, and in the reset info)
         self.base_controller: dict[str, Any] | None = None
         self._reset_done = False
+        self._spec = None
+
+    @property
+    def spec(self) -> EnvSpec | None:  # type: ignore[override]
+        """What ``gym.make`` built this env from, with this episode's length in
+        ``max_episode_steps`` (``envs.limits.spec_with_episode_steps``)."""
+        return getattr(self, "_spec", None)
+
+    @spec.setter
+    def spec(self, spec: EnvSpec | None) -> None:
+        self._spec = spec_with_episode_steps(spec, self.core.episode_steps)
 
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:
