@@ -35,6 +35,10 @@ class ResidualVectorEnv(QuadrotorVectorEnv):
                  scenario_options: dict[str, Any] | None = None,
                  base_controller: Any = DEFAULT_BASE_CONTROLLER, compiled: bool = True,
                  **kwargs: Any) -> None:
+        if base_controller is None:  # the plain vector env would read None as "direct"
+            raise ValueError("ResidualVectorEnv needs a base_controller (a controller name "
+                             "such as 'geometric-ndob:tuned', or a controller); for direct "
+                             "control use a direct id or QuadrotorVectorEnv")
         vehicle = make_scenario(scenario, **(scenario_options or {})).vehicle
         base = make_base(base_controller, vehicle)
         super().__init__(num_envs, scenario, scenario_options, base_controller=base,

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from quad_dob_env.disturbances import Disturbance, GroundEffect
 from quad_dob_env.feasibility import Feasibility, check_reference, refusal
+from quad_dob_env.memory import check_memory
 from quad_dob_env.params import ACTUATIONS, VehicleParams, get_vehicle
 from quad_dob_env.so3 import project_to_so3
 from quad_dob_env.trajectories import Trajectory, TrajectoryFamily
@@ -26,6 +27,13 @@ from quad_dob_env.variation import Randomization, SensorNoise
 # 0.1 ms to 0.1 s, at most a million steps per episode (its reference is tabulated), and
 # at most 100 physics substeps per control step.
 MIN_DT, MAX_DT, MAX_STEPS, MAX_SUBSTEPS = 1e-4, 0.1, 1_000_000, 100
+# Bytes per row of the tables a scenario's flight builds (measured with tracemalloc, and
+# rounded up): the core's reference table (8 fields x 3 float64) for each member, held
+# twice while a grown table is concatenated; the feasibility check's arrays (448 B a row,
+# one member at a time); the time-only disturbances, 3 channels x 3 float64 per sample.
+REFERENCE_ROW_BYTES = 2 * 8 * 3 * 8
+FEASIBILITY_ROW_BYTES = 512
+DISTURBANCE_SAMPLE_BYTES = 3 * 3 * 8
 
 @dataclass(frozen=True)
 class Scenario:
@@ -134,6 +142,7 @@ class Scenario:
         object.__setattr__(self, "duration", duration)
         family = isinstance(self.trajectory, TrajectoryFamily)
         members = self.trajectory.members if family else (self.trajectory,)
+        self._check_table_memory(len(members))
         # a family is as feasible as its hardest member
         checks = [check_reference(member, self.vehicle, self.actuation,
                                   duration + self.reference_start_spread, dt)
@@ -145,6 +154,18 @@ class Scenario:
                     if family else self.name)
             raise ValueError(refusal(name, self.vehicle, self.actuation, feasibility))
         object.__setattr__(self, "feasibility", feasibility)
+
+    def _check_table_memory(self, members: int) -> None:
+        """Refuse, before anything is tabulated, tables that would pass the memory budget
+        (``quad_dob_env.memory``): the rows run from 0 to the duration plus the start
+        spread, at dt."""
+        rows = self.steps + 1 + math.floor(self.reference_start_spread / self.dt + 1e-9)
+        size = rows * (members * REFERENCE_ROW_BYTES + FEASIBILITY_ROW_BYTES
+                       + (2 * self.substeps + 1) * DISTURBANCE_SAMPLE_BYTES)
+        check_memory(size, f"scenario {self.name!r}: {members} reference(s) tabulated over "
+                     f"{rows:,} rows (duration {self.duration:g} s + reference_start_spread "
+                     f"{self.reference_start_spread:g} s, at dt {self.dt:g} s)",
+                     "use a larger dt, a shorter duration or reference_start_spread")
 
     @property
     def steps(self) -> int:

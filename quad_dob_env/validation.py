@@ -26,9 +26,12 @@ def unknown_name_error(kind: str, name: object, valid: Iterable[str]) -> ValueEr
 def as_vector3(value: ArrayLike, name: str) -> NDArray[np.float64]:
     """A finite 3-vector, or a ValueError that names the field and what it got."""
     try:
+        # a string or a flag is no number, though numpy would read "2" and True as ones
+        if np.asarray(value).dtype.kind in "USb":
+            raise ValueError
         vector = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite 3-vector, got {value!r}") from None
+        raise ValueError(f"{name} must be a finite 3-vector of numbers, got {value!r}") from None
     if vector.shape != (3,) or not np.all(np.isfinite(vector)):
         raise ValueError(f"{name} must be a finite 3-vector, got {value!r}")
     return vector
@@ -36,7 +39,11 @@ def as_vector3(value: ArrayLike, name: str) -> NDArray[np.float64]:
 
 def as_finite(value: object, name: str, minimum: float | None = None,
               strictly: bool = False) -> float:
-    """A finite float, at least (or above, if ``strictly``) ``minimum``; else ValueError."""
+    """A finite float, at least (or above, if ``strictly``) ``minimum``; else ValueError.
+    A string (``"2"``) or a bool is refused: Python's ``float`` would take either as a
+    number, hiding a value that came through unparsed (the CLI parses its own)."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise ValueError(f"{name} must be a number, got {type(value).__name__} {value!r}")
     try:
         number = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):

@@ -6,6 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_env.envs.kernels import sensor_kernel
+from quad_dob_env.memory import check_memory
 
 
 class SensorStage:
@@ -24,6 +25,9 @@ class SensorStage:
                      float(sensors.attitude_std), float(sensors.rate_std))
         self.keys = np.zeros(n, dtype=np.uint64)
         self.counters = np.zeros(n, dtype=np.int64)
+        check_memory((sensors.delay_steps + 1) * obs.nbytes,
+                     f"the sensor delay line of {sensors.delay_steps:,} steps for {n:,} "
+                     "vehicles", "use a shorter SensorNoise.delay_steps")
         self.history = np.zeros((sensors.delay_steps + 1, *obs.shape), dtype=np.float32)
         self.slot = 0
 
