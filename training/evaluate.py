@@ -27,6 +27,7 @@ from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.metrics import flight_metrics
 from quad_dob_training.policies import fly_policy, make_policy
 from quad_dob_training.report import write_report
+from quad_dob_training.rollout import check_flight_memory
 from quad_dob_training.statistics import bootstrap_mean, paired_difference
 
 SCORES = (("rms_position_settled", "RMS ‖e_x‖ [m]"),
@@ -51,37 +52,51 @@ LEADERBOARD = (("rms_position_settled", "RMS ‖e_x‖ [m]"), ("rms_tilt_settled
                ("crash_rate", "crash rate"))
 
 
-def parse_seeds(text: str) -> list[int]:
-    """``"20"`` -> seeds 0-19; ``"9001-9020"`` -> those 20 seeds (inclusive)."""
+# the flight length parse_seeds sizes a seed range by: 10 s at 100 Hz, the longest v1
+# scenario's (fly_policy checks each scenario's own length again before it flies)
+FLIGHT_STEPS = 1000
+
+
+def parse_seeds(text: str, steps: int = FLIGHT_STEPS) -> list[int]:
+    """``"20"`` -> seeds 0-19; ``"9001-9020"`` -> those 20 seeds (inclusive).
+
+    A range whose flights of ``steps`` steps would pass the memory budget
+    (``quad_dob_env.memory``) is refused before any list is built."""
     text = str(text).strip()
     try:
         if "-" in text:
             first, last = (int(part) for part in text.split("-", 1))
             if last < first:
                 raise ValueError
-            return list(range(first, last + 1))
-        count = int(text)
-        if count < 1:
-            raise ValueError
-        return list(range(count))
+        else:
+            first, last = 0, int(text) - 1
+            if last < 0:
+                raise ValueError
     except ValueError:
         raise ValueError(f"seeds must be a count >= 1 such as 20 or an inclusive range A-B "
                          f"such as 9001-9020, got {text!r}") from None
+    check_flight_memory(last - first + 1, steps, f"--seeds {text}",
+                        "evaluate fewer seeds (a smaller --seeds)")
+    return list(range(first, last + 1))
 
 
 def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
              first_flights: dict | None = None,
-             baseline: str | None = DEFAULT_BASE_CONTROLLER) -> list[dict]:
+             baseline: str | None = DEFAULT_BASE_CONTROLLER, *,
+             trust_pickle: bool = False,
+             scenario_options: dict[str, object] | None = None) -> list[dict]:
     """One row per (scenario, policy): mean, std and 95 % interval over seeds of each score,
     the crash rate, and the paired difference to ``baseline`` (flown too if not listed;
     None for no comparison). ``first_flights``, when given, collects each scenario's
-    flights on the first seed."""
+    flights on the first seed. ``trust_pickle``: model files may be unpickled
+    (``model_files.load_model``). ``scenario_options`` go to every scenario
+    (``make_scenario(name, **scenario_options)``)."""
     specs = list(dict.fromkeys(policies))
     flown = specs if baseline is None or baseline in specs else [*specs, baseline]
-    built = [make_policy(spec) for spec in flown]
+    built = [make_policy(spec, trust_pickle=trust_pickle) for spec in flown]
     rows = []
     for scenario_name in scenarios:
-        scenario = make_scenario(scenario_name)
+        scenario = make_scenario(scenario_name, **(scenario_options or {}))
         metrics = {}
         for spec, policy in zip(flown, built, strict=True):
             flights = fly_policy(policy, scenario, seeds)
@@ -222,15 +237,19 @@ def _bar_plot(rows: list[dict], path: Path) -> None:
 
 
 def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
-         as_json: bool, baseline: str | None = None, suite: bool = False) -> int:
+         as_json: bool, baseline: str | None = None, suite: bool = False, *,
+         trust_pickle: bool = False, scenario_options: dict[str, object] | None = None) -> int:
     """``baseline`` None: the recommended base; "": no comparison. ``suite``: every
-    scenario of ``SUITE`` instead of ``scenarios``, and ``leaderboard.md``."""
+    scenario of ``SUITE`` instead of ``scenarios``, and ``leaderboard.md``.
+    ``trust_pickle`` (``--trust-pickle``): model files may be unpickled.
+    ``scenario_options`` (``--scenario-option KEY=VALUE``): passed to every scenario."""
     baseline = DEFAULT_BASE_CONTROLLER if baseline is None else baseline
     if suite:
         scenarios = [name for names in SUITE.values() for name in names]
     seed_list = parse_seeds(seeds)
     first_flights: dict = {}
-    rows = evaluate(policies, scenarios, seed_list, first_flights, baseline or None)
+    rows = evaluate(policies, scenarios, seed_list, first_flights, baseline or None,
+                    trust_pickle=trust_pickle, scenario_options=scenario_options)
     if as_json:
         print(json.dumps(rows, indent=1))
         return 0

@@ -5,27 +5,40 @@ A policy is what ``quad-dob evaluate --policies`` names:
 | spec               | what flies                                                        |
 |--------------------|-------------------------------------------------------------------|
 | ``geometric-ndob`` (any ``baselines`` controller name) | that controller alone     |
-| ``ppo:PATH``       | a PPO model trained with ``quad-dob train`` (direct or residual)  |
+| ``ppo:PATH``       | a PPO or SAC model from ``quad-dob train`` (direct or residual)   |
 | ``residual``       | the shipped residual policy (``training/pretrained``) on its base |
 | ``residual:PATH``  | a residual model from ``quad-dob train --mode residual``          |
+
+The shipped policy's zip and its config (base controller, env options, observation
+statistics) are checked against ``SHIPPED_RESIDUAL_SHA256`` and
+``SHIPPED_RESIDUAL_CONFIG_SHA256`` before either is read.
 
 Every policy flies in a ``QuadrotorVectorEnv`` with one vehicle per seed: a controller is
 the base of a residual env given zero residuals (which flies it exactly), a residual model
 adds its actions to its base, a direct model commands the vehicle itself. The records are
 ``quad_dob_training.rollout.Flight``s, so ``quad-dob evaluate`` scores them with the same
-metric code as ``quad-dob paper``.
+metric code as ``quad-dob paper``. A request whose records would pass the memory budget
+(``quad_dob_env.memory``; ``rollout.RECORD_BYTES_PER_STEP`` a vehicle and step) is refused before
+anything is built.
+
+Model files (``ppo:PATH``, ``residual:PATH``, the shipped one) are loaded by
+``quad_dob_training.model_files`` without unpickling anything, because unpickling runs
+whatever code the file's author put in it: the pickled entries of the zip's JSON (spaces,
+policy class, schedules, training buffers) are rebuilt from the config beside it and the env
+that config describes, and the weights are read as tensors only (torch's
+``weights_only=True``). A zip with a pickled entry that cannot be rebuilt is refused unless
+``trust_pickle=True`` (``--trust-pickle``), which unpickles the zip's entries as
+stable-baselines3 does; so does ``load_zip``, which ``quad-dob train --resume`` uses for a
+run's own checkpoints.
 """
 
 from __future__ import annotations
 
-import hashlib
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 
 from quad_dob_baselines import CONTROLLERS
@@ -34,14 +47,18 @@ from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.validation import unknown_name_error
-from quad_dob_training.rollout import Flight, FlightRecorder
-
-ALGORITHMS = ("ppo", "sac")  # what quad-dob train trains and ppo:PATH / residual:PATH load
-PRETRAINED = Path(__file__).parent / "pretrained"
-SHIPPED_RESIDUAL = PRETRAINED / "residual_random_tracks.zip"
-# sha256 of the shipped zip: SB3 zips hold pickled objects that run code when loaded, so the
-# shipped file is checked before it is opened
-SHIPPED_RESIDUAL_SHA256 = "e75e4b59ef3afc351ddd0338b92b0eef63d56328f909f2d2300c88d5b7db34e5"
+from quad_dob_training.model_files import (  # noqa: F401 (the names train.py and tests use)
+    ALGORITHMS,
+    PRETRAINED,
+    SHIPPED_RESIDUAL,
+    SHIPPED_RESIDUAL_CONFIG_SHA256,
+    SHIPPED_RESIDUAL_SHA256,
+    algorithm_class,
+    load_model,
+    load_zip,
+    sha256,
+)
+from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memory
 
 
 @dataclass
@@ -76,85 +93,19 @@ class Policy:
         return options
 
 
-def sha256(path: Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
-def load_model(path: str | Path, expected_sha256: str | None = None) -> tuple[Any, dict]:
-    """An SB3 model and the ``config.yaml`` saved beside it by ``quad-dob train``.
-
-    SB3 zips can execute code when loaded: load only files you trust. With
-    ``expected_sha256`` the file is checked before it is opened.
-    """
-    path = Path(path)
-    if path.is_dir():
-        path = path / "model.zip"
-    if not path.is_file():
-        raise ValueError(f"policy file {str(path)!r} does not exist")
-    if expected_sha256 is not None and sha256(path) != expected_sha256:
-        raise ValueError(f"policy file {str(path)!r} does not match its recorded sha256 "
-                         f"{expected_sha256}: refusing to load it")
-    config_path = path.with_name(path.stem + ".yaml")
-    if not config_path.is_file():
-        config_path = path.parent / "config.yaml"
-    if not config_path.is_file():
-        raise ValueError(f"no training config beside {str(path)!r} (looked for "
-                         f"{path.stem}.yaml and config.yaml): cannot tell which env it fits")
-    config = yaml.safe_load(config_path.read_text())
-    algo = config.get("algo", "ppo")
-    if algo not in ALGORITHMS:
-        raise ValueError(f"{str(config_path)!r} names algorithm {algo!r}; this version loads "
-                         + ", ".join(ALGORITHMS))
-    # the schedules are pickled code (by value, tagged with the module that made them);
-    # flying a policy needs none of them, so they are not unpickled
-    schedules = {"learning_rate": 0.0, "lr_schedule": _no_schedule, "clip_range": _no_schedule}
-    return load_zip(algorithm_class(algo), path, custom_objects=schedules), config
-
-
-def algorithm_class(name: str) -> Any:
-    """SB3's class for an ``ALGORITHMS`` name (imported here: torch takes seconds to load,
-    and listing or evaluating controllers needs none of it)."""
-    import stable_baselines3
-
-    if name not in ALGORITHMS:
-        raise unknown_name_error("algorithm", name, ALGORITHMS)
-    return getattr(stable_baselines3, name.upper())
-
-
-def load_zip(algorithm: Any, path: Path | str, **options: Any) -> Any:
-    """``algorithm.load(path)``, with a cut-off or corrupted file named in a ValueError
-    instead of a traceback from deep inside zipfile, torch or pickle."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"model file {str(path)!r} does not exist")
-    if not zipfile.is_zipfile(path):
-        raise ValueError(f"model file {str(path)!r} is not a stable-baselines3 zip (cut off "
-                         "while written, or not a model): train again or pick another "
-                         "checkpoint")
-    try:
-        return algorithm.load(path, device="cpu", **options)
-    except Exception as error:  # zipfile, torch, pickle and json all raise their own
-        first_line = (str(error).splitlines() or [""])[0][:160]
-        raise ValueError(f"model file {str(path)!r} could not be loaded "
-                         f"({type(error).__name__}: {first_line}): it is damaged or was written "
-                         "by an incompatible stable-baselines3; train again or pick another "
-                         "checkpoint") from error
-
-
-def _no_schedule(_: float) -> float:
-    return 0.0
-
-
-def make_policy(spec: str) -> Policy:
-    """The policy a ``--policies`` entry names (see the module docstring)."""
+def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
+    """The policy a ``--policies`` entry names (see the module docstring); ``trust_pickle``
+    lets ``ppo:PATH`` / ``residual:PATH`` unpickle their zips (``load_model``). The shipped
+    policy is always loaded checked and without unpickling."""
     kind, _, path = spec.partition(":")
     if spec in CONTROLLERS:
         return Policy(spec, base=spec)
     if kind == "residual" and not path:
-        model, config = load_model(SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256)
+        model, config = load_model(SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256,
+                                   expected_config_sha256=SHIPPED_RESIDUAL_CONFIG_SHA256)
         return Policy("residual", config["base_controller"], model, config)
     if kind in ("ppo", "residual") and path:
-        model, config = load_model(path)
+        model, config = load_model(path, trust_pickle=trust_pickle)
         mode = config.get("mode")
         if kind == "residual" and mode != "residual":
             raise ValueError(f"{spec!r}: the model at {path} was trained in mode {mode!r}, "
@@ -187,8 +138,11 @@ def check_spaces(policy: Policy, env: QuadrotorVectorEnv) -> None:
 
 
 def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Flight]:
-    """One episode per seed, all flown together; records stop at each episode's end."""
+    """One episode per seed, all flown together; records stop at each episode's end.
+    Refused at once when the records would pass the memory budget (``check_flight_memory``).
+    """
     n = len(seeds)
+    check_flight_memory(n, scenario.steps, f"flying {scenario.name!r}")
     env = make_vector_env(n, scenario, **policy.env_kwargs())
     check_spaces(policy, env)
     obs, _ = env.reset(seed=[int(s) for s in seeds])

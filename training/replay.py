@@ -21,10 +21,11 @@ from quad_dob_training.policies import check_spaces, make_policy
 VIDEO_SUFFIXES = (".gif", ".mp4")
 
 
-def fly_frames(spec: str, scenario_name: str, seed: int, every: int, size: tuple[int, int]
-               ) -> list[NDArray[np.uint8]]:
-    """Frames of one episode of policy ``spec``, one per ``every`` control steps."""
-    policy = make_policy(spec)
+def fly_frames(spec: str, scenario_name: str, seed: int, every: int, size: tuple[int, int],
+               *, trust_pickle: bool = False) -> list[NDArray[np.uint8]]:
+    """Frames of one episode of policy ``spec``, one per ``every`` control steps
+    (``trust_pickle``: its model file may be unpickled, ``model_files.load_model``)."""
+    policy = make_policy(spec, trust_pickle=trust_pickle)
     env = make_vector_env(1, make_scenario(scenario_name), **policy.env_kwargs())
     check_spaces(policy, env)
     renderer = FlightRenderer(env.core, *size)
@@ -72,7 +73,9 @@ def write_video(frames: list[NDArray[np.uint8]], path: Path, fps: float) -> None
 
 
 def main(policies: list[str], scenario: str, seed: int, out: Path, fps: float,
-         width: int) -> int:
+         width: int, *, trust_pickle: bool = False) -> int:
+    """``quad-dob replay``; ``trust_pickle`` (``--trust-pickle``): model files may be
+    unpickled."""
     if out.suffix not in VIDEO_SUFFIXES:
         raise ValueError(f"--out must end in {' or '.join(VIDEO_SUFFIXES)}, got {str(out)!r}")
     if not policies:
@@ -80,7 +83,8 @@ def main(policies: list[str], scenario: str, seed: int, out: Path, fps: float,
     dt = make_scenario(scenario).dt
     every = max(1, round(1.0 / (fps * dt)))
     size = (width // 8 * 8, width * 3 // 4 // 8 * 8)  # codecs want multiples of 8
-    runs = [fly_frames(spec, scenario, seed, every, size) for spec in policies]
+    runs = [fly_frames(spec, scenario, seed, every, size, trust_pickle=trust_pickle)
+            for spec in policies]
     frames = side_by_side(runs)
     write_video(frames, out, 1.0 / (every * dt))
     print(f"wrote {out} ({len(frames)} frames, {' | '.join(policies)} in {scenario}, "

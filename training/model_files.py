@@ -1,0 +1,309 @@
+"""Model files: an SB3 zip and the training config beside it, loaded without running code.
+
+Loading a model runs no code from its file. A stable-baselines3 zip holds JSON (``data``),
+torch tensors (``*.pth``) and two text files; ``data`` carries some entries as cloudpickle
+(``{":serialized:": ...}``), and unpickling is running whatever the file's author wrote.
+``load_model`` therefore unpickles nothing:
+
+- every pickled entry of ``data`` is handed to SB3 as ``custom_objects``, rebuilt: the
+  observation and action spaces from the env the config beside the model describes (one
+  vehicle of it; their shape and dtype checked against what ``data`` records in plain text),
+  ``policy_class`` from the algorithm's own class for the config's ``policy`` name,
+  ``learning_rate``, ``lr_schedule`` and ``clip_range`` as constants, ``train_freq`` from the
+  config, and what only training uses (last observations, episode buffers, buffer classes,
+  action noise, ``clip_range_vf``) as None, which SB3 fills with its defaults (a saved
+  ``env``, which SB3 would make by its id, is None too);
+- a zip with any other pickled entry (a custom policy class or features extractor, say) is
+  refused, naming the entry; ``trust_pickle=True`` (``--trust-pickle``) loads it as SB3
+  does, unpickling its entries (only the schedules are still skipped);
+- the ``.pth`` files (weights, optimizer state, torch variables) are read first with torch's
+  ``weights_only=True`` (tensors and plain containers only; SB3 2.9 reads them so itself,
+  older versions need not), and one holding any other object is refused; the zip's two
+  text files are not read.
+
+The JSON's plain values (sizes, coefficients, ``policy_kwargs``) are used as saved. The
+observation statistics come from the config (``observation_normalization``), never from a
+pickled ``VecNormalize``. A run's own checkpoints, which ``quad-dob train --resume`` reads
+with their pickled env, go through ``load_zip``, which unpickles.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from quad_dob_composition import make_vector_env
+from quad_dob_env.memory import check_memory
+from quad_dob_env.validation import unknown_name_error
+
+ALGORITHMS = ("ppo", "sac")  # what quad-dob train trains and ppo:PATH / residual:PATH load
+PRETRAINED = Path(__file__).parent / "pretrained"
+SHIPPED_RESIDUAL = PRETRAINED / "residual_random_tracks.zip"
+# sha256 of the shipped zip and of the config beside it (base controller, env options,
+# observation statistics: what the policy flies with), both checked before either is read
+SHIPPED_RESIDUAL_SHA256 = "e75e4b59ef3afc351ddd0338b92b0eef63d56328f909f2d2300c88d5b7db34e5"
+SHIPPED_RESIDUAL_CONFIG_SHA256 = "000896053c3fd23bf7ff3082e0c56301c6d8b1d93298bfb81e7049f1bd9aff52"
+TRUST_PICKLE_HINT = ("only if you made the file or trust where it came from, load it with "
+                     "--trust-pickle (trust_pickle=True), which unpickles the zip's entries")
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def load_model(path: str | Path, expected_sha256: str | None = None, *,
+               expected_config_sha256: str | None = None,
+               trust_pickle: bool = False) -> tuple[Any, dict]:
+    """An SB3 model and the training config saved beside it by ``quad-dob train``
+    (``NAME.yaml`` beside ``NAME.zip``, else ``config.yaml``).
+
+    Nothing in the zip is unpickled (see the module docstring): its pickled entries are
+    rebuilt from the config and the env it describes, and a zip with one that cannot be is
+    refused unless ``trust_pickle``, which loads it as stable-baselines3 does, running
+    whatever its pickles hold. ``expected_sha256`` (the zip) and ``expected_config_sha256``
+    (the config) are checked on the bytes that are then loaded, before either is parsed.
+    """
+    path = Path(path)
+    if path.is_dir():
+        path = path / "model.zip"
+    if not path.is_file():
+        raise ValueError(f"policy file {str(path)!r} does not exist")
+    config_path = _config_path(path)
+    raw, config_bytes = _read(path, "policy file"), _read(config_path, "training config")
+    _check_sha256(path, raw, expected_sha256, "policy file")
+    _check_sha256(config_path, config_bytes, expected_config_sha256, "training config")
+    try:
+        config = yaml.safe_load(config_bytes)
+    except yaml.YAMLError as error:
+        raise ValueError(f"training config {str(config_path)!r} is not valid YAML "
+                         f"({(str(error).splitlines() or [''])[0]})") from None
+    if not isinstance(config, dict):
+        raise ValueError(f"training config {str(config_path)!r} is not a YAML mapping")
+    if not zipfile.is_zipfile(io.BytesIO(raw)):
+        raise _not_a_zip(path)
+    algo = config.get("algo", "ppo")
+    if algo not in ALGORITHMS:
+        raise ValueError(f"{str(config_path)!r} names algorithm {algo!r}; this version loads "
+                         + ", ".join(ALGORITHMS))
+    algorithm = algorithm_class(algo)
+    if trust_pickle:
+        # the zip's own objects, as SB3 loads them; only the schedules (code pickled by
+        # value, tied to the Python that made them, and needed by no flight) are skipped
+        schedules = {"learning_rate": 0.0, "lr_schedule": _no_schedule,
+                     "clip_range": _no_schedule}
+        return _load(algorithm, io.BytesIO(raw), path, custom_objects=schedules), config
+    data = _zip_data(raw, path)
+    _check_weights(raw, path)
+    entries = _rebuilt_entries(algorithm, config, data, path, config_path)
+    return _load(algorithm, io.BytesIO(raw), path, custom_objects=entries), config
+
+
+def algorithm_class(name: str) -> Any:
+    """SB3's class for an ``ALGORITHMS`` name (imported here: torch takes seconds to load,
+    and listing or evaluating controllers needs none of it)."""
+    import stable_baselines3
+
+    if name not in ALGORITHMS:
+        raise unknown_name_error("algorithm", name, ALGORITHMS)
+    return getattr(stable_baselines3, name.upper())
+
+
+def load_zip(algorithm: Any, path: Path | str, **options: Any) -> Any:
+    """``algorithm.load(path)``, with a cut-off or corrupted file named in a ValueError
+    instead of a traceback from deep inside zipfile, torch or pickle.
+
+    This unpickles what the zip holds, as SB3 does: it is for a run's own checkpoints
+    (``quad-dob train --resume``); ``load_model`` loads models without unpickling."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"model file {str(path)!r} does not exist")
+    if not zipfile.is_zipfile(path):
+        raise _not_a_zip(path)
+    return _load(algorithm, path, path, **options)
+
+
+def _load(algorithm: Any, source: Path | io.BytesIO, path: Path, **options: Any) -> Any:
+    try:
+        return algorithm.load(source, device="cpu", **options)
+    except Exception as error:  # zipfile, torch, pickle and json all raise their own
+        raise _damaged(path, error) from error
+
+
+def _not_a_zip(path: Path) -> ValueError:
+    return ValueError(f"model file {str(path)!r} is not a stable-baselines3 zip (cut off "
+                      "while written, or not a model): train again or pick another "
+                      "checkpoint")
+
+
+def _damaged(path: Path, error: Exception) -> ValueError:
+    first_line = (str(error).splitlines() or [""])[0][:160]
+    return ValueError(f"model file {str(path)!r} could not be loaded "
+                      f"({type(error).__name__}: {first_line}): it is damaged or was written "
+                      "by an incompatible stable-baselines3; train again or pick another "
+                      "checkpoint")
+
+
+def _no_schedule(_: float) -> float:
+    return 0.0
+
+
+def _config_path(path: Path) -> Path:
+    config_path = path.with_name(path.stem + ".yaml")
+    if not config_path.is_file():
+        config_path = path.parent / "config.yaml"
+    if not config_path.is_file():
+        raise ValueError(f"no training config beside {str(path)!r} (looked for "
+                         f"{path.stem}.yaml and config.yaml): cannot tell which env it fits")
+    return config_path
+
+
+def _read(path: Path, what: str) -> bytes:
+    size = path.stat().st_size
+    check_memory(size, f"reading {what} {str(path)!r}", "pick another file")
+    return path.read_bytes()
+
+
+def _check_sha256(path: Path, content: bytes, expected: str | None, what: str) -> None:
+    if expected is not None and hashlib.sha256(content).hexdigest() != expected:
+        raise ValueError(f"{what} {str(path)!r} does not match its recorded sha256 "
+                         f"{expected}: refusing to load it")
+
+
+def _zip_data(raw: bytes, path: Path) -> dict[str, Any]:
+    """The zip's ``data`` member: JSON, whose pickled entries are ``{":serialized:": ...}``."""
+    try:
+        with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+            info = archive.getinfo("data")
+    except Exception as error:  # no data member, a broken directory
+        raise _damaged(path, error) from error
+    check_memory(info.file_size, f"the data of model file {str(path)!r}",
+                 "pick another file")
+    try:
+        with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+            data = json.loads(archive.read("data").decode())
+        if not isinstance(data, dict):
+            raise TypeError(f"data is a JSON {type(data).__name__}, not an object")
+    except Exception as error:  # zlib, unicode, json
+        raise _damaged(path, error) from error
+    return data
+
+
+def _check_weights(raw: bytes, path: Path) -> None:
+    """Every ``.pth`` in the zip (weights, optimizer state, torch variables) read with
+    ``weights_only=True``: tensors and plain containers, no other pickled object. SB3 2.9
+    reads them so itself; checking here keeps that true whatever version is installed."""
+    import torch
+
+    with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+        for name in archive.namelist():
+            if not name.endswith(".pth"):
+                continue
+            try:
+                with archive.open(name) as member:
+                    torch.load(member, map_location="cpu", weights_only=True)
+            except Exception as error:
+                if "unsupported global" in str(error).lower():
+                    raise ValueError(f"model file {str(path)!r}: {name} holds pickled objects "
+                                     "other than tensors, which loading would run as code; "
+                                     + TRUST_PICKLE_HINT) from error
+                raise _damaged(path, error) from error
+
+
+# the zip's pickled entries that flying needs none of: what SB3 makes when it trains
+# (buffers and their class, the last observations, episode statistics, action noise, the
+# value clip range); None makes SB3 build its defaults
+NOT_NEEDED_TO_FLY = ("_last_obs", "_last_episode_starts", "_last_original_obs",
+                     "ep_info_buffer", "ep_success_buffer", "rollout_buffer_class",
+                     "replay_buffer_class", "action_noise", "clip_range_vf")
+# every pickled entry load_model rebuilds instead of unpickling
+REBUILT_ENTRIES = ("policy_class", "observation_space", "action_space", "learning_rate",
+                   "lr_schedule", "clip_range", "train_freq", "env", *NOT_NEEDED_TO_FLY)
+
+
+def pickled_entries(data: dict[str, Any]) -> list[str]:
+    """The entries of a zip's ``data`` that SB3 would unpickle (as its ``json_to_data``
+    picks them: a top-level object with a ``":serialized:"`` key)."""
+    return [key for key, item in data.items() if isinstance(item, dict) and ":serialized:" in item]
+
+
+def _rebuilt_entries(algorithm: Any, config: dict, data: dict, path: Path,
+                     config_path: Path) -> dict[str, Any]:
+    """SB3's ``custom_objects``: every pickled entry of ``data``, rebuilt from the config,
+    the env it describes and the algorithm, so that none is unpickled."""
+    unknown = [key for key in pickled_entries(data) if key not in REBUILT_ENTRIES]
+    if unknown:
+        raise ValueError(f"model file {str(path)!r} holds pickled entries that loading would "
+                         "run as code and that cannot be rebuilt from its config: "
+                         f"{', '.join(unknown)}; {TRUST_PICKLE_HINT}")
+    policy_class = _policy_class(algorithm, config, data, path, config_path)
+    observation_space, action_space = _spaces(config, data, path, config_path)
+    train_freq = (config.get("algo_kwargs") or {}).get("train_freq", 1)
+    return {"policy_class": policy_class, "observation_space": observation_space,
+            "action_space": action_space,
+            # the schedules: constants (flying takes no gradient step)
+            "learning_rate": 0.0, "lr_schedule": _no_schedule, "clip_range": _no_schedule,
+            "train_freq": tuple(train_freq) if isinstance(train_freq, list) else train_freq,
+            "env": None,  # SB3 would make an env from a saved id string
+            **dict.fromkeys(NOT_NEEDED_TO_FLY)}
+
+
+def _policy_class(algorithm: Any, config: dict, data: dict, path: Path,
+                  config_path: Path) -> Any:
+    """The algorithm's own class for the config's ``policy`` name (``MlpPolicy``: PPO's
+    ``ActorCriticPolicy``, SAC's ``SACPolicy``), checked against the module the zip records
+    for its class in plain text."""
+    name = config.get("policy", "MlpPolicy")
+    aliases = algorithm.policy_aliases
+    if name not in aliases:
+        raise ValueError(f"{str(config_path)!r} names policy {name!r}, which is not one of "
+                         f"{algorithm.__name__}'s own ({', '.join(aliases)}): the model "
+                         f"beside it cannot be rebuilt without unpickling; {TRUST_PICKLE_HINT}")
+    policy_class = aliases[name]
+    recorded = data.get("policy_class")
+    module = recorded.get("__module__") if isinstance(recorded, dict) else None
+    if module is not None and module != policy_class.__module__:
+        raise ValueError(f"model file {str(path)!r} holds a policy class from {module!r}, "
+                         f"not {algorithm.__name__}'s {name} ({policy_class.__module__}) that "
+                         f"its config names: it cannot be rebuilt without unpickling; "
+                         + TRUST_PICKLE_HINT)
+    return policy_class
+
+
+def _spaces(config: dict, data: dict, path: Path, config_path: Path) -> tuple[Any, Any]:
+    """The observation and action spaces of the env the config trained in (one vehicle of
+    it), checked against the shape and dtype the zip records for its spaces in plain
+    text."""
+    options = dict(config.get("env_kwargs") or {})
+    if config.get("mode") == "residual" and config.get("base_controller") is not None:
+        options.setdefault("base_controller", config["base_controller"])
+    try:
+        env = make_vector_env(1, **options)
+    except Exception as error:
+        raise ValueError(f"the env options in {str(config_path)!r} do not build an env "
+                         f"({type(error).__name__}: {error}), so the spaces of the model "
+                         "beside it cannot be rebuilt") from error
+    spaces = env.single_observation_space, env.single_action_space
+    env.close()
+    for key, space in zip(("observation_space", "action_space"), spaces, strict=True):
+        recorded = data.get(key)
+        if not isinstance(recorded, dict):
+            continue
+        try:
+            shape = tuple(json.loads(recorded["_shape"]))
+        except (KeyError, TypeError, ValueError):
+            shape = None
+        dtype = recorded.get("dtype")
+        if (shape is not None and shape != space.shape) or (dtype is not None
+                                                             and dtype != str(space.dtype)):
+            raise ValueError(f"model file {str(path)!r} was saved with {key} of shape {shape} "
+                             f"and dtype {dtype}, but the env its config "
+                             f"{str(config_path)!r} describes has {space.shape} and "
+                             f"{space.dtype}: the config does not belong to this model")
+    return spaces
+
