@@ -20,7 +20,8 @@ from pathlib import Path
 import torch
 from stable_baselines3.common.callbacks import BaseCallback
 
-from quad_dob_training.train import make_model, make_vec_env, resolve_config
+from quad_dob_training.run_config import resolve_config
+from quad_dob_training.train import make_model, make_vec_env
 
 
 class Stopwatch(BaseCallback):
@@ -71,8 +72,9 @@ def main() -> None:
     if args.batch_size:
         config["algo_kwargs"]["batch_size"] = args.batch_size
     with tempfile.TemporaryDirectory() as folder:
+        # train's setup_process sets the recipe's 1; make_vec_env and make_model set none
+        torch.set_num_threads(args.threads)
         venv = make_vec_env(config)
-        torch.set_num_threads(args.threads)  # after make_vec_env, which sets the recipe's 1
         model = make_model(config, venv, Path(folder) / "tb")
         model.learn(config["n_envs"] * config["algo_kwargs"].get("n_steps", 2048))  # warm up
         env_seconds, stopwatch = timed_env_steps(venv), Stopwatch()

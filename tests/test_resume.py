@@ -1,5 +1,7 @@
-"""quad-dob train killed with SIGKILL and resumed ends with the policy of a run never stopped."""
+"""quad-dob train killed with SIGKILL and resumed ends with the policy of a run never stopped:
+the same weights bit for bit, the same checkpoint names, the same evaluations.csv rows."""
 
+import csv
 import os
 import signal
 import subprocess
@@ -11,9 +13,11 @@ import pytest
 import torch
 import yaml
 
+from quad_dob_training import cli
 from quad_dob_training.checkpoints import latest_checkpoint, load_state
 from quad_dob_training.policies import load_model
-from quad_dob_training.train import resolve_config, train
+from quad_dob_training.run_config import resolve_config
+from quad_dob_training.train import train
 
 ENV = "QuadDOB/HoverResidual-v1"
 TINY = {
@@ -22,20 +26,33 @@ TINY = {
     "sac": {"learning_starts": 256, "buffer_size": 5000, "batch_size": 64, "gradient_steps": 1,
             "train_freq": 1},
 }
+# Torch splits a reduction over threads only past 32,768 elements (its grain size), and then
+# sums in another order on two threads than on one: PPO's advantage normalisation and loss
+# means run over the whole minibatch, so a minibatch of 36,000 makes the weights depend on the
+# thread count (a resume on two threads differed by 1e-10; the network's size does not matter,
+# its matrix products come out the same on any thread count). One rollout is one minibatch.
+LARGE = {"n_envs": 60, "n_steps": 600, "batch_size": 36_000, "n_epochs": 2,
+         "learning_rate": "lin_0.0003", "gamma": 0.98, "n_timesteps": 108_000,
+         "policy_kwargs": {"net_arch": [64, 64]}}
+ROLLOUT = 36_000
 
 
-def _conf_file(tmp_path: Path, algo: str) -> Path:
+def _conf_file(tmp_path: Path, algo: str, entry: dict | None = None) -> Path:
     path = tmp_path / f"{algo}.yml"
-    entry = {"env_kwargs": {"scenario": "gusty-hover"}, "n_envs": 8, "n_timesteps": 6144,
-             "policy_kwargs": {"net_arch": [32, 32]}, **TINY[algo]}
-    path.write_text(yaml.safe_dump({ENV: entry}))
+    entry = entry or {"n_envs": 8, "n_timesteps": 6144,
+                      "policy_kwargs": {"net_arch": [32, 32]}, **TINY[algo]}
+    path.write_text(yaml.safe_dump({ENV: {"env_kwargs": {"scenario": "gusty-hover"}, **entry}}))
     return path
 
 
-def _command(conf: Path, out: Path, *extra: str) -> list[str]:
-    return [sys.executable, "-m", "quad_dob_training.cli", "train", "--env", ENV,
-            "--conf-file", str(conf), "--seed", "5", "--checkpoint-every", "1024",
-            "--evaluate-every", "100000000", "--no-progress", "--out", str(out), *extra]
+def _train_arguments(conf: Path, out: Path) -> list[str]:
+    return ["train", "--env", ENV, "--conf-file", str(conf), "--seed", "5",
+            "--checkpoint-every", str(ROLLOUT), "--evaluate-every", "18000", "--no-progress",
+            "--out", str(out)]
+
+
+def _cli(*arguments: str) -> list[str]:
+    return [sys.executable, "-m", "quad_dob_training.cli", *arguments]
 
 
 def _same_weights(a: Path, b: Path) -> bool:
@@ -44,28 +61,77 @@ def _same_weights(a: Path, b: Path) -> bool:
                                                  for k in first)
 
 
-def test_a_training_killed_mid_run_resumes_to_the_same_policy_bit_for_bit(tmp_path):
-    conf = _conf_file(tmp_path, "ppo")
-    subprocess.run(_command(conf, tmp_path / "whole"), check=True, capture_output=True)
-    killed = tmp_path / "killed"
-    process = subprocess.Popen(_command(conf, killed), stdout=subprocess.DEVNULL,
-                               stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 240
-    while not list((killed / "checkpoints").glob("*_2048.state")):
+def _evaluated_timesteps(run: Path) -> list[int]:
+    path = run / "evaluations.csv"
+    if not path.is_file():  # written by rename: a file there is whole
+        return []
+    with open(path, newline="") as file:
+        return [int(row["timesteps"]) for row in csv.DictReader(file)]
+
+
+def _checkpoint_steps(run: Path) -> list[int]:
+    return sorted(int(p.stem.split("_")[1]) for p in (run / "checkpoints").glob("*.state"))
+
+
+def _stop_past_a_checkpoint(process: subprocess.Popen, run: Path) -> int:
+    """Freeze the run (SIGSTOP: it still holds its lock) once it has a checkpoint and has
+    evaluated past it, so the resumed run must drop that row and evaluate it again; the
+    newest checkpoint's timesteps."""
+    deadline = time.monotonic() + 300
+    while True:
         assert process.poll() is None and time.monotonic() < deadline, "no checkpoint came"
+        steps = _checkpoint_steps(run)
+        if steps and max(_evaluated_timesteps(run), default=0) > steps[-1]:
+            os.kill(process.pid, signal.SIGSTOP)
+            steps = _checkpoint_steps(run)  # checked again: it may have moved on meanwhile
+            if max(_evaluated_timesteps(run)) > steps[-1]:
+                return steps[-1]
+            os.kill(process.pid, signal.SIGCONT)
         time.sleep(0.02)
-    os.kill(process.pid, signal.SIGKILL)
-    process.wait()
+
+
+def test_a_training_killed_mid_run_resumes_in_a_new_process_to_the_same_run(tmp_path, capsys):
+    conf = _conf_file(tmp_path, "ppo", LARGE)
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    uninterrupted = subprocess.Popen(_cli(*_train_arguments(conf, whole)),
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                     text=True)
+    process = subprocess.Popen(_cli(*_train_arguments(conf, killed)),
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        stopped_at = _stop_past_a_checkpoint(process, killed)
+        # a second training into the busy folder is refused at once, naming the holder
+        with pytest.raises(SystemExit):
+            cli.main(_train_arguments(conf, killed))
+        refusal = capsys.readouterr().err
+        assert f"is in use by another training (pid {process.pid} on" in refusal
+        assert "wait for it to finish, or train into another --out" in refusal
+    finally:
+        os.kill(process.pid, signal.SIGKILL)
+        process.wait()
     assert not (killed / "model.zip").exists(), "the run ended before it was killed"
+    assert stopped_at < LARGE["n_timesteps"]
     newest = latest_checkpoint(killed)
-    assert load_state(newest)["num_timesteps"] < 6144
-    # the resumed run needs no other option: env, seed and hyperparameters come with it
-    resumed = subprocess.run([sys.executable, "-m", "quad_dob_training.cli", "train",
-                              "--resume", str(killed), "--no-progress"],
+    assert newest.name == f"ppo_{stopped_at}.state"
+    # the dead process's lock file is still there, and is taken over
+    assert f'"pid": {process.pid}' in (killed / "run.lock").read_text()
+    # the resumed run needs no other option: env, seed, hyperparameters and intervals are
+    # the run's own; torch is set up as in a fresh run although nothing is built afresh
+    resumed = subprocess.run(_cli("train", "--resume", str(killed), "--no-progress"),
                              check=True, capture_output=True, text=True)
     assert f"resuming {newest}" in resumed.stdout
-    assert load_model(killed / "model.zip")[0].num_timesteps == 6144
-    assert _same_weights(tmp_path / "whole" / "model.zip", killed / "model.zip")
+    assert f"from a run that did not end cleanly (pid {process.pid} on" in resumed.stdout
+    assert uninterrupted.wait(timeout=600) == 0, uninterrupted.stderr.read()
+    uninterrupted.stderr.close()
+    assert load_model(killed / "model.zip")[0].num_timesteps == LARGE["n_timesteps"]
+    assert _same_weights(whole / "model.zip", killed / "model.zip")
+    assert _same_weights(whole / "best_model.zip", killed / "best_model.zip")
+    names = sorted(p.name for p in (whole / "checkpoints").iterdir())
+    assert names == ["ppo_36000.state", "ppo_36000.zip", "ppo_72000.state", "ppo_72000.zip"]
+    assert sorted(p.name for p in (killed / "checkpoints").iterdir()) == names
+    assert _evaluated_timesteps(whole) == list(range(0, LARGE["n_timesteps"] + 1, 18000))
+    assert (killed / "evaluations.csv").read_text() == (whole / "evaluations.csv").read_text()
+    assert (killed / "run.lock").read_text() == ""  # released cleanly
 
 
 def test_sac_resumes_with_its_replay_buffer_bit_for_bit(tmp_path):
@@ -75,7 +141,7 @@ def test_sac_resumes_with_its_replay_buffer_bit_for_bit(tmp_path):
     train(config, tmp_path / "whole", **options)
     state = tmp_path / "whole" / "checkpoints" / "sac_1024.state"
     assert state.with_name("sac_1024_replay.pkl").is_file()
-    train(config, tmp_path / "again", resume=state, **options)
+    train(None, tmp_path / "again", resume=state, progress_bar=False)
     assert _same_weights(tmp_path / "whole" / "model.zip", tmp_path / "again" / "model.zip")
 
 
@@ -93,8 +159,8 @@ def test_a_cut_off_checkpoint_is_named_and_the_earlier_one_still_resumes(tmp_pat
     newest.unlink()
     earlier = latest_checkpoint(tmp_path)
     assert earlier != newest
-    model = train(config, tmp_path / "resumed", resume=earlier, evaluate_every=10**9,
-                  progress_bar=False)
+    assert load_state(earlier)["num_timesteps"] == 512
+    model = train(config, tmp_path / "resumed", resume=earlier, progress_bar=False)
     assert model.num_timesteps == 1024
     with pytest.raises(ValueError, match=r"ppo_768\.zip' is not a stable-baselines3 zip"):
         train(config, tmp_path / "resumed2", resume=zip_path, progress_bar=False)

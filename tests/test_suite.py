@@ -29,7 +29,8 @@ def test_a_generalist_trained_a_few_thousand_steps_round_trips_through_the_suite
     # the generalist's own recipe (acceleration residual, normalised observations), cut to
     # 4096 timesteps: saved, loaded by path, flown over every family, normalisation applied
     from quad_dob_training.policies import load_model
-    from quad_dob_training.train import resolve_config, train
+    from quad_dob_training.run_config import resolve_config
+    from quad_dob_training.train import train
 
     config = resolve_config("ppo", "residual", "QuadDOB/TracksResidual-v1", None, 4096, 32,
                             seed=5)

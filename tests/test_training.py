@@ -8,7 +8,8 @@ from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_training import cli
 from quad_dob_training.evaluate import evaluate, parse_seeds
 from quad_dob_training.policies import check_spaces, load_model, make_policy, sha256
-from quad_dob_training.train import resolve_config, train
+from quad_dob_training.run_config import resolve_config
+from quad_dob_training.train import train
 
 
 def _tiny(mode: str, env_id: str, **options):

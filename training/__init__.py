@@ -11,9 +11,12 @@ The folder ``training/`` installs as ``quad_dob_training``; it sits on top and m
   ``report``: the self-contained interactive ``report.html``.
 - ``paper``: the paper reproduction.
 - ``vec_env``: the stable-baselines3 ``VecEnv`` adapter over the native vector env.
-- ``train``: PPO or SAC training (hyperparameters from ``hyperparams/ALGO.yml`` in
-  rl-zoo3's schema, evaluation against the base); ``checkpoints``: the checkpoints a killed
-  run resumes from, to the weights of a run never stopped.
+- ``train``: PPO or SAC training, read top to bottom; ``run_config``: the run as plain data
+  (hyperparameters from ``hyperparams/ALGO.yml`` in rl-zoo3's schema, the versions and CPU
+  it ran on); ``baseline_evaluation``: the evaluation against the base on held-out seeds
+  during training, and the training curve; ``checkpoints``: the checkpoints a killed run
+  resumes from, to the weights of a run never stopped; ``run_folder``: a run folder's
+  identity (the run id in every file loaded again) and its lock.
 - ``policies``: policies by name (controllers, ``ppo:PATH``, ``residual``) and flying them
   over many seeds; ``pretrained/`` holds the shipped residual policy.
 - ``evaluate``: every policy on every scenario over seeds: tables with intervals and the

@@ -165,7 +165,8 @@ def _train_task(task: dict[str, Any]) -> dict[str, Any]:
     from quad_dob_env.scenarios import make_scenario
     from quad_dob_training.metrics import flight_metrics
     from quad_dob_training.policies import Policy, fly_policy
-    from quad_dob_training.train import resolve_config, train
+    from quad_dob_training.run_config import resolve_config
+    from quad_dob_training.train import train
 
     params = dict(task["params"])
     seed = int(params.pop("seed", 0))
