@@ -1,10 +1,24 @@
-"""The ``quad-dob`` command line."""
+"""The ``quad-dob`` command line.
+
+Every value and file the command line is given is checked before any work starts (an output
+folder that cannot be written, a budget beyond reason), and every failure it can name comes
+back as ``quad-dob: error: ...`` with exit status 2, never a traceback.
+"""
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import tempfile
 from pathlib import Path
+
+# More timesteps than any run on record by five orders of magnitude: a larger --timesteps is
+# a typo, and SB3 would only find out after building the env and the model.
+MAX_TIMESTEPS = 10**11
+MAX_SEED = 2**32 - 1  # numpy seeds the run's generators from it
+MAX_VIDEO_WIDTH = 4096  # a panel's pixels
+MAX_FPS = 1000.0
 
 
 def _list(_: argparse.Namespace) -> int:
@@ -49,42 +63,68 @@ def _number(value: object) -> str:
 def _paper(args: argparse.Namespace) -> int:
     from quad_dob_training.paper import main as paper_main
 
+    _writable_folder(args.out, "--out")
     return paper_main(_names(args.scenarios), _names(args.controllers), args.torque_reading,
                       args.dt, args.substeps, args.out, args.json, not args.no_figures)
 
 
 def _train(args: argparse.Namespace) -> int:
+    from quad_dob_env.envs.core import VEHICLE_BYTES
+    from quad_dob_env.memory import check_memory
     from quad_dob_training.train import main as train_main
 
+    if args.conf_file is not None and not args.conf_file.is_file():
+        raise ValueError(f"--conf-file {str(args.conf_file)!r} is not a file: give a "
+                         "hyperparameter YAML in rl-zoo3's schema (see training/hyperparams/)")
+    if args.n_envs is not None:
+        check_memory(args.n_envs * VEHICLE_BYTES, f"--n-envs {args.n_envs:,} vehicles",
+                     "train on fewer vehicles")
+    if args.out is not None:
+        _writable_folder(args.out, "--out")
+    elif args.resume is not None and args.resume.is_dir():
+        _writable_folder(args.resume, "--resume's run folder")
+    elif args.resume is None:
+        _writable_folder(Path(f"runs/{args.algo}"), "the default --out")
     return train_main(args.algo, args.mode, args.env, args.scenario, args.timesteps,
                       args.n_envs, args.seed, args.out, args.resume, args.base,
                       args.checkpoint_every, args.evaluate_every, not args.no_progress,
-                      args.conf_file)
+                      args.conf_file, trust_pickle=args.trust_pickle)
 
 
 def _evaluate(args: argparse.Namespace) -> int:
     from quad_dob_training.evaluate import main as evaluate_main
 
+    if not args.json:
+        _writable_folder(args.out, "--out")
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
-                         args.json, args.baseline, args.suite)
+                         args.json, args.baseline, args.suite, trust_pickle=args.trust_pickle,
+                         scenario_options=_key_values(args.scenario_option or [],
+                                                      "--scenario-option"))
 
 
 def _tune(args: argparse.Namespace) -> int:
     from quad_dob_training.tune import main as tune_main
 
+    _writable_folder(args.out, "--out")
     return tune_main(_names(args.controllers), args.out)
 
 
 def _replay(args: argparse.Namespace) -> int:
     from quad_dob_training.replay import main as replay_main
 
+    _writable_file(args.out, "--out")
     return replay_main(_names(args.policy), args.scenario, args.seed, args.out, args.fps,
-                       args.width)
+                       args.width, trust_pickle=args.trust_pickle)
 
 
 def _sweep(args: argparse.Namespace) -> int:
     from quad_dob_training.sweep import run_sweep
 
+    if not args.config.is_file():
+        raise ValueError(f"sweep config {str(args.config)!r} is not a file: give a sweep's "
+                         "YAML (see training/sweeps/)")
+    if args.out is not None:
+        _writable_folder(args.out, "--out")
     run_sweep(args.config, args.out, args.ray_address, args.workers)
     return 0
 
@@ -93,18 +133,79 @@ def _names(text: str) -> list[str]:
     return [name.strip() for name in text.split(",") if name.strip()]
 
 
-def _positive_float(text: str) -> float:
-    value = float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
-    return value
+def _key_values(pairs: list[str], option: str) -> dict[str, object]:
+    """``["dt=0.005", "wind=moderate"]`` -> ``{"dt": 0.005, "wind": "moderate"}``: each
+    value parsed as YAML (numbers, booleans, lists, mappings; anything else stays text),
+    here, so the library is never handed an unparsed string for a number."""
+    import yaml
+
+    options: dict[str, object] = {}
+    for pair in pairs:
+        key, equals, text = pair.partition("=")
+        key = key.strip()
+        if not equals or not key.isidentifier():
+            raise ValueError(f"{option} takes KEY=VALUE with KEY a name, such as dt=0.005, "
+                             f"got {pair!r}")
+        if key in options:
+            raise ValueError(f"{option} {key} is given twice")
+        try:
+            options[key] = yaml.safe_load(text) if text.strip() else ""
+        except yaml.YAMLError:
+            raise ValueError(f"{option} {pair!r}: the value is not a number, a word or a "
+                             "YAML list or mapping") from None
+    return options
 
 
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
-    return value
+def _writable_folder(path: Path, option: str) -> None:
+    """Refuse, before any work, an output folder that is a file or cannot be written:
+    create it (its parents too) and a file in it, as the command will."""
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{option} {str(path)!r} is a file, not a folder: give a folder to "
+                         "write into")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError as error:
+        raise ValueError(f"{option} {str(path)!r} cannot be written ({error.strerror}): give "
+                         "a folder you may write into") from None
+
+
+def _writable_file(path: Path, option: str) -> None:
+    """Refuse, before any work, an output file that is a folder or whose folder cannot be
+    written."""
+    if path.is_dir():
+        raise ValueError(f"{option} {str(path)!r} is a folder: give a file name")
+    _writable_folder(path.parent if str(path.parent) else Path("."), f"{option}'s folder")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise ValueError(f"{option} {str(path)!r} exists and cannot be overwritten")
+
+
+def _number_in(kind: type, low: float, high: float, what: str,
+               strictly: bool = False) -> object:
+    """An argparse type: a ``kind`` number in [low, high] (above ``low`` if ``strictly``)."""
+    def parse(text: str) -> float | int:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}") from None
+        if not (value > low if strictly else value >= low) or value > high:
+            raise argparse.ArgumentTypeError(f"must be {'>' if strictly else '>='} {low:g} "
+                                             f"and <= {high:g}, got {text}")
+        return value
+    parse.__name__ = kind.__name__  # argparse names the type in its messages
+    return parse
+
+
+_positive_float = _number_in(float, 0, 1e9, "a number", strictly=True)
+_positive_int = _number_in(int, 1, MAX_TIMESTEPS, "a whole number")
+_seed = _number_in(int, 0, MAX_SEED, "a whole number")
+
+
+def _trust_pickle_option(command: argparse.ArgumentParser) -> None:
+    command.add_argument("--trust-pickle", action="store_true",
+                         help="load model files whose pickled entries run code when loaded "
+                         "(only files you made or trust); without it such a file is refused")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -144,21 +245,24 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--scenario", default=None, help="scenario (default: the yml's)")
     train.add_argument("--base", default=None,
                        help="base controller of a residual (default: the yml's)")
-    train.add_argument("--timesteps", type=_positive_int, default=None)
+    train.add_argument("--timesteps", type=_positive_int, default=None,
+                       help=f"at most {MAX_TIMESTEPS:.0e} (default: the yml's)")
     train.add_argument("--n-envs", type=_positive_int, default=None)
-    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--seed", type=_seed, default=0)
     train.add_argument("--out", type=Path, default=None,
                        help="run folder (default: runs/ALGO, or the resumed run's own)")
     train.add_argument("--resume", type=Path, default=None,
                        help="a run folder (its newest checkpoint) or a checkpoint's .state: "
                        "finishes that run as if it had never stopped; or a model .zip: "
                        "trains --timesteps more from its weights")
-    train.add_argument("--checkpoint-every", type=_positive_int, default=100_000,
-                       help="timesteps between checkpoints (default: %(default)s)")
-    train.add_argument("--evaluate-every", type=_positive_int, default=100_000,
-                       help="timesteps between evaluations against the base "
-                       "(default: %(default)s)")
+    train.add_argument("--checkpoint-every", type=_positive_int, default=None,
+                       help="timesteps between checkpoints (default: 100000, or the resumed "
+                       "run's own)")
+    train.add_argument("--evaluate-every", type=_positive_int, default=None,
+                       help="timesteps between evaluations against the base (default: "
+                       "100000, or the resumed run's own)")
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _trust_pickle_option(train)
     train.set_defaults(handler=_train)
     evaluate = commands.add_parser(
         "evaluate", help="score policies on scenarios over seeds: table, CSV, bar plot")
@@ -178,7 +282,12 @@ def build_parser() -> argparse.ArgumentParser:
                           help="every v1 scenario family (wind, calm, forces) instead of "
                           "--scenarios, and leaderboard.md: means with 95 %% intervals and "
                           "paired differences to the baseline")
+    evaluate.add_argument("--scenario-option", action="append", metavar="KEY=VALUE",
+                          help="an option for every scenario flown (make_scenario's keywords: "
+                          "dt=0.005, duration=20, wind_scale=1.5, motor_lag=true, ...); "
+                          "repeatable")
     evaluate.add_argument("--json", action="store_true", help="print the rows as JSON")
+    _trust_pickle_option(evaluate)
     evaluate.set_defaults(handler=_evaluate)
     tune = commands.add_parser(
         "tune", help="choose the baselines' gains and the observer rates on tuning seeds "
@@ -194,13 +303,15 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--policy", default="geometric,geometric-ndob:tuned",
                         help="comma-separated policies, as for evaluate (default: %(default)s)")
     replay.add_argument("--scenario", default="paper-II")
-    replay.add_argument("--seed", type=int, default=0)
+    replay.add_argument("--seed", type=_seed, default=0)
     replay.add_argument("--out", type=Path, default=Path("results/flight.gif"),
                         help="a .gif or .mp4 path (default: %(default)s)")
-    replay.add_argument("--fps", type=_positive_float, default=20.0,
+    replay.add_argument("--fps", type=_number_in(float, 0, MAX_FPS, "a number", True), default=20.0,
                         help="frames per second of flight (default: %(default)s)")
-    replay.add_argument("--width", type=_positive_int, default=400,
-                        help="width of each policy's panel in pixels (default: %(default)s)")
+    replay.add_argument("--width", type=_number_in(int, 16, MAX_VIDEO_WIDTH, "a whole number"),
+                        default=400, help="width of each policy's panel in pixels, 16 to "
+                        f"{MAX_VIDEO_WIDTH} (default: %(default)s)")
+    _trust_pickle_option(replay)
     replay.set_defaults(handler=_replay)
     sweep = commands.add_parser(
         "sweep", help="a grid or random sweep of evaluations or trainings, resumable, "
@@ -229,6 +340,9 @@ def main(argv: list[str] | None = None) -> int:
         return args.handler(args)
     except ValueError as error:  # bad names or values: say what and what is allowed
         parser.exit(2, f"quad-dob: error: {error}\n")
+    except OSError as error:  # a file that could not be read or written mid-run
+        where = f" {error.filename!r}" if error.filename else ""
+        parser.exit(2, f"quad-dob: error: {error.strerror or error}{where}\n")
 
 
 if __name__ == "__main__":

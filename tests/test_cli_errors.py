@@ -1,0 +1,90 @@
+"""Every file and value the command line is given is checked before any work starts, and a
+failure is ``quad-dob: error: ...`` with status 2, never a traceback."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from quad_dob_training.cli import main
+
+READ_ONLY = Path("/sys/kernel")  # sysfs: not writable, even by root (CI runs as root)
+
+
+def _error(argv: list[str], capsys) -> str:
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    return err
+
+
+def test_an_output_folder_that_is_a_file_is_refused_before_anything_runs(tmp_path, capsys):
+    existing = tmp_path / "taken"
+    existing.write_text("")
+    for command in (["evaluate", "--policies", "geometric"], ["paper"], ["tune"],
+                    ["train"]):
+        err = _error([*command, "--out", str(existing)], capsys)
+        assert f"quad-dob: error: --out '{existing}' is a file, not a folder" in err
+    err = _error(["sweep", str(tmp_path / "nowhere.yaml")], capsys)
+    assert "quad-dob: error: sweep config" in err and "is not a file" in err
+
+
+@pytest.mark.skipif(not READ_ONLY.is_dir(), reason="needs sysfs")
+@pytest.mark.parametrize("out", [READ_ONLY, READ_ONLY / "results"])
+def test_a_read_only_output_folder_is_refused_before_anything_runs(out, capsys):
+    err = _error(["evaluate", "--policies", "geometric", "--out", str(out)], capsys)
+    assert f"quad-dob: error: --out '{out}' cannot be written" in err
+
+
+def test_a_video_path_that_is_a_folder_or_cannot_be_written_is_refused(tmp_path, capsys):
+    err = _error(["replay", "--out", str(tmp_path)], capsys)
+    assert "is a folder: give a file name" in err
+    if READ_ONLY.is_dir():
+        err = _error(["replay", "--out", str(READ_ONLY / "flight.gif")], capsys)
+        assert "--out's folder '/sys/kernel' cannot be written" in err
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["train", "--timesteps", str(10**24)], "--timesteps: must be >= 1 and <= 1e+11"),
+    (["train", "--timesteps", "lots"], "--timesteps: must be a whole number, got 'lots'"),
+    (["train", "--seed", "-1"], "--seed: must be >= 0"),
+    (["train", "--n-envs", str(10**9)], "--n-envs 1,000,000,000 vehicles would take"),
+    (["train", "--conf-file", "/nonexistent.yml"], "--conf-file '/nonexistent.yml' is not a"),
+    (["paper", "--dt", "nan"], "--dt: must be > 0 and <= 1e+09, got nan"),
+    (["replay", "--width", "100000000"], "--width: must be >= 16 and <= 4096"),
+    (["replay", "--fps", "inf"], "--fps: must be > 0 and <= 1000, got inf"),
+])
+def test_absurd_values_are_refused_by_name(argv, message, capsys):
+    assert message in _error(argv, capsys)
+
+
+def test_scenario_options_are_parsed_by_the_cli_before_they_reach_the_library(capsys):
+    from quad_dob_training.cli import _key_values
+
+    assert _key_values(["dt=0.005", "wind=moderate", "motor_lag=true", "wind_scale=2"],
+                       "--scenario-option") == {"dt": 0.005, "wind": "moderate",
+                                                "motor_lag": True, "wind_scale": 2}
+    for bad, message in (("dt", "takes KEY=VALUE"), ("=1", "takes KEY=VALUE"),
+                         ("dt=[1", "the value is not")):
+        err = _error(["evaluate", "--policies", "geometric", "--json",
+                      "--scenario-option", bad], capsys)
+        assert message in err
+    err = _error(["evaluate", "--policies", "geometric", "--json", "--scenarios", "paper-none",
+                  "--seeds", "1", "--scenario-option", "duration=lots"], capsys)
+    assert "quad-dob: error: Scenario.duration must be a number, got str 'lots'" in err
+
+
+def test_a_scenario_option_changes_every_flight(capsys):
+    import json
+
+    assert main(["evaluate", "--policies", "geometric", "--baseline", "", "--json",
+                 "--scenarios", "paper-none", "--seeds", "1",
+                 "--scenario-option", "duration=3.0"]) == 0
+    plain = json.loads(capsys.readouterr().out)[0]
+    assert main(["evaluate", "--policies", "geometric", "--baseline", "", "--json",
+                 "--scenarios", "paper-none", "--seeds", "1"]) == 0
+    longer = json.loads(capsys.readouterr().out)[0]
+    assert plain["rms_position_settled_mean"] != longer["rms_position_settled_mean"]
