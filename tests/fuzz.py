@@ -1,10 +1,11 @@
 """A configuration fuzzer: random ids, scenarios, options, actions and vectorisation.
 
-Run by hand: ``python benchmarks/fuzz.py --configs 1000 --seed 0`` (the test suite runs a
-small profile, ``tests/test_fuzz.py``). Every configuration is drawn from its own seeded
-generator, ``numpy.random.default_rng([seed, index])``, as a user could combine things: an
-env id, maybe another scenario by name, single env (``gym.make``) or vector env
-(``gym.make_vec``, ``vector_entry_point`` or ``sync``, 1-8 vehicles); options of the
+Run by hand: ``python tests/fuzz.py --configs 1000 --seed 0`` (the test suite runs a small
+profile, ``tests/test_fuzz.py``, without the wall-clock checks). Every configuration is
+drawn from its own seeded generator, ``numpy.random.default_rng([seed, index])``, as a
+user could combine things: an env id, maybe another scenario by name, single env
+(``gym.make``) or vector env (``gym.make_vec``, ``vector_entry_point`` or ``sync``, 1-8
+vehicles); options of the
 scenario and of the env, mostly valid, some not (a string where a number goes, None, a
 negative, NaN, a huge value, an unknown name); actions in [-1, 1], at the extremes, out of
 range, sometimes NaN or infinite, sometimes of the wrong shape or type.
@@ -78,6 +79,7 @@ REASONS = {"crashed", "out_of_bounds", "attitude_lost", "non_finite_state", "inv
 MODES = ("single", "vector_entry_point", "sync")
 ISOLATED_MEMORY_LIMIT = 6 * 2**30  # address space of a child running a huge request
 ISOLATED_TIMEOUT = 30.0  # [s] a huge request must be refused well within this
+HANG_STOP = 900.0  # [s] a child given no timeout is stopped after this: it hangs
 MAX_TABLE_STEPS = 3000  # duration / dt of a drawn configuration (families: half)
 
 NAN, INF = float("nan"), float("inf")
@@ -425,7 +427,7 @@ class Failure:
         return (f"[{self.category}] config {self.index} (seed {self.fuzz_seed}, phase "
                 f"{self.phase}): {self.message}" + (f"\n    at {self.where}" if self.where
                                                      else "")
-                + f"\n    repro: python benchmarks/fuzz.py --seed {self.fuzz_seed} "
+                + f"\n    repro: python tests/fuzz.py --seed {self.fuzz_seed} "
                   f"--only {self.index}\n    config: {_short(self.config)}")
 
 
@@ -1071,15 +1073,17 @@ def _limit_memory() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (ISOLATED_MEMORY_LIMIT, ISOLATED_MEMORY_LIMIT))
 
 
-def run_isolated(config: dict[str, Any]) -> Outcome:
-    """``run_config`` in a child process with an address-space limit and a timeout."""
+def run_isolated(config: dict[str, Any], timeout: float | None = ISOLATED_TIMEOUT) -> Outcome:
+    """``run_config`` in a child process with an address-space limit and a timeout (None: no
+    judgement by the clock, only a stop for a child that hangs)."""
     start = time.perf_counter()
+    stop = HANG_STOP if timeout is None else timeout + 10
     command = [sys.executable, str(Path(__file__).resolve()), "--seed",
                str(config["fuzz_seed"]), "--only", str(config["index"]), "--json",
                "--in-process"]
     try:
         done = subprocess.run(command, capture_output=True, text=True, preexec_fn=_limit_memory,
-                              timeout=ISOLATED_TIMEOUT + 10, check=False)
+                              timeout=stop, check=False)
     except subprocess.TimeoutExpired:
         done = None
     wall = time.perf_counter() - start
@@ -1088,14 +1092,14 @@ def run_isolated(config: dict[str, Any]) -> Outcome:
         outcome = Outcome.from_json(json.loads(lines[-1]))
     else:
         outcome = Outcome(config["index"], status="failed", mode=config["mode"])
-        why = (f"no answer within {ISOLATED_TIMEOUT + 10:.0f} s" if done is None else
+        why = (f"no answer within {stop:.0f} s" if done is None else
                f"the child exited {done.returncode}: "
                + (done.stderr.strip().splitlines() or [""])[-1][:300])
         outcome.failures.append(Failure(
             "memory_not_refused" if config["memory_hungry"] else "exception:child_died",
             config["index"], config["fuzz_seed"], why, phase="build", config=config))
     outcome.isolated = True
-    if outcome.wall > ISOLATED_TIMEOUT and not outcome.failures:
+    if timeout is not None and outcome.wall > timeout and not outcome.failures:
         outcome.failures.append(Failure(
             "memory_not_refused" if config["memory_hungry"] else "timeout", config["index"],
             config["fuzz_seed"], f"took {outcome.wall:.0f} s", phase="build", config=config))
@@ -1109,14 +1113,17 @@ def _needs_isolation(config: dict[str, Any]) -> bool:
 
 
 def fuzz(count: int, seed: int = 0, *, time_limit: float | None = 120.0,
-         isolate: bool = True, progress: bool = False) -> FuzzReport:
-    """Try ``count`` configurations of run ``seed``; the figures and every failure."""
+         isolated_timeout: float | None = ISOLATED_TIMEOUT, isolate: bool = True,
+         progress: bool = False) -> FuzzReport:
+    """Try ``count`` configurations of run ``seed``; the figures and every failure.
+    ``time_limit`` (a configuration) and ``isolated_timeout`` (a huge request's refusal):
+    seconds, or None to judge nothing by the clock (the test suite's profile)."""
     report = FuzzReport(seed)
     start = time.perf_counter()
     for index in range(count):
         config = draw_config(seed, index)
         if isolate and _needs_isolation(config):
-            outcome = run_isolated(config)
+            outcome = run_isolated(config, isolated_timeout)
         else:
             outcome = run_config(config, time_limit)
         report.add(outcome, config)

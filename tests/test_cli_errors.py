@@ -51,7 +51,9 @@ def test_a_video_path_that_is_a_folder_or_cannot_be_written_is_refused(tmp_path,
     (["train", "--timesteps", str(10**24)], "--timesteps: must be >= 1 and <= 1e+11"),
     (["train", "--timesteps", "lots"], "--timesteps: must be a whole number, got 'lots'"),
     (["train", "--seed", "-1"], "--seed: must be >= 0"),
-    (["train", "--n-envs", str(10**9)], "--n-envs 1,000,000,000 vehicles would take"),
+    (["train", "--n-envs", str(10**9)], "1,000,000,000 vehicles would take 7.45 TiB, over "
+                                         "the memory budget of 4 GiB: fly fewer vehicles at "
+                                         "once (--n-envs)"),
     (["train", "--conf-file", "/nonexistent.yml"], "--conf-file '/nonexistent.yml' is not a"),
     (["paper", "--dt", "nan"], "--dt: must be > 0 and <= 1e+09, got nan"),
     (["replay", "--width", "100000000"], "--width: must be >= 16 and <= 4096"),
@@ -64,9 +66,12 @@ def test_absurd_values_are_refused_by_name(argv, message, capsys):
 def test_scenario_options_are_parsed_by_the_cli_before_they_reach_the_library(capsys):
     from quad_dob_training.cli import _key_values
 
-    assert _key_values(["dt=0.005", "wind=moderate", "motor_lag=true", "wind_scale=2"],
+    assert _key_values(["dt=0.005", "wind=moderate", "motor_lag=true", "wind_scale=2",
+                        "duration=1e3", "reference_start_spread=2.5E-1"],
                        "--scenario-option") == {"dt": 0.005, "wind": "moderate",
-                                                "motor_lag": True, "wind_scale": 2}
+                                                "motor_lag": True, "wind_scale": 2,
+                                                "duration": 1000.0,
+                                                "reference_start_spread": 0.25}
     for bad, message in (("dt", "takes KEY=VALUE"), ("=1", "takes KEY=VALUE"),
                          ("dt=[1", "the value is not")):
         err = _error(["evaluate", "--policies", "geometric", "--json",

@@ -15,7 +15,7 @@ import yaml
 
 from quad_dob_training import cli
 from quad_dob_training.checkpoints import latest_checkpoint, load_state
-from quad_dob_training.policies import load_model
+from quad_dob_training.model_files import load_model
 from quad_dob_training.run_config import resolve_config
 from quad_dob_training.train import train
 

@@ -1,6 +1,7 @@
 """A run folder holds one run: its id in every file it loads again, a lock while it trains,
 pickles unpickled only once their run id is checked, the versions it was trained with."""
 
+import base64
 import json
 import pickle
 import shutil
@@ -20,7 +21,7 @@ from quad_dob_training.checkpoints import (
     read_headered,
     write_state,
 )
-from quad_dob_training.policies import load_model
+from quad_dob_training.model_files import load_model
 from quad_dob_training.run_config import environment_versions, resolve_config
 from quad_dob_training.run_folder import RUN_MEMBER, RunLock, zip_run_id
 from quad_dob_training.train import setup_process, train
@@ -71,7 +72,7 @@ def test_a_run_records_its_id_intervals_and_versions_in_every_file_it_loads_agai
     assert (run / "run.lock").read_text() == ""  # released at the end
 
 
-def test_a_fresh_run_and_a_resumed_one_set_up_torch_alike():
+def test_setup_process_sets_the_one_torch_thread_every_run_trains_on():
     # one thread is what makes CPU training bit for bit; deterministic algorithms are left
     # off (they cost seconds per process and guard no op these MLPs use on the CPU)
     torch.set_num_threads(2)
@@ -199,15 +200,82 @@ def test_a_resume_with_other_versions_warns_that_it_is_no_longer_bit_for_bit(run
         train(None, folder, resume=state_path, progress_bar=False)
 
 
-def test_a_bare_model_from_elsewhere_needs_trust_pickle(runs, tmp_path):
+class _Touch:
+    """Unpickled, it creates ``marker``: a stand-in for any code a pickle can run."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return Path.touch, (self.marker,)
+
+
+def test_a_bare_model_from_anywhere_trains_on_from_its_weights_unpickled(runs, tmp_path):
     stray = tmp_path / "downloads"
     stray.mkdir()
-    shutil.copy(runs[0] / "model.zip", stray / "model.zip")
+    crafted, marker = stray / "model.zip", tmp_path / "ran"
+    with zipfile.ZipFile(runs[0] / "model.zip") as source, \
+            zipfile.ZipFile(crafted, "w") as target:
+        for item in source.infolist():
+            content = source.read(item.filename)
+            if item.filename == "data":  # every pickled entry a payload
+                data = json.loads(content)
+                for value in data.values():
+                    if isinstance(value, dict) and ":serialized:" in value:
+                        value[":serialized:"] = base64.b64encode(
+                            pickle.dumps(_Touch(marker))).decode()
+                content = json.dumps(data).encode()
+            target.writestr(item, content)
     config = _config(tmp_path, 3)
-    with pytest.raises(ValueError, match=rf"'{stray / 'model.zip'}' needs unpickling.*no "
-                                         r"config.yaml in its folder.*--trust-pickle allows it"):
-        train(config, tmp_path / "more", resume=stray / "model.zip", **QUIET)
-    assert not (tmp_path / "more" / "config.yaml").exists()
-    model = train(config, tmp_path / "more", resume=stray / "model.zip", trust_pickle=True,
-                  **QUIET)
-    assert model.num_timesteps == 1024
+    model = train(config, tmp_path / "more", resume=crafted, **QUIET)
+    assert not marker.exists()  # nothing in the zip was unpickled
+    assert model.num_timesteps == 1024  # its 512 timesteps counted on
+    before = load_model(runs[0] / "model.zip")[0].policy.state_dict()
+    after = model.policy.state_dict()
+    assert any(not torch.equal(before[k], after[k]) for k in before)  # trained on
+    with pytest.raises(ValueError, match=r"do not fit the network the run's config builds"):
+        train({**_config(tmp_path, 4), "policy_kwargs": {"net_arch": [8]}}, tmp_path / "x",
+              resume=crafted, **QUIET)
+
+
+def test_a_model_beside_another_runs_config_is_refused(runs, tmp_path):
+    folder = _copy(runs[0], tmp_path)
+    config = yaml.safe_load((folder / "config.yaml").read_text())
+    model_id = config["run_id"]
+    # a newer run began here and was killed before it wrote its model
+    (folder / "config.yaml").write_text(yaml.safe_dump({**config, "run_id": "newer"}))
+    with pytest.raises(ValueError, match=rf"is of run {model_id} but .*config.yaml' beside it "
+                                         r"is of run newer"):
+        load_model(folder / "model.zip")
+
+
+def test_buffers_past_the_memory_budget_are_refused_before_sb3_allocates_them():
+    from types import SimpleNamespace
+
+    import gymnasium as gym
+
+    from quad_dob_training.train import check_buffer_memory
+
+    venv = SimpleNamespace(observation_space=gym.spaces.Box(-1, 1, (40,)),
+                           action_space=gym.spaces.Box(-1, 1, (4,)))
+    ppo = {"algo": "ppo", "n_envs": 4096, "algo_kwargs": {"n_steps": 64}}
+    check_buffer_memory(ppo, venv)  # 4096 x 64 steps: 104 MiB
+    with pytest.raises(ValueError, match=r"PPO's rollout buffer of 65,536 vehicles x n_steps "
+                                         r"2,048 would take 50 GiB"):
+        check_buffer_memory({**ppo, "n_envs": 65_536, "algo_kwargs": {}}, venv)  # SB3's 2048
+    with pytest.raises(ValueError, match=r"SAC's replay buffer of 100,000,000 transitions "
+                                         r"would take 32.4 GiB.*a smaller buffer_size"):
+        check_buffer_memory({"algo": "sac", "n_envs": 1,
+                             "algo_kwargs": {"buffer_size": 10**8}}, venv)
+
+
+def test_a_run_resumed_into_another_folder_is_a_copy_with_its_own_id(runs, tmp_path):
+    source = _copy(runs[0], tmp_path)
+    elsewhere = tmp_path / "elsewhere"
+    train(None, elsewhere, resume=source / "checkpoints" / "ppo_256.state", progress_bar=False)
+    assert _run_id(elsewhere) not in (None, _run_id(source))
+    assert zip_run_id(elsewhere / "model.zip") == _run_id(elsewhere)
+    # the same computation as the run that never stopped
+    first = load_model(source / "model.zip")[0].policy.state_dict()
+    second = load_model(elsewhere / "model.zip")[0].policy.state_dict()
+    assert all(torch.equal(first[k], second[k]) for k in first)

@@ -6,7 +6,6 @@ import json
 import pathlib
 import pickle
 import shutil
-import time
 import zipfile
 
 import numpy as np
@@ -107,7 +106,7 @@ def test_the_shipped_policy_flies_as_it_did_when_unpickled():
     assert set(entries) <= set(model_files.REBUILT_ENTRIES)
     safe = make_policy("residual")
     # the old way: every pickled entry unpickled (the shipped file is checked first)
-    old, config = load_model(SHIPPED_RESIDUAL, policies.SHIPPED_RESIDUAL_SHA256,
+    old, config = load_model(SHIPPED_RESIDUAL, model_files.SHIPPED_RESIDUAL_SHA256,
                              trust_pickle=True)
     trusted = policies.Policy("residual", config["base_controller"], old, config)
     assert safe.model.observation_space == old.observation_space
@@ -141,22 +140,18 @@ def test_a_changed_shipped_config_is_refused_before_anything_is_read(tmp_path, m
 def test_absurd_seed_ranges_are_refused_at_once_and_normal_ones_pass(tmp_path):
     assert parse_seeds("9001-9020") == list(range(9001, 9021))
     assert len(parse_seeds("1000")) == 1000
+    # each would build a list of 10^8 seeds, or an env of 2 million vehicles, unchecked:
+    # a MemoryError or another message, not this one
     for text in ("1-100000000", "100000000"):
-        start = time.perf_counter()
         with pytest.raises(ValueError, match=r"100,000,000 flights .* over the memory budget"):
             parse_seeds(text)
-        assert time.perf_counter() - start < 0.1
-    start = time.perf_counter()
     with pytest.raises(ValueError, match="over the memory budget"):
         evaluate_main(["residual"], ["paper-I"], "1-100000000", tmp_path, as_json=True)
-    assert time.perf_counter() - start < 0.5
     # flying checks each scenario's own length before it builds anything
-    start = time.perf_counter()
     with pytest.raises(ValueError, match=r"flying 'hover-calm'.*2,000,000 flights of 1,000 "
                                          r"steps.*over the memory budget"):
         policies.fly_policy(policies.Policy("pid", "pid"), make_scenario("hover-calm"),
                             list(range(2_000_000)))
-    assert time.perf_counter() - start < 0.5
 
 
 def test_the_records_cost_no_more_than_they_are_sized_at():

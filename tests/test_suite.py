@@ -28,7 +28,7 @@ def test_the_suite_flies_every_family_and_writes_a_leaderboard_with_intervals(tm
 def test_a_generalist_trained_a_few_thousand_steps_round_trips_through_the_suite(tmp_path):
     # the generalist's own recipe (acceleration residual, normalised observations), cut to
     # 4096 timesteps: saved, loaded by path, flown over every family, normalisation applied
-    from quad_dob_training.policies import load_model
+    from quad_dob_training.model_files import load_model
     from quad_dob_training.run_config import resolve_config
     from quad_dob_training.train import train
 

@@ -7,7 +7,8 @@ from quad_dob_composition import make_vector_env
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_training import cli
 from quad_dob_training.evaluate import evaluate, parse_seeds
-from quad_dob_training.policies import check_spaces, load_model, make_policy, sha256
+from quad_dob_training.model_files import load_model, sha256
+from quad_dob_training.policies import check_spaces, make_policy
 from quad_dob_training.run_config import resolve_config
 from quad_dob_training.train import train
 
@@ -145,7 +146,7 @@ def test_a_typo_in_the_hyperparameter_file_is_named(tmp_path):
 
 
 def test_a_cut_off_or_corrupted_model_is_named_not_a_deep_traceback(tmp_path):
-    from quad_dob_training.policies import SHIPPED_RESIDUAL, load_model
+    from quad_dob_training.model_files import SHIPPED_RESIDUAL, load_model
 
     cut = tmp_path / "model.zip"
     cut.write_bytes(SHIPPED_RESIDUAL.read_bytes()[:5000])  # killed while writing

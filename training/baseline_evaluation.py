@@ -138,10 +138,14 @@ class BaselineEvaluation(BaseCallback):
 
 
 def _rows_up_to(path: Path, timesteps: int) -> list[dict[str, Any]]:
+    """An old run's CSV rows up to ``timesteps``, one per evaluation: a resume before this
+    fix could append a second row of the timesteps it resumed at, and the last one counts."""
     if not path.is_file():
         return []
     with open(path, newline="") as file:
-        return [row for row in csv.DictReader(file) if int(row["timesteps"]) <= timesteps]
+        rows = {int(row["timesteps"]): row for row in csv.DictReader(file)
+                if int(row["timesteps"]) <= timesteps}
+    return [rows[key] for key in sorted(rows)]
 
 
 

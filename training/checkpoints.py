@@ -219,20 +219,26 @@ def latest_checkpoint(folder: Path) -> Path:
     run_id = config.get("run_id")
     if run_id is None:
         return found[-1][1]
-    own = [path for _, path in found if _claimed_run_id(path) in (run_id, None)]
+    # a damaged header counts as the run's own, so that resuming it names the damage; an
+    # old-format state (no header) is not the run's: this run has an id
+    own = [path for _, path in found if _claimed_run_id(path) in (run_id, _DAMAGED)]
     if not own:
         raise ValueError(f"no checkpoint in {str(folder)!r} belongs to run {run_id} (the run "
                          f"of {str(run_folder(found[-1][1]) / 'config.yaml')!r}); those there "
-                         f"({', '.join(p.name for _, p in found)}) are another run's: give one "
-                         "of them as --resume PATH.state, or train without --resume")
+                         f"({', '.join(p.name for _, p in found)}) are another run's: move "
+                         "them back into their own run folder to resume them, or train "
+                         "without --resume")
     return own[-1]
 
 
-def _claimed_run_id(path: Path) -> str | None:
+_DAMAGED = object()  # what _claimed_run_id says of a state whose header cannot be read
+
+
+def _claimed_run_id(path: Path) -> object:
     try:
         return state_run_id(path)
     except ValueError:
-        return None  # damaged: load_state names it when it is the one resumed
+        return _DAMAGED
 
 
 def check_checkpoint(path: Path, trust_pickle: bool = False) -> HeaderedPickle:

@@ -69,20 +69,21 @@ def _paper(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from quad_dob_env.envs.core import VEHICLE_BYTES
-    from quad_dob_env.memory import check_memory
+    from quad_dob_env.envs.core import check_vehicle_memory
     from quad_dob_training.train import main as train_main
 
     if args.conf_file is not None and not args.conf_file.is_file():
         raise ValueError(f"--conf-file {str(args.conf_file)!r} is not a file: give a "
                          "hyperparameter YAML in rl-zoo3's schema (see training/hyperparams/)")
     if args.n_envs is not None:
-        check_memory(args.n_envs * VEHICLE_BYTES, f"--n-envs {args.n_envs:,} vehicles",
-                     "train on fewer vehicles")
+        check_vehicle_memory(args.n_envs, "--n-envs")
     if args.out is not None:
         _writable_folder(args.out, "--out")
-    elif args.resume is not None and args.resume.is_dir():
-        _writable_folder(args.resume, "--resume's run folder")
+    elif args.resume is not None and args.resume.suffix != ".zip" and args.resume.exists():
+        from quad_dob_training.run_folder import run_folder
+
+        _writable_folder(args.resume if args.resume.is_dir() else run_folder(args.resume),
+                         "--resume's run folder")
     elif args.resume is None:
         _writable_folder(Path(f"runs/{args.algo}"), "the default --out")
     return train_main(args.algo, args.mode, args.env, args.scenario, args.timesteps,
@@ -135,8 +136,9 @@ def _names(text: str) -> list[str]:
 
 def _key_values(pairs: list[str], option: str) -> dict[str, object]:
     """``["dt=0.005", "wind=moderate"]`` -> ``{"dt": 0.005, "wind": "moderate"}``: each
-    value parsed as YAML (numbers, booleans, lists, mappings; anything else stays text),
-    here, so the library is never handed an unparsed string for a number."""
+    value a number as Python reads one (``1e-3`` too, which YAML 1.1 leaves a string), else
+    parsed as YAML (``true``/``false``, lists, mappings; anything else stays text), here, so
+    the library is never handed an unparsed string for a number."""
     import yaml
 
     options: dict[str, object] = {}
@@ -149,11 +151,27 @@ def _key_values(pairs: list[str], option: str) -> dict[str, object]:
         if key in options:
             raise ValueError(f"{option} {key} is given twice")
         try:
-            options[key] = yaml.safe_load(text) if text.strip() else ""
+            options[key] = _parsed_number(text.strip()) if _is_number(text) else (
+                yaml.safe_load(text) if text.strip() else "")
         except yaml.YAMLError:
             raise ValueError(f"{option} {pair!r}: the value is not a number, a word or a "
                              "YAML list or mapping") from None
     return options
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _parsed_number(text: str) -> int | float:
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
 
 
 def _writable_folder(path: Path, option: str) -> None:

@@ -41,6 +41,7 @@ import yaml
 from quad_dob_composition import make_vector_env
 from quad_dob_env.memory import check_memory
 from quad_dob_env.validation import unknown_name_error
+from quad_dob_training.run_folder import zip_run_id
 
 ALGORITHMS = ("ppo", "sac")  # what quad-dob train trains and ppo:PATH / residual:PATH load
 PRETRAINED = Path(__file__).parent / "pretrained"
@@ -87,6 +88,12 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
         raise ValueError(f"training config {str(config_path)!r} is not a YAML mapping")
     if not zipfile.is_zipfile(io.BytesIO(raw)):
         raise _not_a_zip(path)
+    zip_id, config_id = zip_run_id(path, raw), config.get("run_id")
+    if zip_id is not None and config_id is not None and zip_id != config_id:
+        raise ValueError(f"model file {str(path)!r} is of run {zip_id} but "
+                         f"{str(config_path)!r} beside it is of run {config_id} (a newer run "
+                         "began in that folder and has not written its model yet): evaluate "
+                         "it when that run has finished, or a model beside its own config")
     algo = config.get("algo", "ppo")
     if algo not in ALGORITHMS:
         raise ValueError(f"{str(config_path)!r} names algorithm {algo!r}; this version loads "
@@ -102,6 +109,39 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
     _check_weights(raw, path)
     entries = _rebuilt_entries(algorithm, config, data, path, config_path)
     return _load(algorithm, io.BytesIO(raw), path, custom_objects=entries), config
+
+
+def load_weights(model: Any, path: str | Path) -> None:
+    """A model zip's weights, optimizer state and torch variables into ``model`` (built
+    from its run's config), and its timestep count; nothing is unpickled: the ``.pth`` files
+    are read with ``weights_only=True`` and only a plain number of ``data``. What
+    ``quad-dob train --resume MODEL.zip`` trains on from."""
+    from stable_baselines3.common.save_util import load_from_zip_file, recursive_setattr
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"model file {str(path)!r} does not exist")
+    raw = _read(path, "model file")
+    if not zipfile.is_zipfile(io.BytesIO(raw)):
+        raise _not_a_zip(path)
+    data = _zip_data(raw, path)
+    _check_weights(raw, path)
+    try:
+        _, params, variables = load_from_zip_file(io.BytesIO(raw), device="cpu",
+                                                  load_data=False)
+    except Exception as error:  # zipfile, torch
+        raise _damaged(path, error) from error
+    try:
+        model.set_parameters(params, exact_match=True, device="cpu")
+    except Exception as error:  # missing or extra tensors, other shapes
+        first_line = (str(error).splitlines() or [""])[0][:160]
+        raise ValueError(f"the weights in {str(path)!r} do not fit the network the run's "
+                         f"config builds ({type(error).__name__}: {first_line}): train with "
+                         "the hyperparameters it was trained with (--conf-file)") from error
+    for name, value in (variables or {}).items():  # SAC's entropy coefficient
+        if value is not None:
+            recursive_setattr(model, f"{name}.data", value.data)
+    model.num_timesteps = int(data.get("num_timesteps", 0))
 
 
 def algorithm_class(name: str) -> Any:

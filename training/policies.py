@@ -28,8 +28,8 @@ policy class, schedules, training buffers) are rebuilt from the config beside it
 that config describes, and the weights are read as tensors only (torch's
 ``weights_only=True``). A zip with a pickled entry that cannot be rebuilt is refused unless
 ``trust_pickle=True`` (``--trust-pickle``), which unpickles the zip's entries as
-stable-baselines3 does; so does ``load_zip``, which ``quad-dob train --resume`` uses for a
-run's own checkpoints.
+stable-baselines3 does; so does ``model_files.load_zip``, which ``quad-dob train --resume``
+uses for a run's own checkpoints.
 """
 
 from __future__ import annotations
@@ -47,16 +47,11 @@ from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.validation import unknown_name_error
-from quad_dob_training.model_files import (  # noqa: F401 (the names train.py and tests use)
-    ALGORITHMS,
-    PRETRAINED,
+from quad_dob_training.model_files import (
     SHIPPED_RESIDUAL,
     SHIPPED_RESIDUAL_CONFIG_SHA256,
     SHIPPED_RESIDUAL_SHA256,
-    algorithm_class,
     load_model,
-    load_zip,
-    sha256,
 )
 from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memory
 

@@ -132,6 +132,8 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
     if any(s.vehicle != vehicle or s.dt != dt for s in scenarios):
         raise ValueError("fly() needs scenarios with one vehicle and one dt; got "
                          + ", ".join(f"{s.name} ({s.vehicle.name}, dt={s.dt})" for s in scenarios))
+    check_flight_memory(len(scenarios), max(s.steps for s in scenarios),
+                        f"flying {len(scenarios)} scenario(s)", "fly fewer or shorter scenarios")
     actuations = list(dict.fromkeys(s.actuation for s in scenarios))
     if len(actuations) > 1:
         # a controller that models its actuators (the PID's anti-windup) flies one batch

@@ -20,7 +20,7 @@ import yaml
 
 import quad_dob_env
 from quad_dob_env.validation import unknown_name_error
-from quad_dob_training.policies import ALGORITHMS, algorithm_class
+from quad_dob_training.model_files import ALGORITHMS, algorithm_class
 
 HYPERPARAMS = Path(__file__).parent / "hyperparams"
 MODES = ("residual", "direct")

@@ -78,14 +78,15 @@ def save_model(model: Any, path: Path, run_id: str | None) -> None:
     _write_atomically(Path(path), archive.getvalue())
 
 
-def zip_run_id(path: Path) -> str | None:
-    """The run id a model zip carries (None: written before run ids, or by another tool).
-    Reads one JSON member; nothing is unpickled."""
+def zip_run_id(path: Path, content: bytes | None = None) -> str | None:
+    """The run id a model zip carries (None: written before run ids, or by another tool),
+    read from ``content`` where the caller holds the file's bytes already. Reads one JSON
+    member; nothing is unpickled."""
     path = Path(path)
-    if not path.is_file():
+    if content is None and not path.is_file():
         raise ValueError(f"model file {str(path)!r} does not exist")
     try:
-        with zipfile.ZipFile(path) as bundle:
+        with zipfile.ZipFile(path if content is None else io.BytesIO(content)) as bundle:
             if RUN_MEMBER not in bundle.namelist():
                 return None
             return str(json.loads(bundle.read(RUN_MEMBER))["run_id"])
@@ -166,6 +167,8 @@ class RunLock:
                   "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "command": sys.argv}
         os.ftruncate(fd, 0)
         os.pwrite(fd, (json.dumps(record) + "\n").encode(), 0)
+        # a child forked now would share this open file, and with it the lock: a training
+        # forks nothing while it runs (the env runs on threads)
         self._fd = fd
         return self
 

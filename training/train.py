@@ -33,6 +33,7 @@ differ from the run's (then it is no longer bit for bit the run never stopped).
 
 from __future__ import annotations
 
+import inspect
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,6 +44,7 @@ import torch
 import yaml
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
+from quad_dob_env.memory import check_memory
 from quad_dob_training.baseline_evaluation import (
     BaselineEvaluation,
     normalization,
@@ -55,7 +57,7 @@ from quad_dob_training.checkpoints import (
     load_state,
     unpickle_env_stack,
 )
-from quad_dob_training.policies import algorithm_class, load_zip
+from quad_dob_training.model_files import algorithm_class, load_weights, load_zip
 from quad_dob_training.run_config import (
     environment_versions,
     resolve_config,
@@ -68,7 +70,6 @@ from quad_dob_training.run_folder import (
     run_folder,
     save_model,
     write_text_atomically,
-    zip_run_id,
 )
 from quad_dob_training.vec_env import QuadrotorSB3VecEnv
 
@@ -119,8 +120,31 @@ def make_vec_env(config: dict[str, Any]) -> Any:
     return venv
 
 
+def check_buffer_memory(config: dict[str, Any], venv: Any) -> None:
+    """Refuse, before SB3 allocates it, a rollout buffer (PPO: n_envs x n_steps) or replay
+    buffer (SAC: buffer_size) past the memory budget. SB3 keeps them as float32: PPO the
+    observation, action, reward, return, episode start, value, log-probability and
+    advantage of every step (counted twice: its minibatches are copies), SAC the observation
+    and the next, action, reward, done and time-out of every transition."""
+    algorithm = algorithm_class(config["algo"])
+    defaults = inspect.signature(algorithm.__init__).parameters
+    kwargs = config["algo_kwargs"]
+    observation = int(np.prod(venv.observation_space.shape))
+    action = int(np.prod(venv.action_space.shape))
+    if config["algo"] == "ppo":
+        steps = int(kwargs.get("n_steps", defaults["n_steps"].default))
+        check_memory(2 * config["n_envs"] * steps * (observation + action + 6) * 4,
+                     f"PPO's rollout buffer of {config['n_envs']:,} vehicles x n_steps "
+                     f"{steps:,}", "train on fewer vehicles (n_envs) or a shorter n_steps")
+    else:
+        size = int(kwargs.get("buffer_size", defaults["buffer_size"].default))
+        check_memory(size * (2 * observation + action + 3) * 4,
+                     f"SAC's replay buffer of {size:,} transitions", "a smaller buffer_size")
+
+
 def make_model(config: dict[str, Any], venv: Any, tensorboard: Path) -> Any:
     """A fresh model of the config's algorithm, policy and hyperparameters."""
+    check_buffer_memory(config, venv)
     return algorithm_class(config["algo"])(
         config["policy"], venv, seed=config["seed"], device="cpu", verbose=0,
         tensorboard_log=str(tensorboard), policy_kwargs=config["policy_kwargs"],
@@ -165,33 +189,19 @@ def _start_fresh(config: dict[str, Any], out: Path, checkpoint_every: int | None
 
 
 def _start_from_model(config: dict[str, Any], path: Path, out: Path,
-                      checkpoint_every: int | None, evaluate_every: int | None,
-                      trust_pickle: bool) -> RunStart:
-    """A new run of ``config`` from a bare model's weights. SB3 zips hold pickles, which run
-    code when loaded: a zip is loaded only when its run folder's config.yaml shows it is a run
-    made there (the same run id), or with ``trust_pickle``."""
-    zip_id = zip_run_id(path)  # a file that is no zip is refused here, unopened
-    folder = run_folder(path)
-    saved = folder_config(folder)
-    if saved is None:
-        doubt = f"there is no config.yaml in its folder {str(folder)!r}"
-    elif zip_id is None:
-        doubt = "it carries no run id (written before run ids, or by another program)"
-    elif saved.get("run_id") != zip_id:
-        doubt = (f"its run id {zip_id} is not that of {str(folder / 'config.yaml')!r} "
-                 f"({saved.get('run_id')})")
-    else:
-        doubt = None
-    if doubt is not None and not trust_pickle:
-        raise ValueError(f"--resume {str(path)!r} needs unpickling to load (stable-baselines3 "
-                         f"zips hold pickled objects, which run code), and {doubt}, so nothing "
-                         "shows it is a run made here: --trust-pickle allows it for a file you "
-                         "made or trust")
-    if saved is not None:  # the run's observation statistics, which the zip does not hold
-        config["observation_normalization"] = saved.get("observation_normalization")
+                      checkpoint_every: int | None, evaluate_every: int | None) -> RunStart:
+    """A new run of ``config`` from a bare model's weights: the model is built from the
+    config and the zip's tensors loaded into it (``model_files.load_weights``), so nothing
+    in the zip is unpickled, whoever made it."""
+    saved = folder_config(run_folder(path))
+    if saved is not None:  # the network the weights fit, and the observation statistics
+        # they were trained on, which the zip does not hold
+        for key in ("policy", "policy_kwargs", "observation_normalization"):
+            if key in saved:
+                config[key] = saved[key]
     _record_new_run(config, checkpoint_every, evaluate_every)
-    model = load_zip(algorithm_class(config["algo"]), path, env=make_vec_env(config),
-                     tensorboard_log=str(out / "tb"))
+    model = make_model(config, make_vec_env(config), out / "tb")
+    load_weights(model, path)
     return RunStart(config, model, config["n_timesteps"], count_from_zero=False)
 
 
@@ -208,6 +218,10 @@ def _start_from_checkpoint(config: dict[str, Any] | None, resume: Path, out: Pat
     config = {**saved, "n_timesteps": int(timesteps),
               "checkpoint_every": _interval(checkpoint_every, saved.get("checkpoint_every")),
               "evaluate_every": _interval(evaluate_every, saved.get("evaluate_every"))}
+    if out.resolve() != run_folder(state_path).resolve():
+        # going on elsewhere is a copy of the run, which may go on in its own folder too:
+        # its own id, so that the two are never taken for one
+        config["run_id"] = new_run_id()
     warn_if_environment_changed(saved.get("versions") or {}, state_path)
     venv = unpickle_env_stack(state["env"])
     # force_reset=False: the zip's last observation is the one the pickled env is at
@@ -247,8 +261,7 @@ def train(config: dict[str, Any] | None, out: Path, resume: Path | None = None,
         if resume is None:
             start = _start_fresh(config, out, checkpoint_every, evaluate_every)
         elif resume.suffix == ".zip":
-            start = _start_from_model(config, resume, out, checkpoint_every, evaluate_every,
-                                      trust_pickle)
+            start = _start_from_model(config, resume, out, checkpoint_every, evaluate_every)
         else:
             start = _start_from_checkpoint(config, resume, out, checkpoint_every,
                                            evaluate_every, trust_pickle)

@@ -40,6 +40,7 @@ from quad_dob_env.envs.limits import EpisodeLimits, RewardWeights
 from quad_dob_env.envs.sensing import SensorStage
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.memory import check_memory
+from quad_dob_env.scenario import REFERENCE_ROW_BYTES
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.so3 import exp as so3_exp
 from quad_dob_env.threads import run_over_batch
@@ -56,6 +57,12 @@ TIME_LIMIT = "time_limit"
 VEHICLE_BYTES = 8 * 1024
 
 
+def check_vehicle_memory(vehicles: int, option: str = "num_envs") -> None:
+    """Refuse, before anything is allocated, a batch of vehicles past the memory budget."""
+    check_memory(vehicles * VEHICLE_BYTES, f"{vehicles:,} vehicles",
+                 f"fly fewer vehicles at once ({option})")
+
+
 # --- the core ----------------------------------------------------------------------------
 
 class QuadrotorBatch:
@@ -69,8 +76,7 @@ class QuadrotorBatch:
                                      ROTATION_REPRESENTATIONS)
         if not isinstance(num_vehicles, (int, np.integer)) or num_vehicles < 1:
             raise ValueError(f"num_vehicles must be an integer >= 1, got {num_vehicles!r}")
-        check_memory(int(num_vehicles) * VEHICLE_BYTES, f"{int(num_vehicles):,} vehicles",
-                     "fly fewer vehicles at once (num_envs)")
+        check_vehicle_memory(int(num_vehicles))
         self.scenario = scenario
         self.n = n = int(num_vehicles)
         self.rotation_representation = rotation_representation
@@ -157,7 +163,7 @@ class QuadrotorBatch:
         """Reference and time-only disturbances on the grid ``t = step * dt``, ``rows`` steps;
         a family's members stacked, ``rows`` each, member k's block from row k * rows."""
         dt = self.scenario.dt
-        check_memory(rows * len(self._members) * 8 * 3 * 8 * 2,
+        check_memory(rows * len(self._members) * REFERENCE_ROW_BYTES,
                      f"the reference table of scenario {self.scenario.name!r} grown to "
                      f"{rows:,} rows (an episode stepped far past its end without a reset)",
                      "reset the env when an episode ends")

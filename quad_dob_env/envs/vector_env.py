@@ -48,9 +48,11 @@ class QuadrotorVectorEnv(VectorEnv):
     ``sampled`` (what randomisation drew) comes at reset and after every autoreset, as a
     dict of (N,) arrays with masks and ``_sampled`` marking the vehicles that started an
     episode, as ``SyncVectorEnv`` merges it. ``max_episode_steps`` (what
-    ``gym.make_vec(..., max_episode_steps=N)`` passes, default the id's) truncates episodes
-    after N steps, or at the scenario's end if that comes first, with reason
-    ``time_limit``: the same step a ``TimeLimit`` wrapper ends a single env.
+    ``gym.make_vec(..., max_episode_steps=N)`` passes; the ids register none) truncates
+    episodes after N steps, or at the scenario's end if that comes first, with reason
+    ``time_limit``: the same step a ``TimeLimit`` wrapper ends a single env. Without it
+    episodes end at the scenario's end, whatever ``scenario_options`` made of its length;
+    ``spec.max_episode_steps`` reports the limit in force.
 
     Residual mode: with ``base_controller`` (a controller object; by name through
     ``quad_dob_composition.ResidualVectorEnv``, what the residual ids build) every vehicle is
