@@ -3,6 +3,9 @@
 - ``core``: ``QuadrotorBatch``, the batched core (N vehicles of one scenario): physics
   step, observation, reward, termination, ``info``, sensors, randomisation. Written once
   for every env.
+- ``limits``: the core's settings records (``EpisodeLimits``, ``RewardWeights``) and
+  ``SpecWithEpisodeLength``, which makes both envs' ``spec`` report their episodes'
+  length.
 - ``actions``: ``ActionMap`` (normalised actions <-> commanded thrust and moment, both
   ways) and ``screen_actions``, the check every env face runs on its actions.
 - ``kernels``: its compiled per-vehicle step, reset, sensing and sensor-noise loops (cut

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from gymnasium.envs.registration import EnvSpec
@@ -40,15 +41,27 @@ class RewardWeights:
         as_finite(self.effort_weight, "reward effort_weight", 0.0)
 
 
-def spec_with_episode_steps(spec: EnvSpec | None, steps: int) -> EnvSpec | None:
-    """``spec`` as ``gym.make``/``gym.make_vec`` set it, with the episode's own length.
+class SpecWithEpisodeLength:
+    """Mixed into both envs (before Gymnasium's base class): ``spec``, as ``gym.make`` /
+    ``gym.make_vec`` set it, reports the episodes' own length in ``max_episode_steps``.
 
     The ids register no ``max_episode_steps``: ``gym.make`` would wrap every env in a
     ``TimeLimit`` of the default scenario's length before it could see that
     ``scenario_options`` changed ``dt`` or ``duration``, cutting such episodes short. The env
-    ends its episodes itself at its scenario's end and reports that length here, so
-    ``TimeAwareObservation`` and other clients that read ``env.spec.max_episode_steps`` see
-    the limit that really applies (a ``TimeLimit`` the user asked for reports its own)."""
-    if spec is None or spec.max_episode_steps is not None:
-        return spec
-    return dataclasses.replace(spec, max_episode_steps=int(steps))
+    ends its episodes itself at its scenario's end (``core.episode_steps``) and reports that
+    length here, so ``TimeAwareObservation`` and other clients that read
+    ``env.spec.max_episode_steps`` see the limit that really applies (a ``TimeLimit`` the
+    user asked for reports its own)."""
+
+    core: Any  # the env's QuadrotorBatch
+    _spec: EnvSpec | None = None
+
+    @property
+    def spec(self) -> EnvSpec | None:
+        return self._spec
+
+    @spec.setter
+    def spec(self, spec: EnvSpec | None) -> None:
+        if spec is not None and spec.max_episode_steps is None:
+            spec = dataclasses.replace(spec, max_episode_steps=int(self.core.episode_steps))
+        self._spec = spec

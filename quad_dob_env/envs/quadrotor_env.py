@@ -6,13 +6,12 @@ from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.envs.registration import EnvSpec
 from numpy.typing import NDArray
 
 from quad_dob_env.envs.actions import INVALID_ACTION_MODES, screen_actions
 from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
-from quad_dob_env.envs.limits import spec_with_episode_steps
+from quad_dob_env.envs.limits import SpecWithEpisodeLength
 from quad_dob_env.envs.rendering import (
     RENDER_MODES,
     FlightRenderer,
@@ -23,7 +22,7 @@ from quad_dob_env.scenarios import Scenario, make_scenario
 from quad_dob_env.validation import unknown_name_error
 
 
-class QuadrotorEnv(gym.Env):
+class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     """A quadrotor tracking a reference on SE(3) under wind, ground effect and external forces.
 
     ## Description
@@ -174,17 +173,6 @@ class QuadrotorEnv(gym.Env):
         # (set by ResidualActionWrapper, and in the reset info)
         self.base_controller: dict[str, Any] | None = None
         self._reset_done = False
-        self._spec = None
-
-    @property
-    def spec(self) -> EnvSpec | None:  # type: ignore[override]
-        """What ``gym.make`` built this env from, with this episode's length in
-        ``max_episode_steps`` (``envs.limits.spec_with_episode_steps``)."""
-        return getattr(self, "_spec", None)
-
-    @spec.setter
-    def spec(self, spec: EnvSpec | None) -> None:
-        self._spec = spec_with_episode_steps(spec, self.core.episode_steps)
 
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:

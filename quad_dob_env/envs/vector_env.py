@@ -7,7 +7,6 @@ from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.envs.registration import EnvSpec
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -21,7 +20,7 @@ from quad_dob_env.envs.core import (
     RewardWeights,
 )
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND, episode_ends_kernel
-from quad_dob_env.envs.limits import spec_with_episode_steps
+from quad_dob_env.envs.limits import SpecWithEpisodeLength
 from quad_dob_env.envs.rendering import FlightRenderer
 from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
 from quad_dob_env.scenarios import Scenario, make_scenario
@@ -30,7 +29,7 @@ from quad_dob_env.validation import unknown_name_error
 RENDERED_VEHICLES = 4
 
 
-class QuadrotorVectorEnv(VectorEnv):
+class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     """N quadrotors of one scenario, each the same as a ``QuadrotorEnv`` (spaces, reward,
     termination: see its docstring), stepped together in one compiled call.
 
@@ -135,17 +134,6 @@ class QuadrotorVectorEnv(VectorEnv):
         self._key_masks: dict[str, NDArray[np.bool_]] | None = None
         self._renderer = None if render_mode is None else FlightRenderer(self.core)
         self._rendered = range(min(self.num_envs, RENDERED_VEHICLES))
-        self._spec: EnvSpec | None = None
-
-    @property
-    def spec(self) -> EnvSpec | None:  # type: ignore[override]
-        """What ``gym.make_vec`` built this env from, with the episodes' length in
-        ``max_episode_steps`` (``envs.limits.spec_with_episode_steps``)."""
-        return getattr(self, "_spec", None)
-
-    @spec.setter
-    def spec(self, spec: EnvSpec | None) -> None:
-        self._spec = spec_with_episode_steps(spec, self.core.episode_steps)
 
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:
