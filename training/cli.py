@@ -70,7 +70,6 @@ def _paper(args: argparse.Namespace) -> int:
 
 def _train(args: argparse.Namespace) -> int:
     from quad_dob_env.envs.core import check_vehicle_memory
-    from quad_dob_training.train import main as train_main
 
     if args.conf_file is not None and not args.conf_file.is_file():
         raise ValueError(f"--conf-file {str(args.conf_file)!r} is not a file: give a "
@@ -84,8 +83,10 @@ def _train(args: argparse.Namespace) -> int:
 
         _writable_folder(args.resume if args.resume.is_dir() else run_folder(args.resume),
                          "--resume's run folder")
-    elif args.resume is None:
+    elif args.resume is None or args.resume.suffix == ".zip":
         _writable_folder(Path(f"runs/{args.algo}"), "the default --out")
+    from quad_dob_training.train import main as train_main  # torch: seconds to import
+
     return train_main(args.algo, args.mode, args.env, args.scenario, args.timesteps,
                       args.n_envs, args.seed, args.out, args.resume, args.base,
                       args.checkpoint_every, args.evaluate_every, not args.no_progress,
