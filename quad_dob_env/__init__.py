@@ -1,8 +1,9 @@
 """quad_dob_env: quadrotor environments for disturbance-rejection research.
 
 Layers, each importing only from those above it (DESIGN.md):
-``validation``, ``linalg``, ``rng``, ``threads`` (shared utilities: input checks, small
-matrix functions, counter-based per-vehicle noise, compiled loops split across cores),
+``validation``, ``memory``, ``linalg``, ``rng``, ``threads`` (shared utilities: input
+checks, the memory budget large requests are sized against, small matrix functions,
+counter-based per-vehicle noise, compiled loops split across cores),
 ``params`` (vehicle presets), ``so3`` (rotations), ``dynamics`` (state, actuation,
 integrator), ``disturbances`` (forces, torques, wind, ground effect), ``trajectories``,
 ``flatness`` (the attitude, rates and inputs that fly a reference), ``feasibility`` (a

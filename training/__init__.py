@@ -18,7 +18,8 @@ The folder ``training/`` installs as ``quad_dob_training``; it sits on top and m
   resumes from, to the weights of a run never stopped; ``run_folder``: a run folder's
   identity (the run id in every file loaded again) and its lock.
 - ``policies``: policies by name (controllers, ``ppo:PATH``, ``residual``) and flying them
-  over many seeds; ``pretrained/`` holds the shipped residual policy.
+  over many seeds; ``model_files``: model zips loaded without unpickling (and, for a run's
+  own checkpoints, with); ``pretrained/`` holds the shipped residual policy.
 - ``evaluate``: every policy on every scenario over seeds: tables with intervals and the
   paired difference to a baseline, bar plot, JSON.
 - ``tune``: the one procedure that chooses the baselines' gains and the observer rates on
