@@ -159,7 +159,7 @@ class Scenario:
         """Refuse, before anything is tabulated, tables that would pass the memory budget
         (``quad_dob_env.memory``): the rows run from 0 to the duration plus the start
         spread, at dt."""
-        rows = self.steps + 1 + math.floor(self.reference_start_spread / self.dt + 1e-9)
+        rows = self.table_rows
         size = rows * (members * REFERENCE_ROW_BYTES + FEASIBILITY_ROW_BYTES
                        + (2 * self.substeps + 1) * DISTURBANCE_SAMPLE_BYTES)
         check_memory(size, f"scenario {self.name!r}: {members} reference(s) tabulated over "
@@ -171,6 +171,17 @@ class Scenario:
     def steps(self) -> int:
         """Control steps in one episode."""
         return math.floor(self.duration / self.dt + 1e-9)
+
+    @property
+    def start_spread_steps(self) -> int:
+        """The latest row of its reference an episode may start on."""
+        return math.floor(self.reference_start_spread / self.dt + 1e-9)
+
+    @property
+    def table_rows(self) -> int:
+        """Rows a vehicle's reference is tabulated over: a whole episode from its latest
+        start."""
+        return self.steps + 1 + self.start_spread_steps
 
     def initial_rotation_matrix(self) -> NDArray[np.float64]:
         return np.array(self.initial_rotation)

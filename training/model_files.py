@@ -105,8 +105,7 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
         schedules = {"learning_rate": 0.0, "lr_schedule": _no_schedule,
                      "clip_range": _no_schedule}
         return _load(algorithm, io.BytesIO(raw), path, custom_objects=schedules), config
-    data = _zip_data(raw, path)
-    _check_weights(raw, path)
+    data = _checked_archive(raw, path)
     entries = _rebuilt_entries(algorithm, config, data, path, config_path)
     return _load(algorithm, io.BytesIO(raw), path, custom_objects=entries), config
 
@@ -124,8 +123,7 @@ def load_weights(model: Any, path: str | Path) -> None:
     raw = _read(path, "model file")
     if not zipfile.is_zipfile(io.BytesIO(raw)):
         raise _not_a_zip(path)
-    data = _zip_data(raw, path)
-    _check_weights(raw, path)
+    data = _checked_archive(raw, path)
     try:
         _, params, variables = load_from_zip_file(io.BytesIO(raw), device="cpu",
                                                   load_data=False)
@@ -231,6 +229,14 @@ def _zip_data(raw: bytes, path: Path) -> dict[str, Any]:
             raise TypeError(f"data is a JSON {type(data).__name__}, not an object")
     except Exception as error:  # zlib, unicode, json
         raise _damaged(path, error) from error
+    return data
+
+
+def _checked_archive(raw: bytes, path: Path) -> dict[str, Any]:
+    """A model zip's ``data``, read as JSON, once every ``.pth`` in it has been read as
+    tensors only; nothing is unpickled."""
+    data = _zip_data(raw, path)
+    _check_weights(raw, path)
     return data
 
 

@@ -14,7 +14,6 @@ integration -> observation, reward, termination.
 from __future__ import annotations
 
 import copy
-import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -100,8 +99,8 @@ class QuadrotorBatch:
         self.reference_start = np.zeros(n, dtype=np.int64)  # its start's row in the member
         self.reference_row = np.zeros(n, dtype=np.int64)
         self.step_count = np.zeros(n, dtype=np.int64)
-        self._start_steps = math.floor(scenario.reference_start_spread / scenario.dt + 1e-9)
-        self._tabulate(scenario.steps + 1 + self._start_steps)
+        self._start_steps = scenario.start_spread_steps
+        self._tabulate(scenario.table_rows)
         # an episode is truncated after this many steps: the scenario's, or fewer where a
         # client asks for a shorter time limit (``set_time_limit``)
         self.episode_steps = scenario.steps
