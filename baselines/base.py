@@ -2,8 +2,13 @@
 
 A controller maps (time, state, reference) to collective thrust and body moments for the
 whole batch, and is then told what the actuators actually applied, so internal states
-(observer, integrators) advance with the truth rather than the request. ``reset`` starts
-fresh episodes for some or all vehicles.
+(observer, integrators) advance with what was applied rather than the request. ``reset``
+starts fresh episodes for some or all vehicles.
+
+The ``state`` a controller is given is the env's measurement
+(``quad_dob_env.sensing.Measurement``, a ``VehicleState``): the estimate of position,
+velocity, attitude and rates (the true state with ideal sensing) plus the raw
+``gyroscope``, ``accelerometer`` and ``rotor_speeds`` readings, for methods that use them.
 """
 
 from __future__ import annotations

@@ -16,7 +16,8 @@ from quad_dob_baselines.base import Controller
 class ReferencePolicy:
     """``predict(obs) -> (action, None)`` in the env's normalised action space.
 
-    The controller reads the env's true state and reference (not the observation), is
+    The controller reads the env's measurement (``core.measurement``: the estimate, the
+    true state with ideal sensing) and reference (not the observation), is
     reset when the env's episode restarts, and is told what the actuators applied after
     each step, as the observer needs.
     """
@@ -47,6 +48,7 @@ class ReferencePolicy:
         else:
             controller.applied(self._last_state, core.applied.thrust.copy(),
                                core.applied.moment.copy())
-        thrust, moment = controller.compute(core.time, core.state, core.reference)
-        self._last_step, self._last_state = step, core.state.copy()
+        measurement = core.measurement
+        thrust, moment = controller.compute(core.time, measurement, core.reference)
+        self._last_step, self._last_state = step, measurement.copy()
         return core.action_map.to_actions(thrust, moment)[0].astype(np.float32), None

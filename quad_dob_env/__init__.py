@@ -7,10 +7,11 @@ counter-based per-vehicle noise, compiled loops split across cores),
 ``params`` (vehicle presets), ``so3`` (rotations), ``dynamics`` (state, actuation,
 integrator), ``disturbances`` (forces, torques, wind, ground effect), ``trajectories``,
 ``flatness`` (the attitude, rates and inputs that fly a reference), ``feasibility`` (a
-reference's needs against the actuators), ``variation`` (sensor noise, domain
-randomisation), ``scenario`` (the ``Scenario`` record, validated), ``scenarios`` (the named
-ones, the random-reference families included), ``envs``, ``wrappers`` (the residual
-wrapper). None of them
+reference's needs against the actuators), ``variation`` (state noise, domain
+randomisation), ``sensing`` (sensors, delay lines and the state estimator every policy
+reads through, with the ``ideal``, ``mocap`` and ``gnss-imu`` presets), ``scenario`` (the
+``Scenario`` record, validated), ``scenarios`` (the named ones, the random-reference
+families included), ``envs``, ``wrappers`` (the residual wrapper). None of them
 imports ``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``, not even
 at run time (``tests/test_layering.py``): the residual ids name their composition-layer
 entry points as strings.
@@ -31,6 +32,7 @@ from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
 from quad_dob_env.envs.residual import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.params import VEHICLES, VehicleParams, get_vehicle
 from quad_dob_env.scenarios import Scenario, list_scenarios, make_scenario
+from quad_dob_env.sensing import SENSING_PRESETS, Measurement, SensorSuite
 
 __version__ = "0.1.0"
 
@@ -70,10 +72,13 @@ _register()
 
 __all__ = [
     "ENV_IDS",
+    "SENSING_PRESETS",
     "VEHICLES",
+    "Measurement",
     "QuadrotorEnv",
     "QuadrotorVectorEnv",
     "Scenario",
+    "SensorSuite",
     "VehicleParams",
     "get_vehicle",
     "list_scenarios",

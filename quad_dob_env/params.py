@@ -55,12 +55,16 @@ class VehicleParams:
     drag_quadratic: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [N/(m/s)²]
     # First-order lag of each rotor's thrust; used where a scenario turns motor lag on.
     motor_time_constant: float = 0.0  # [s]
+    # Rotor thrust per squared rotor speed, T = k_F ω² [N/(rad/s)²]: what rotor-speed
+    # telemetry reports (quad_dob_env.sensing).
+    thrust_coefficient: float = 1.4916e-5
     # Largest body rate the vehicle measures: the gyroscope's full-scale range.
     max_body_rate: float = math.radians(2000.0)  # [rad/s]
     _matrices: dict = field(default=None, init=False, repr=False, compare=False, hash=False)
 
     def __post_init__(self) -> None:
         for name in ("mass", "arm_length", "torque_coefficient", "max_rotor_thrust",
+                     "thrust_coefficient",
                      "rotor_radius", "gravity", "max_body_rate"):
             _require_positive(name, getattr(self, name))
         for name in ("drag_linear", "drag_quadratic"):
@@ -180,6 +184,9 @@ def _diagonal(a: float, b: float, c: float) -> tuple[tuple[float, float, float],
 # UIUC Propeller Data Site, APC 10x4.7 Slow Flyer, static test (Brandt & Selig, AIAA
 # 2011-1255), C_T = 0.1155 and C_P = 0.0474 at 4319 RPM; Q/T = C_P D / (2π C_T) = 0.0166 m.
 APC_10X47_TORQUE_COEFFICIENT = 0.0474 * 0.254 / (2 * math.pi * 0.1155)
+# Its thrust per squared rotor speed, k_F = C_T ρ D⁴ / (2π)² with ρ = 1.225 kg/m³ (ISA sea
+# level): T = C_T ρ n² D⁴ for n in rev/s.
+APC_10X47_THRUST_COEFFICIENT = 0.1155 * 1.225 * 0.254**4 / (2 * math.pi) ** 2
 # Lee, Leok, McClamroch 2010 print c_τf = 8.004e-4 m: 20x less than a 10-inch propeller makes,
 # at most 0.04 N m of yaw on this vehicle. Kept by name to show what it cannot fly.
 LEE_TORQUE_COEFFICIENT = 8.004e-4
@@ -190,6 +197,7 @@ VEHICLES: dict[str, VehicleParams] = {
         torque_coefficient=APC_10X47_TORQUE_COEFFICIENT, max_rotor_thrust=25.0,
         rotor_radius=0.127, configuration="plus",
         drag_linear=(0.3, 0.3, 0.4), drag_quadratic=(0.06, 0.06, 0.1), motor_time_constant=0.04,
+        thrust_coefficient=APC_10X47_THRUST_COEFFICIENT,
     ),
     "crazyflie": VehicleParams(
         name="crazyflie", mass=0.027, inertia=_diagonal(1.4e-5, 1.4e-5, 2.17e-5),
@@ -198,7 +206,7 @@ VEHICLES: dict[str, VehicleParams] = {
         # Förster 2015: F_aero = K Σω (R^T v), K = diag(10.2506, 10.2506, 7.4064)e-7 kg/rad,
         # at the hover rotor speed Σω = 4 x 1697 rad/s (k_F = 2.3e-8 N/(rad/s)², 27 g)
         drag_linear=(6.96e-3, 6.96e-3, 5.03e-3), drag_quadratic=(0.0, 0.0, 0.0),
-        motor_time_constant=0.015,
+        motor_time_constant=0.015, thrust_coefficient=3.16e-10 * (60.0 / (2 * math.pi)) ** 2,
     ),
 }
 
@@ -221,6 +229,9 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
         "drag_quadratic": "our estimate: ½ ρ C_d A with ρ = 1.2 kg/m³, C_d ≈ 1, A ≈ 0.1 m² "
                           "frontal (0.06 N s²/m²), 0.17 m² from above (0.1)",
         "motor_time_constant": "our estimate for 10-inch brushless motors, 40 ms",
+        "thrust_coefficient": "UIUC Propeller Data Site, APC 10x4.7 SF static C_T = 0.1155: "
+                              "k_F = C_T ρ D⁴/(2π)² = 1.49e-5 N/(rad/s)² at ρ = 1.225 kg/m³ "
+                              "(hover at 845 rad/s, 8,070 RPM)",
         "max_body_rate": "±2000 °/s, the full-scale range of the MPU-6000 / ICM-20602 "
                          "gyroscopes autopilots fly with (InvenSense datasheets)",
     },
@@ -237,6 +248,8 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
         "drag_linear": "Förster 2015 rotor drag K = diag(10.2506, 10.2506, 7.4064)e-7 kg/rad "
                        "times Σω = 6788 rad/s at hover (as rotorpy 3's k_d, k_z)",
         "drag_quadratic": "zero: rotorpy 3 sets the Crazyflie's parasitic drag c_D to zero",
+        "thrust_coefficient": "gym-pybullet-drones cf2x.urdf, k_F = 3.16e-10 N/RPM² "
+                              "= 2.88e-8 N/(rad/s)²",
         "motor_time_constant": "our estimate, 15 ms for the thrust (rotorpy's tau_m = 72 ms "
                                "is for the rotor speed)",
         "max_body_rate": "±2000 °/s, the full-scale range of the Crazyflie 2.x's BMI088 "

@@ -18,6 +18,7 @@ from quad_dob_env.disturbances import Disturbance, GroundEffect
 from quad_dob_env.feasibility import Feasibility, check_reference, refusal
 from quad_dob_env.memory import check_memory
 from quad_dob_env.params import ACTUATIONS, VehicleParams, get_vehicle
+from quad_dob_env.sensing.models import SensorSuite, resolve_sensing
 from quad_dob_env.so3 import project_to_so3
 from quad_dob_env.trajectories import Trajectory, TrajectoryFamily
 from quad_dob_env.validation import as_finite, as_vector3, unknown_name_error
@@ -71,7 +72,16 @@ class Scenario:
     actuation: str = "rotors"
     drag: bool = False  # the vehicle's drag acts on the air-relative velocity (needed for wind)
     motor_lag: bool = False  # actuators follow commands with the vehicle's motor time constant
+    # What every policy reads (``quad_dob_env.sensing``): a preset name (``ideal``, ``mocap``,
+    # ``gnss-imu``), a SensorSuite, a SensorNoise, a dict of either's fields, or None
+    # (ideal: the true state). ``sensors`` is its SensorNoise case, kept by that name.
+    sensing: SensorSuite | SensorNoise | str | None = None
     sensors: SensorNoise | None = None
+    # [s] added to every reading (pose, IMU, rotors alike), resolved on the control grid
+    # (the first step at or after it)
+    extra_latency: float = 0.0
+    # the rotors' time constant is the vehicle's times this (needs motor_lag)
+    motor_time_constant_scale: float = 1.0
     randomization: Randomization | None = None
     description: str = field(default="", compare=False)
     # A reference that needs more than the actuators give is refused unless this is set.
@@ -108,6 +118,24 @@ class Scenario:
                     if key not in fields_:
                         raise unknown_name_error(f"{kind.__name__} field", key, fields_)
                 object.__setattr__(self, name, kind(**value))
+        sensing = resolve_sensing(self.sensing)
+        if self.sensors is not None:
+            if sensing is not None and sensing != self.sensors:
+                raise ValueError(f"Scenario.sensors is the sensing=SensorNoise(...) case: give "
+                                 f"one of them, got sensing={self.sensing!r} and sensors="
+                                 f"{self.sensors!r}")
+            sensing = self.sensors
+        object.__setattr__(self, "sensing", sensing)
+        object.__setattr__(self, "sensors", sensing if isinstance(sensing, SensorNoise) else None)
+        object.__setattr__(self, "extra_latency",
+                           as_finite(self.extra_latency, "Scenario.extra_latency", 0.0))
+        scale = as_finite(self.motor_time_constant_scale, "Scenario.motor_time_constant_scale",
+                          0.0, strictly=True)
+        if scale != 1.0 and not self.motor_lag:
+            raise ValueError(f"Scenario.motor_time_constant_scale = {scale:g} scales the motor "
+                             f"lag, but scenario {self.name!r} flies without it: set "
+                             f"motor_lag=True too")
+        object.__setattr__(self, "motor_time_constant_scale", scale)
         dt = as_finite(self.dt, "Scenario.dt", MIN_DT)
         if dt > MAX_DT:
             raise ValueError(f"Scenario.dt must be in [{MIN_DT}, {MAX_DT}] s, got {self.dt!r}")
@@ -192,4 +220,9 @@ class Scenario:
         for key in changes:
             if key not in fields:
                 raise unknown_name_error("Scenario field", key, fields)
+        # ``sensors`` is ``sensing``'s SensorNoise case: a change of one replaces both
+        if "sensing" in changes and "sensors" not in changes:
+            changes = {**changes, "sensors": None}
+        elif "sensors" in changes and "sensing" not in changes:
+            changes = {**changes, "sensing": None}
         return dataclasses.replace(self, **changes)

@@ -1,5 +1,6 @@
-"""What varies from episode to episode besides the wind: sensor noise and domain
-randomisation, both optional parts of a ``Scenario``."""
+"""What varies from episode to episode besides the wind: state noise and domain
+randomisation, both optional parts of a ``Scenario`` (the sensors and estimator of
+``quad_dob_env.sensing`` are the other kind of sensing)."""
 
 from __future__ import annotations
 
@@ -12,10 +13,11 @@ from quad_dob_env.validation import as_finite
 
 @dataclass(frozen=True)
 class SensorNoise:
-    """What the agent observes, optional: Gaussian noise with these standard deviations on
-    the position (m), velocity (m/s), attitude (rad, a random rotation of that size per
-    axis) and body rates (rad/s) in the observation, which arrives ``delay_steps`` control
-    steps late. Reward, termination and ``info`` use the true state."""
+    """What every policy reads, as ``Scenario.sensing`` (or ``sensors``): the true state
+    with Gaussian noise of these standard deviations on the position (m), velocity (m/s),
+    attitude (rad, a random rotation of that size per axis) and body rates (rad/s), taken
+    each step and read ``delay_steps`` control steps late; no estimator. Reward,
+    termination and ``info`` use the true state."""
 
     position_std: float = 0.0
     velocity_std: float = 0.0

@@ -201,6 +201,19 @@ def _scenario_options(d: _Draw, scenario: str) -> dict[str, Any]:
             options[key] = d.pick([True, False])
     if d.chance(0.12):
         options["sensors"] = None if d.chance(0.1) else _sensors(d)
+    if d.chance(0.1):
+        options["sensing"] = d.name("sensing", ("ideal", "mocap", "gnss-imu"),
+                                    ("mocup", "MOCAP ", 3))
+        if (options.get("sensors") is not None
+                and options["sensing"] in ("mocap", "gnss-imu")):
+            d.invalid.append("sensing+sensors")  # two sensings at once
+    if d.chance(0.08):
+        options["extra_latency"] = d.number("extra_latency", 0.0, 0.05, extra_bad=(-0.01,),
+                                            huge=1e7)
+    if d.chance(0.05):
+        options["motor_lag"] = True
+        options["motor_time_constant_scale"] = d.number(
+            "motor_time_constant_scale", 0.5, 3.0, extra_bad=(0.0, -1.0))
     if d.chance(0.12):
         options["randomization"] = None if d.chance(0.1) else _randomization(d)
     if d.chance(0.05):

@@ -85,6 +85,8 @@ def test_a_string_or_a_flag_is_no_number(options, message):
 
 def test_a_sensor_delay_line_past_the_budget_is_refused():
     # found by tests/fuzz.py: numpy was asked for 894 GiB
-    with pytest.raises(ValueError, match=r"the sensor delay line of 10,000,000,000 steps for "
-                                         r"1 vehicles would take .*SensorNoise.delay_steps"):
+    with pytest.raises(ValueError, match=r"the sensing delay lines of 10,000,000,000 steps "
+                                         r"for 1 vehicles would take .*SensorNoise.delay_steps"):
         gym.make("QuadDOB/Hover-v1", scenario_options={"sensors": {"delay_steps": 10**10}})
+    with pytest.raises(ValueError, match=r"delay lines of 100,000,000 steps .*extra_latency"):
+        gym.make("QuadDOB/Hover-v1", scenario_options={"extra_latency": 1e6})

@@ -3,7 +3,8 @@
 The folder ``training/`` installs as ``quad_dob_training``; it sits on top and may import
 ``quad_dob_env`` and ``quad_dob_baselines``.
 
-- ``cli``: ``quad-dob list | paper | train | evaluate | tune | replay | sweep``.
+- ``cli``: ``quad-dob list | paper | train | evaluate | tune | replay | sweep``;
+  ``listing``: what ``quad-dob list`` prints (every name, every preset number's source).
 - ``rollout``: ``Flight`` records and ``fly`` (controllers through scenarios, batched).
 - ``metrics``: the scores every report uses (position; geodesic, tilt and heading
   errors); ``statistics``: bootstrap intervals and paired differences over seeds;
@@ -21,7 +22,8 @@ The folder ``training/`` installs as ``quad_dob_training``; it sits on top and m
   over many seeds; ``model_files``: model zips loaded without unpickling (and, for a run's
   own checkpoints, with); ``pretrained/`` holds the shipped residual policy.
 - ``evaluate``: every policy on every scenario over seeds: tables with intervals and the
-  paired difference to a baseline, bar plot, JSON.
+  paired difference to a baseline, distinct flights, the estimator's errors, bar plot,
+  JSON; ``margins``: delay margins (the extra latency a policy's flights take).
 - ``tune``: the one procedure that chooses the baselines' gains and the observer rates on
   tuning seeds.
 - ``replay``: episodes rendered to GIF/MP4, side by side.

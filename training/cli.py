@@ -22,42 +22,9 @@ MAX_FPS = 1000.0
 
 
 def _list(_: argparse.Namespace) -> int:
-    import quad_dob_env
-    from quad_dob_baselines import CONTROLLERS
-    from quad_dob_env.params import VEHICLE_SOURCES
-    from quad_dob_env.scenarios import WIND_PRESETS, make_scenario
+    from quad_dob_training.listing import main as list_main
 
-    print("Environment ids:")
-    for env_id, scenario in quad_dob_env.ENV_IDS.items():
-        print(f"  {env_id:<26} default scenario {scenario}")
-    print("Scenarios (margins: share of each actuator limit the reference leaves, by "
-          "differential flatness without disturbance):")
-    for name in quad_dob_env.list_scenarios():
-        scenario = make_scenario(name)
-        print(f"  {name:<22} {scenario.description}")
-        print(f"  {'':<22} {scenario.actuation} actuation; margins "
-              f"{scenario.feasibility.summary()}")
-    print("Wind presets (mean wind at the flight altitude, turbulence W20 of MIL-F-8785C):")
-    for name, (mean, w20) in WIND_PRESETS.items():
-        print(f"  {name:<10} {mean:g} m/s mean, W20 = {w20:.2f} m/s")
-    print("Controllers:", ", ".join(CONTROLLERS))
-    print("Policies: any controller, residual (the shipped policy), residual:PATH, ppo:PATH")
-    print("Vehicles (every number and its source):")
-    for name, sources in VEHICLE_SOURCES.items():
-        vehicle = quad_dob_env.VEHICLES[name]
-        print(f"  {name}")
-        for field, source in sources.items():
-            print(f"    {field:<20} {_number(getattr(vehicle, field)):<24} {source}")
-    return 0
-
-
-def _number(value: object) -> str:
-    """A vehicle field for the listing: 4 significant digits, inertia by its diagonal."""
-    if isinstance(value, tuple) and value and isinstance(value[0], tuple):
-        return "diag(" + ", ".join(f"{value[k][k]:.4g}" for k in range(3)) + ")"
-    if isinstance(value, tuple):
-        return "(" + ", ".join(f"{v:.4g}" for v in value) + ")"
-    return f"{value:.4g}" if isinstance(value, float) else str(value)
+    return list_main()
 
 
 def _paper(args: argparse.Namespace) -> int:
@@ -69,7 +36,7 @@ def _paper(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from quad_dob_env.envs.core import check_vehicle_memory
+    from quad_dob_env.envs.limits import check_vehicle_memory
 
     if args.conf_file is not None and not args.conf_file.is_file():
         raise ValueError(f"--conf-file {str(args.conf_file)!r} is not a file: give a "
@@ -101,7 +68,8 @@ def _evaluate(args: argparse.Namespace) -> int:
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
                          args.json, args.baseline, args.suite, trust_pickle=args.trust_pickle,
                          scenario_options=_key_values(args.scenario_option or [],
-                                                      "--scenario-option"))
+                                                      "--scenario-option"),
+                         delay_grid=args.delay_margins)
 
 
 def _tune(args: argparse.Namespace) -> int:
@@ -158,6 +126,23 @@ def _key_values(pairs: list[str], option: str) -> dict[str, object]:
             raise ValueError(f"{option} {pair!r}: the value is not a number, a word or a "
                              "YAML list or mapping") from None
     return options
+
+
+# quad_dob_training.margins.DELAY_GRID, written here so the parser imports nothing heavy
+DELAY_GRID_TEXT = "0,0.01,0.02,0.03,0.05,0.08"
+
+
+def _delay_grid(text: str) -> tuple[float, ...]:
+    """``"0,0.01,0.02"`` -> increasing latencies >= 0 [s], or argparse's error."""
+    try:
+        values = tuple(float(part) for part in text.split(","))
+    except ValueError:
+        values = ()
+    if not values or any(not v >= 0 for v in values) or list(values) != sorted(set(values)):
+        raise argparse.ArgumentTypeError(f"GRID must be increasing latencies >= 0 in seconds, "
+                                         f"comma-separated, such as {DELAY_GRID_TEXT}; got "
+                                         f"{text!r}")
+    return values
 
 
 def _is_number(text: str) -> bool:
@@ -305,6 +290,11 @@ def build_parser() -> argparse.ArgumentParser:
                           help="an option for every scenario flown (make_scenario's keywords: "
                           "dt=0.005, duration=20, wind_scale=1.5, motor_lag=true, ...); "
                           "repeatable")
+    evaluate.add_argument("--delay-margins", nargs="?", type=_delay_grid, default=None,
+                          const=DELAY_GRID_TEXT, metavar="GRID",
+                          help="also each policy's delay margin: the largest extra latency of "
+                          "GRID (comma-separated seconds, default %(const)s) that keeps every "
+                          "flight")
     evaluate.add_argument("--json", action="store_true", help="print the rows as JSON")
     _trust_pickle_option(evaluate)
     evaluate.set_defaults(handler=_evaluate)

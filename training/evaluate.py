@@ -18,12 +18,14 @@ from __future__ import annotations
 
 import csv
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from quad_dob_env import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.scenarios import make_scenario
+from quad_dob_training.margins import check_grid, delay_margin
 from quad_dob_training.metrics import flight_metrics
 from quad_dob_training.policies import fly_policy, make_policy
 from quad_dob_training.report import write_report
@@ -35,6 +37,9 @@ SCORES = (("rms_position_settled", "RMS ‖e_x‖ [m]"),
           ("rms_tilt_settled", "RMS tilt [rad]"),
           ("rms_heading_settled", "RMS heading [rad]"),
           ("rms_moment", "effort: RMS ‖M‖ [N m]"))
+# what the controllers read against the truth (zero with ideal sensing)
+ESTIMATOR_SCORES = ("rms_estimate_position_settled", "rms_estimate_velocity_settled",
+                    "rms_estimate_attitude_settled")
 # the paired difference to the baseline is reported for these
 COMPARED = ("rms_position_settled", "rms_attitude_settled", "rms_moment")
 # --suite: every v1 scenario family, by what it asks of a policy
@@ -84,30 +89,45 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
              first_flights: dict | None = None,
              baseline: str | None = DEFAULT_BASE_CONTROLLER, *,
              trust_pickle: bool = False,
-             scenario_options: dict[str, object] | None = None) -> list[dict]:
+             scenario_options: dict[str, object] | None = None,
+             delay_grid: Sequence[float] | None = None) -> list[dict]:
     """One row per (scenario, policy): mean, std and 95 % interval over seeds of each score,
     the crash rate, and the paired difference to ``baseline`` (flown too if not listed;
     None for no comparison). ``first_flights``, when given, collects each scenario's
     flights on the first seed. ``trust_pickle``: model files may be unpickled
     (``model_files.load_model``). ``scenario_options`` go to every scenario
-    (``make_scenario(name, **scenario_options)``)."""
+    (``make_scenario(name, **scenario_options)``). ``delay_grid``, when given: each row's
+    ``delay_margin`` on it (``quad_dob_training.margins``)."""
     specs = list(dict.fromkeys(policies))
     flown = specs if baseline is None or baseline in specs else [*specs, baseline]
     built = [make_policy(spec, trust_pickle=trust_pickle) for spec in flown]
     rows = []
     for scenario_name in scenarios:
         scenario = make_scenario(scenario_name, **(scenario_options or {}))
-        metrics = {}
+        metrics, distinct = {}, {}
         for spec, policy in zip(flown, built, strict=True):
             flights = fly_policy(policy, scenario, seeds)
             if first_flights is not None and spec in specs:
                 first_flights.setdefault(scenario_name, []).append(flights[0])
             metrics[spec] = [flight_metrics(f) for f in flights]
+            distinct[spec] = distinct_flights(flights)
         reference = None if baseline is None else metrics[baseline]
         for spec, policy in zip(specs, built, strict=False):
-            rows.append(_row(scenario_name, policy.name, seeds, metrics[spec], baseline,
-                             reference))
+            row = _row(scenario_name, policy.name, seeds, metrics[spec], baseline, reference)
+            row["distinct_flights"] = distinct[spec]
+            if delay_grid is not None:
+                margin = delay_margin(policy, scenario_name, seeds, scenario_options,
+                                      check_grid(delay_grid))
+                row["delay_margin"] = margin.margin
+                row["delay_margin_text"] = margin.describe()
+            rows.append(row)
     return rows
+
+
+def distinct_flights(flights: list) -> int:
+    """How many of ``flights`` differ (their recorded positions, bit for bit): a scenario
+    whose seeds vary nothing flies one flight however many seeds it is given."""
+    return len({(flight.position.shape, flight.position.tobytes()) for flight in flights})
 
 
 def _row(scenario: str, policy: str, seeds: list[int], metrics: list[dict],
@@ -120,6 +140,9 @@ def _row(scenario: str, policy: str, seeds: list[int], metrics: list[dict],
         row[f"{key}_mean"] = interval.mean
         row[f"{key}_std"] = float(values.std())
         row[f"{key}_low"], row[f"{key}_high"] = interval.low, interval.high
+    for key in ESTIMATOR_SCORES:
+        values = np.array([m.get(key, 0.0) for m in metrics], dtype=float)
+        row[f"{key}_mean"] = float(values.mean())
     crashes = bootstrap_mean(np.array([m["crashed"] for m in metrics], dtype=float))
     row["crash_rate"] = row["crash_rate_mean"] = crashes.mean
     row["crash_rate_low"], row["crash_rate_high"] = crashes.low, crashes.high
@@ -146,20 +169,39 @@ def write_tables(rows: list[dict], out: Path) -> None:
 
 
 def markdown_table(rows: list[dict]) -> str:
-    """Mean ± std of each score, crashes, and the position error's paired difference to the
-    baseline: its mean in percent of the baseline's, with its 95 % interval in metres."""
+    """Mean ± std of each score, crashes, distinct flights, the estimator's RMS errors, the
+    delay margin where it was searched, and the position error's paired difference to the
+    baseline: its mean in percent of the baseline's, with its 95 % interval in metres. A
+    row whose seeds fly one distinct flight says so instead of a zero-width spread."""
     baseline = rows[0].get("baseline") if rows else ""
-    header = ["scenario", "policy", *(label for _, label in SCORES), "crashed"]
+    margins = any("delay_margin_text" in row for row in rows)
+    header = ["scenario", "policy", *(label for _, label in SCORES), "crashed",
+              "distinct flights", "estimate RMS ‖x̂-x‖ [m], ∠(R̂, R) [rad]"]
+    if margins:
+        header.append("delay margin")
     if baseline:
         header.append(f"Δ RMS ‖e_x‖ vs {baseline} [m] (95 % CI)")
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for row in rows:
-        scores = [f"{row[f'{key}_mean']:.4f} ± {row[f'{key}_std']:.4f}" for key, _ in SCORES]
-        cells = [row["scenario"], row["policy"], *scores, f"{row['crashes']}/{row['flights']}"]
+        single = _one_flight(row)
+        scores = [f"{row[f'{key}_mean']:.4f}" + (" (one flight)" if single else
+                                                  f" ± {row[f'{key}_std']:.4f}")
+                  for key, _ in SCORES]
+        cells = [row["scenario"], row["policy"], *scores, f"{row['crashes']}/{row['flights']}",
+                 str(row.get("distinct_flights", "")),
+                 f"{row.get('rms_estimate_position_settled_mean', 0.0):.4f}, "
+                 f"{row.get('rms_estimate_attitude_settled_mean', 0.0):.4f}"]
+        if margins:
+            cells.append(row.get("delay_margin_text", ""))
         if baseline:
             cells.append(_difference_cell(row, baseline))
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _one_flight(row: dict) -> bool:
+    """Whether the row's seeds all flew the same flight (no spread to speak of)."""
+    return row.get("distinct_flights") == 1 and row["flights"] > 1
 
 
 def leaderboard(rows: list[dict]) -> str:
@@ -206,6 +248,9 @@ def _difference_cell(row: dict, baseline: str) -> str:
     key = "rms_position_settled"
     base_mean = row[f"{key}_mean"] - row[f"{key}_diff_mean"]
     relative = row[f"{key}_diff_mean"] / base_mean if base_mean > 0 else float("nan")
+    if _one_flight(row):
+        return (f"{relative:+.0%}: {row[f'{key}_diff_mean']:+.4f} (one flight each way: "
+                "no interval)")
     mark = "" if (row[f"{key}_diff_low"] > 0 or row[f"{key}_diff_high"] < 0) else " (n.s.)"
     return (f"{relative:+.0%}: {row[f'{key}_diff_mean']:+.4f} "
             f"[{row[f'{key}_diff_low']:+.4f}, {row[f'{key}_diff_high']:+.4f}]{mark}")
@@ -238,18 +283,21 @@ def _bar_plot(rows: list[dict], path: Path) -> None:
 
 def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
          as_json: bool, baseline: str | None = None, suite: bool = False, *,
-         trust_pickle: bool = False, scenario_options: dict[str, object] | None = None) -> int:
+         trust_pickle: bool = False, scenario_options: dict[str, object] | None = None,
+         delay_grid: Sequence[float] | None = None) -> int:
     """``baseline`` None: the recommended base; "": no comparison. ``suite``: every
     scenario of ``SUITE`` instead of ``scenarios``, and ``leaderboard.md``.
     ``trust_pickle`` (``--trust-pickle``): model files may be unpickled.
-    ``scenario_options`` (``--scenario-option KEY=VALUE``): passed to every scenario."""
+    ``scenario_options`` (``--scenario-option KEY=VALUE``): passed to every scenario.
+    ``delay_grid`` (``--delay-grid``): the latencies each delay margin is searched on."""
     baseline = DEFAULT_BASE_CONTROLLER if baseline is None else baseline
     if suite:
         scenarios = [name for names in SUITE.values() for name in names]
     seed_list = parse_seeds(seeds)
     first_flights: dict = {}
     rows = evaluate(policies, scenarios, seed_list, first_flights, baseline or None,
-                    trust_pickle=trust_pickle, scenario_options=scenario_options)
+                    trust_pickle=trust_pickle, scenario_options=scenario_options,
+                    delay_grid=delay_grid)
     if as_json:
         print(json.dumps(rows, indent=1))
         return 0

@@ -62,6 +62,7 @@ def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
     has_observer = bool(flight.force_estimate.any() or flight.torque_estimate.any())
     estimate_error = np.linalg.norm(flight.force_estimate - flight.disturbance_force, axis=1)
     axis_rms = _rms(position_error)
+    estimator = _estimator_errors(flight, settled)
     angle_rms = _rms(angles)
     return {
         "scenario": flight.scenario,
@@ -85,8 +86,22 @@ def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
         "rms_thrust": float(_rms(flight.applied_thrust)),
         "rms_moment": (float(_rms(np.linalg.norm(flight.applied_moment, axis=1)))
                        if flight.applied_moment is not None else None),
+        **estimator,
         "crashed": flight.termination_reason not in ("", "time_limit"),
         "thrust_limit": float(flight.thrust_limit),
         "flown": float(flight.time[-1] + flight.dt),
         "ended": flight.termination_reason,
     }
+
+
+def _estimator_errors(flight: Flight, settled: NDArray[np.bool_]) -> dict[str, float]:
+    """RMS error of what the controller read against the truth, after t >= 2 s: position
+    [m], velocity [m/s], attitude (geodesic angle) [rad]; zero with ideal sensing."""
+    if flight.estimated_position is None:
+        return {}
+    position = np.linalg.norm(flight.estimated_position - flight.position, axis=1)
+    velocity = np.linalg.norm(flight.estimated_velocity - flight.velocity, axis=1)
+    attitude = attitude_errors(flight.rotation, flight.estimated_rotation)["geodesic"]
+    return {"rms_estimate_position_settled": float(_rms(position[settled])),
+            "rms_estimate_velocity_settled": float(_rms(velocity[settled])),
+            "rms_estimate_attitude_settled": float(_rms(attitude[settled]))}

@@ -150,6 +150,7 @@ def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Fli
     for _ in range(scenario.steps):
         actions = np.zeros((n, 4)) if policy.model is None else policy.act(obs)
         state, reference = core.state.copy(), core.reference
+        measured = core.measurement.copy()  # what the policy flies on, before the step
         if not planned_in_step:
             desired, estimates = _diagnostics(core, residual, zeros)
         obs, _, terminated, truncated, _ = env.step(actions)
@@ -165,7 +166,8 @@ def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Fli
                 requested_thrust=requested, applied_thrust=core.applied.thrust,
                 applied_moment=core.applied.moment, disturbance_force=core.disturbance_force,
                 disturbance_torque=core.disturbance_torque, force_estimate=estimates[0],
-                torque_estimate=estimates[1]):
+                torque_estimate=estimates[1], estimated_position=measured.position,
+                estimated_velocity=measured.velocity, estimated_rotation=measured.rotation):
             break
     return recorder.flights([scenario.name] * n, policy.name, scenario.dt)
 

@@ -19,6 +19,7 @@ from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.memory import check_memory, format_bytes
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.scenarios import Scenario
+from quad_dob_env.sensing import Measurement
 from quad_dob_env.trajectories import Reference
 
 
@@ -47,6 +48,10 @@ class Flight:
     torque_estimate: NDArray
     termination_reason: str = ""
     applied_moment: NDArray | None = None  # (T, 3) [N m]
+    # what the controller read (the true state with ideal sensing)
+    estimated_position: NDArray | None = None
+    estimated_velocity: NDArray | None = None
+    estimated_rotation: NDArray | None = None
     extra: dict = field(default_factory=dict)
 
 
@@ -55,11 +60,12 @@ RECORDED_WIDTHS = {"time": 1, "position": 3, "velocity": 3, "acceleration": 3, "
                    "reference_position": 3, "reference_velocity": 3,
                    "reference_acceleration": 3, "desired_rotation": 9, "requested_thrust": 1,
                    "applied_thrust": 1, "disturbance_force": 3, "disturbance_torque": 3,
-                   "force_estimate": 3, "torque_estimate": 3, "applied_moment": 3}
+                   "force_estimate": 3, "torque_estimate": 3, "applied_moment": 3,
+                   "estimated_position": 3, "estimated_velocity": 3, "estimated_rotation": 9}
 _RECORDED = tuple(RECORDED_WIDTHS)
 # The bytes one vehicle's step costs: each field is its own small array in a list (an
 # ndarray's header, 112 B measured with tracemalloc, rounded up; the list's slot), and
-# flights() stacks a copy of the data before the lists go: 3,040 B (2.8 KiB measured).
+# flights() stacks a copy of the data before the lists go: 3,688 B.
 ARRAY_BYTES = 128
 RECORD_BYTES_PER_STEP = sum(ARRAY_BYTES + 8 + 2 * 8 * width
                             for width in RECORDED_WIDTHS.values())
@@ -88,8 +94,11 @@ class FlightRecorder:
     def add(self, state: VehicleState, ended: NDArray[np.bool_], reason: Callable[[int], str],
             **record: NDArray) -> bool:
         """Keep one step of the vehicles still flying (``record``: the other ``_RECORDED``
-        fields, (N, ...) each); ``ended`` marks whose episode this step ended, and
-        ``reason(i)`` says why. Returns whether any vehicle still flies."""
+        fields, (N, ...) each; the ``estimated_`` ones default to the true state);
+        ``ended`` marks whose episode this step ended, and ``reason(i)`` says why. Returns
+        whether any vehicle still flies."""
+        for name in ("position", "velocity", "rotation"):
+            record.setdefault(f"estimated_{name}", getattr(state, name))
         # the true acceleration, from the applied thrust and the disturbance
         record["acceleration"] = (record["applied_thrust"][:, None] * state.rotation[:, :, 2]
                                   + record["disturbance_force"]) / self.vehicle.mass \
@@ -116,6 +125,14 @@ class FlightRecorder:
 def _stack_states(cores: list[QuadrotorBatch]) -> VehicleState:
     return VehicleState(*(np.concatenate([getattr(c.state, name) for c in cores]) for name in
                           ("position", "velocity", "rotation", "angular_velocity")))
+
+
+def _stack_measurements(cores: list[QuadrotorBatch]) -> Measurement:
+    """What the controller reads: every core's measurement, stacked."""
+    measured = [core.measurement for core in cores]
+    return Measurement(*(np.concatenate([getattr(m, name) for m in measured]) for name in (
+        "position", "velocity", "rotation", "angular_velocity", "gyroscope", "accelerometer",
+        "rotor_speeds")))
 
 
 def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
@@ -155,16 +172,16 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
     recorder = FlightRecorder(n, vehicle)
     zeros = np.zeros((n, 3))
     for step in range(max(steps)):
-        state = _stack_states(cores)
+        state, measured = _stack_states(cores), _stack_measurements(cores)
         refs = [core.reference for core in cores]
         reference = Reference(*(np.concatenate([getattr(r, f.name) for r in refs])
                                 for f in fields(Reference)))
-        thrust, moment = controller.compute(np.full(n, step * dt), state, reference)
+        thrust, moment = controller.compute(np.full(n, step * dt), measured, reference)
         for i, core in enumerate(cores):
             core.step(core.action_map.to_actions(thrust[i:i + 1], moment[i:i + 1]))
         applied_thrust = np.concatenate([core.applied.thrust for core in cores])
         applied_moment = np.concatenate([core.applied.moment for core in cores])
-        controller.applied(state, applied_thrust, applied_moment)
+        controller.applied(measured, applied_thrust, applied_moment)
         diagnostics = controller.diagnostics
         ended = np.array([core.terminated[0] or step + 1 >= steps[i]
                           for i, core in enumerate(cores)])
@@ -178,6 +195,8 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
                 disturbance_force=np.concatenate([core.disturbance_force for core in cores]),
                 disturbance_torque=np.concatenate([core.disturbance_torque for core in cores]),
                 force_estimate=diagnostics.get("force_estimate", zeros),
-                torque_estimate=diagnostics.get("torque_estimate", zeros)):
+                torque_estimate=diagnostics.get("torque_estimate", zeros),
+                estimated_position=measured.position, estimated_velocity=measured.velocity,
+                estimated_rotation=measured.rotation):
             break
     return recorder.flights([s.name for s in scenarios], controller.name, dt)

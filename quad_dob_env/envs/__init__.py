@@ -1,15 +1,16 @@
 """Gymnasium environments.
 
 - ``core``: ``QuadrotorBatch``, the batched core (N vehicles of one scenario): physics
-  step, observation, reward, termination, ``info``, sensors, randomisation. Written once
-  for every env.
+  step, observation, reward, termination, ``info``, randomisation, and the sensing stage
+  (``quad_dob_env.sensing``) whose ``measurement`` every policy reads. Written once for
+  every env.
 - ``limits``: the core's settings records (``EpisodeLimits``, ``RewardWeights``) and
   ``SpecWithEpisodeLength``, which makes both envs' ``spec`` report their episodes'
   length.
 - ``actions``: ``ActionMap`` (normalised actions <-> commanded thrust and moment, both
   ways) and ``screen_actions``, the check every env face runs on its actions.
-- ``kernels``: its compiled per-vehicle step, reset, sensing and sensor-noise loops (cut
-  across the cores by ``quad_dob_env.threads``).
+- ``kernels``: its compiled per-vehicle step, reset and observation loops (cut across the
+  cores by ``quad_dob_env.threads``).
 - ``quadrotor_env``: ``QuadrotorEnv(gym.Env)``, its N = 1 view, with the tables of spaces,
   reward, start and end in its docstring.
 - ``vector_env``: ``QuadrotorVectorEnv(gymnasium.vector.VectorEnv)``, its N-vehicle view
@@ -19,6 +20,7 @@
   ``quad_dob_env.wrappers.ResidualActionWrapper`` both run it.
 - ``residual_kernels``: the residual's compiled per-vehicle command, reward and extra
   observation.
+- ``info``: the layout of every vehicle's ``info`` numbers and the pass that writes them.
 - ``rendering``: ``FlightRenderer``, the frames of ``render_mode="rgb_array"``/``"human"``.
 
 May import the simulator's lower layers (params through scenarios, threads); never

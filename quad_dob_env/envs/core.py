@@ -28,19 +28,20 @@ from quad_dob_env.dynamics import (
     physics_arrays,
 )
 from quad_dob_env.envs.actions import ActionMap
-from quad_dob_env.envs.info import INFO_COLUMNS, INFO_WIDTH, info_kernel
+from quad_dob_env.envs.info import info_arrays
 from quad_dob_env.envs.kernels import (
     StartArguments,
     StepArguments,
+    observation_kernel,
     start_kernel,
     step_kernel,
 )
-from quad_dob_env.envs.limits import EpisodeLimits, RewardWeights
-from quad_dob_env.envs.sensing import SensorStage
+from quad_dob_env.envs.limits import EpisodeLimits, RewardWeights, check_vehicle_memory
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.memory import check_memory
 from quad_dob_env.scenario import REFERENCE_ROW_BYTES
 from quad_dob_env.scenarios import Scenario
+from quad_dob_env.sensing import Measurement, SensingStage
 from quad_dob_env.so3 import exp as so3_exp
 from quad_dob_env.threads import run_over_batch
 from quad_dob_env.trajectories import REFERENCE_FIELDS, Reference, TrajectoryFamily
@@ -51,17 +52,6 @@ ROTATION_REPRESENTATIONS = {"matrix": 9, "6d": 6}
 TERMINATION_REASONS = ("", "crashed", "out_of_bounds", "attitude_lost", "non_finite_state",
                        "invalid_action")
 TIME_LIMIT = "time_limit"
-# What one vehicle costs the core and the env stacks over it, rounded up from tracemalloc
-# (about 1.1 KiB in the core and 3.4 KiB with a residual base at N = 4,096)
-VEHICLE_BYTES = 8 * 1024
-
-
-def check_vehicle_memory(vehicles: int, option: str = "num_envs") -> None:
-    """Refuse, before anything is allocated, a batch of vehicles past the memory budget."""
-    check_memory(vehicles * VEHICLE_BYTES, f"{vehicles:,} vehicles",
-                 f"fly fewer vehicles at once ({option})")
-
-
 # --- the core ----------------------------------------------------------------------------
 
 class QuadrotorBatch:
@@ -117,6 +107,7 @@ class QuadrotorBatch:
                                       np.zeros(n, dtype=np.bool_))
         self.disturbance_force = np.zeros((n, 3))
         self.disturbance_torque = np.zeros((n, 3))
+        self.wind_velocity = np.zeros((n, 3))
         self._own = tuple(np.zeros((n, samples, 3)) for _ in range(3))  # force, torque, wind
         # per-vehicle physics (mass, inertia, inverse, drag), so vehicles can differ
         self._nominal = physics_arrays(self.vehicle, 1, scenario.drag)
@@ -125,7 +116,8 @@ class QuadrotorBatch:
         self.sampled: list[dict[str, float]] = [{} for _ in range(n)]
         self.actuator_state = np.zeros((n, 4))
         self._actuation = self.actuator.kernel_arguments()
-        time_constant = self.vehicle.motor_time_constant if scenario.motor_lag else 0.0
+        time_constant = (self.vehicle.motor_time_constant * scenario.motor_time_constant_scale
+                         if scenario.motor_lag else 0.0)
         self._actuator = (self.actuator.to_wrench, self.actuator.to_rotors, float(time_constant),
                           self.actuator_state)
         limits_ = self.limits
@@ -136,8 +128,13 @@ class QuadrotorBatch:
         self._reward = (float(self.reward_weights.position_scale),
                         float(self.reward_weights.effort_weight))
         self._rotation_mode = 0 if rotation_representation == "matrix" else 1
-        self.sensors = scenario.sensors
-        self._sensing = SensorStage(scenario.sensors, self.obs, self._rotation_mode)
+        self.sensing = SensingStage(
+            scenario.sensing, scenario.extra_latency, self.state,
+            (self.applied.thrust, self.disturbance_force, self.mass, self.applied.rotor_thrusts),
+            self.vehicle, scenario.dt)
+        # the kernels write the true state's observation here; a policy reads ``obs``, the
+        # same array for the identity, else rebuilt from the measurement
+        self._true_obs = self.obs if self.sensing.identity else np.zeros_like(self.obs)
         self._all = np.arange(n)
         # what a reset writes, looked up once: a reset of a few vehicles is mostly fixed cost
         self._start = tuple(np.asarray(value, dtype=float) for value in (
@@ -228,7 +225,8 @@ class QuadrotorBatch:
         for j, rng in enumerate(rngs):
             # fixed draw order per vehicle: a family's member and the start's row on it (the
             # start is relative to them), position, attitude (one call, the same numbers as
-            # two), randomisation, sensor key, then the disturbance
+            # two), randomisation, then the disturbance; the sensors' keys come from a stream
+            # spawned off it, which draws nothing from it
             if len(self._members) > 1:
                 members[j] = rng.integers(len(self._members))
             if self._start_steps:
@@ -237,7 +235,7 @@ class QuadrotorBatch:
             if randomization is not None:
                 r = randomization
                 scales[j] = [rng.uniform(*r.mass), rng.uniform(*r.inertia), rng.uniform(*r.drag)]
-            self._sensing.start(int(indices[j]), rng)
+            self.sensing.start(int(indices[j]), rng)
         offsets = np.zeros((count, 6))  # position, velocity
         offsets[:, :3] = draws[:, :3] * sc.initial_position_noise
         rows = members * self._member_rows + starts
@@ -251,6 +249,7 @@ class QuadrotorBatch:
                                   self.vehicle.gravity).rotation
         rotations = first @ so3_exp(draws[:, 3:] * sc.initial_attitude_noise)
         start_kernel(indices, offsets, rotations, scales, *self._kernel_arguments()[1])
+        self.wind_velocity[indices] = 0.0  # as the disturbance: no step flown through air yet
         random = self.random_disturbance
         if random is not None:
             random.resample(indices, rngs)
@@ -262,7 +261,7 @@ class QuadrotorBatch:
                 **({} if random is None else random.sampled_parameters(index)),
             }
         self._reference_now = None
-        self._sensing.measure(indices, self.state.rotation, reset=True)
+        self._measure(indices, reset=True)
 
     # --- step -----------------------------------------------------------------------------
     def step(self, actions: NDArray[np.float64]) -> None:
@@ -312,7 +311,7 @@ class QuadrotorBatch:
                 step_count=self.step_count, reference_row=self.reference_row,
                 actuator_state=self.actuator_state,
                 hover=self._hover_output, reference=self._reference_table,
-                rotation_mode=self._rotation_mode, limits=self._limits, obs=self._sensing.clean,
+                rotation_mode=self._rotation_mode, limits=self._limits, obs=self._true_obs,
                 code=self.termination_code)
             self._kernel_tuples = (tuple(self.step_arguments()), tuple(start))
             self._kernel_tables = self._reference_table
@@ -331,30 +330,39 @@ class QuadrotorBatch:
                      self.drag),
             dt=sc.dt, substeps=sc.substeps, law=self._law, limits=self._limits,
             reward_weights=self._reward, rotation_mode=self._rotation_mode,
-            obs=self._sensing.clean, reward=self.rewards, code=self.termination_code,
+            obs=self._true_obs, reward=self.rewards, code=self.termination_code,
             applied_thrust=applied.thrust, applied_moment=applied.moment,
             rotor_thrusts=applied.rotor_thrusts, saturated=applied.saturated,
-            disturbance_force=self.disturbance_force, disturbance_torque=self.disturbance_torque)
+            disturbance_force=self.disturbance_force, disturbance_torque=self.disturbance_torque,
+            wind_velocity=self.wind_velocity)
 
     def finish_step(self) -> None:
-        """After the compiled pass: the sensor model on the new observations."""
-        self._sensing.measure(self._all, self.state.rotation, reset=False)
+        """After the compiled pass: the sensors, the estimate, and the policy's
+        observation of it."""
+        self._measure(self._all, reset=False)
 
-    def info_arrays(self) -> dict[str, NDArray]:
-        """Every vehicle's ``info`` numbers now, (N,) or (N, k) each: ``time``, the position
-        and velocity errors, the reference (position, velocity, acceleration, heading), the
-        true disturbance force and torque, the applied thrust, moment and rotor thrusts, and
-        ``actuator_saturated``. New arrays each call (views of one block, filled in one
-        compiled pass)."""
-        block = np.empty((self.n, INFO_WIDTH))
-        s, applied = self.state, self.applied
-        info_kernel(s.position, s.velocity, self.step_count, self.reference_row,
-                    self.scenario.dt, self._reference_table, self.disturbance_force,
-                    self.disturbance_torque,
-                    applied.thrust, applied.moment, applied.rotor_thrusts, block)
-        info = {name: block[:, columns] for name, columns in INFO_COLUMNS}
-        info["actuator_saturated"] = applied.saturated.copy()
-        return info
+    def _measure(self, indices: NDArray[np.intp], reset: bool) -> None:
+        sensing = self.sensing
+        sensing.measure(indices, self.step_count, reset)
+        if sensing.identity:
+            return
+        m = sensing.measurement
+        observation_kernel(indices, m.position, m.velocity, m.rotation, m.angular_velocity,
+                           self._reference_table, self.reference_row, self._rotation_mode,
+                           self.obs)
+
+    @property
+    def measurement(self) -> Measurement:
+        """What every policy reads (``quad_dob_env.sensing.Measurement``): the estimate and
+        the raw readings. With ideal sensing its state fields are the true state's own
+        arrays."""
+        if self.sensing.identity:
+            self.sensing.refresh_ideal()
+        return self.sensing.measurement
+
+    def info_arrays(self) -> dict[str, NDArray | dict[str, NDArray]]:
+        """Every vehicle's ``info`` numbers now (``envs.info.info_arrays``)."""
+        return info_arrays(self)
 
     def end_for_invalid_actions(self, indices: NDArray[np.intp]) -> None:
         """End the episodes of vehicles whose action was NaN or infinite (flown at the

@@ -24,8 +24,7 @@ from quad_dob_env.dynamics import (
     thrust_multiplier_scalar,
     vehicle_physics,
 )
-from quad_dob_env.rng import gaussian_pair
-from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, mat_vec_tuple, matrix_entries
+from quad_dob_env.so3 import mat_vec_tuple
 
 # Observations are clamped to float32's range, so a huge but finite state never becomes inf.
 OBSERVATION_BOUND = float(np.finfo(np.float32).max)
@@ -92,10 +91,10 @@ def _bounded(value):
     return min(max(value, -OBSERVATION_BOUND), OBSERVATION_BOUND)
 
 
-@njit(cache=True)
-def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
-    """Write vehicle i's observation; return its termination code and position error."""
-    max_error, cos_max_tilt, max_rate, has_floor, floor = limits
+@njit(cache=True, inline="always")
+def observe_vehicle(i, x, v, R, w, reference, row, rotation_mode, obs):
+    """Write vehicle i's observation of state (x, v, R row-major, w) against reference row
+    ``row``; return the squared position error."""
     error_sq = 0.0
     for k in range(3):
         e_x = x[k] - reference[row, 0, k]
@@ -115,7 +114,14 @@ def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
         obs[i, j + k] = _bounded(w[k])
         obs[i, j + 3 + k] = reference[row, 2, k]  # desired acceleration
         obs[i, j + 6 + k] = reference[row, 5, k]  # desired heading b1d
-    error = np.sqrt(error_sq)
+    return error_sq
+
+
+@njit(cache=True)
+def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
+    """Write vehicle i's observation; return its termination code and position error."""
+    max_error, cos_max_tilt, max_rate, has_floor, floor = limits
+    error = np.sqrt(observe_vehicle(i, x, v, R, w, reference, row, rotation_mode, obs))
     code = 0
     if error > max_error:
         code = 2
@@ -124,6 +130,16 @@ def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
     if has_floor and x[2] < floor:
         code = 1
     return code, error
+
+
+@njit(cache=True)
+def observation_kernel(indices, position, velocity, rotation, angular_velocity, reference,
+                       reference_row, rotation_mode, obs):
+    """The observations of vehicles ``indices`` from a measured state (the policy's view
+    when sensing is not the identity), at each vehicle's reference row."""
+    for i in indices:
+        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
+        observe_vehicle(i, x, v, R, w, reference, reference_row[i], rotation_mode, obs)
 
 
 class StepArguments(NamedTuple):
@@ -158,6 +174,7 @@ class StepArguments(NamedTuple):
     saturated: NDArray
     disturbance_force: NDArray
     disturbance_torque: NDArray
+    wind_velocity: NDArray  # the air's velocity at the vehicle (world frame), written
 
 
 class StartArguments(NamedTuple):
@@ -192,7 +209,7 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, position,
                 physics, dt,
                 substeps, law, limits, reward_weights, rotation_mode, obs, reward, code,
                 applied_thrust, applied_moment, rotor_thrusts, saturated, disturbance_force,
-                disturbance_torque):
+                disturbance_torque, wind_velocity):
     """One control step of vehicles ``start..stop-1``: action -> command -> actuators ->
     integration -> observation, reward, termination and the true disturbance
     (``quad_dob_env.threads`` splits the batch across cores). Called as
@@ -255,6 +272,7 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, position,
         for k in range(3):
             disturbance_force[i, k] = external[k] + drag_world[k]
             disturbance_torque[i, k] = torque[k]
+            wind_velocity[i, k] = wind[k]
 
 
 @njit(cache=True, inline="always")
@@ -263,37 +281,6 @@ def _blend(start, command, factor):
             command[1] + (start[1] - command[1]) * factor,
             command[2] + (start[2] - command[2]) * factor,
             command[3] + (start[3] - command[3]) * factor)
-
-
-@njit(cache=True)
-def sensor_kernel(indices, clean, rotation, keys, counters, stds, rotation_mode, out):
-    """Noisy observations for vehicles ``indices``: ``clean`` plus Gaussian noise on the
-    position and velocity errors and body rates, and the rotation turned by a random
-    ``exp(hat(σ n))``; the noise of vehicle i is drawn from its key (counter-based)."""
-    position_std, velocity_std, attitude_std, rate_std = stds
-    rates = 15 if rotation_mode == 0 else 12
-    for i in indices:
-        g = [0.0] * 12
-        for j in range(6):
-            g[2 * j], g[2 * j + 1] = gaussian_pair(keys[i], 6 * counters[i] + j)
-        counters[i] += 1
-        for k in range(out.shape[1]):
-            out[i, k] = clean[i, k]
-        for k in range(3):
-            out[i, k] += position_std * g[k]
-            out[i, 3 + k] += velocity_std * g[3 + k]
-            out[i, rates + k] += rate_std * g[9 + k]
-        turned = mat_mul_tuple(matrix_entries(rotation[i]), exp_tuple(
-            (attitude_std * g[6], attitude_std * g[7], attitude_std * g[8])))
-        if rotation_mode == 0:
-            for k in range(9):
-                out[i, 6 + k] = turned[k]
-        else:
-            for c in range(2):
-                for r in range(3):
-                    out[i, 6 + 3 * c + r] = turned[3 * r + c]
-
-
 
 
 @njit(cache=True)

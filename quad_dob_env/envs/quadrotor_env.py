@@ -103,14 +103,22 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     ``reference_heading``; the true ``disturbance_force`` (world, N; ground effect
     included) and ``disturbance_torque`` (body, N m); what the rotors actually produced:
     ``applied_thrust``, ``applied_moment``, ``rotor_thrusts``, ``actuator_saturated`` (with
-    motor lag: the mean over the step). ``reset`` adds ``sampled``: what domain
-    randomisation and random disturbances drew for this episode (mass, inertia and drag
-    scales, wind direction and intensity, impulse start).
+    motor lag: the mean over the step); ``wind``, the air's velocity at the vehicle (world,
+    m/s); ``estimate``, a dict of what the policies read (``position``, ``velocity``,
+    ``rotation``, ``angular_velocity``; the true state with ideal sensing). ``reset`` adds
+    ``sampled``: what domain randomisation and random disturbances drew for this episode
+    (mass, inertia and drag scales, wind direction and intensity, impulse start).
 
-    ## Sensors
-    With ``Scenario.sensors`` (``SensorNoise``), the observation carries Gaussian noise on
-    position, velocity, attitude and rates and arrives ``delay_steps`` steps late; reward,
-    termination and ``info`` use the true state.
+    ## Sensing
+    ``Scenario.sensing`` (``quad_dob_env.sensing``) sets what every policy reads: the
+    observation above, and a base controller's input in a residual env. ``ideal`` (the
+    default) is the true state, v1's loop bit for bit; ``mocap`` and ``gnss-imu`` fly
+    sensors with their datasheets' noise and latency through a state estimator; a
+    ``SensorNoise`` (``sensors=``) adds Gaussian noise to the state, ``delay_steps`` late.
+    ``extra_latency`` [s] delays every reading more. Reward, termination and ``info`` (but
+    ``estimate``) use the true state. Each sensor draws from its own stream, spawned off the
+    episode's generator without drawing from it: for the same seed, switching sensing on,
+    off or to other noise leaves the wind, gusts, start and randomisation as they were.
 
     ## Arguments
     ``scenario`` (name or ``Scenario``), ``scenario_options`` (dict for ``make_scenario``),
@@ -121,6 +129,13 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     ``terminate``).
 
     ## Version history
+    - v1, sensing (2026-12, no id bumped: the defaults fly as before, bit for bit): the
+      scenario options ``sensing``, ``extra_latency`` and ``motor_time_constant_scale``;
+      ``info["wind"]`` and ``info["estimate"]``. ``sensors=`` (``SensorNoise``) now feeds
+      every policy, the base controller of a residual env included (it perturbed only the
+      observation), applies its noise to the state (the observation's errors are then
+      against the current reference), and draws its noise from its own stream, so it no
+      longer shifts the wind drawn for the same seed.
     - v1, bug fix (2026-12, no id bumped: default episodes are unchanged): episodes run to
       their scenario's end. Until then ``gym.make`` wrapped every env in a ``TimeLimit`` of
       the default scenario's steps, so ``scenario_options`` with a smaller ``dt`` or a longer
@@ -234,7 +249,10 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
 
     def _info(self) -> dict[str, Any]:
         core = self.core
-        info = {name: value[0] for name, value in core.info_arrays().items()}
+        arrays = core.info_arrays()
+        estimate = arrays.pop("estimate")
+        info = {name: value[0] for name, value in arrays.items()}
+        info["estimate"] = {name: value[0] for name, value in estimate.items()}
         for name, kind in (("time", float), ("applied_thrust", float),
                            ("actuator_saturated", bool)):
             info[name] = kind(info[name])

@@ -41,7 +41,7 @@ observation's entries 4-6): below half the gate (nothing, or the observer's own 
 error, disturbs the vehicle) the residual has no authority and the base flies alone, bit
 for bit; from the gate up it has all of it.
 
-Observation: the env's own observation followed by 16 entries, from the state the base
+Observation: the env's own observation followed by 16 entries, from the measurement the base
 controller reads:
 
 | index (after the env's) | entry                                                   | unit |
@@ -155,7 +155,9 @@ class ResidualCommand:
         self._residual = np.zeros((n, 4))
         self._started = False
         by_acceleration = residual_mode == "acceleration"
-        self._fused = None if fused_pass is None or by_acceleration else fused_pass(self)
+        # the compiled pass reads the true state: for the identity sensing only
+        self._fused = (None if fused_pass is None or by_acceleration
+                       or not core.sensing.identity else fused_pass(self))
 
     def restart(self, indices: NDArray[np.intp]) -> None:
         """After ``core.reset(indices)``: restart those vehicles' controller state (all of
@@ -198,19 +200,20 @@ class ResidualCommand:
         if not self._started:
             raise RuntimeError("ResidualCommand.restart must run before command")
         core = self.core
-        self._state_before = core.state.copy()
+        measurement = core.measurement
+        self._state_before = measurement.copy()
         actions = np.empty((core.n, 4))
         residual = np.ascontiguousarray(self.gated(residual), dtype=np.float64)
         if self.residual_mode == "acceleration":
             clipped = np.clip(residual, -1.0, 1.0)
             correction = self.acceleration_scale * clipped[:, :3]
             self.base_thrust, self.base_moment = self.controller.compute(
-                core.time, core.state, core.reference, acceleration_correction=correction)
+                core.time, measurement, core.reference, acceleration_correction=correction)
             guarded = self._guard(correction)
             if guarded is not None:  # the base again, with the guarded correction
                 clipped[:, :3] = guarded / self.acceleration_scale
                 self.base_thrust, self.base_moment = self.controller.compute(
-                    core.time, core.state, core.reference, acceleration_correction=guarded)
+                    core.time, measurement, core.reference, acceleration_correction=guarded)
             zeros = np.zeros((core.n, 3))
             self.force_estimate, self.torque_estimate = (
                 self.controller.diagnostics.get(key, zeros).copy()
@@ -267,18 +270,19 @@ class ResidualCommand:
     def plan(self) -> None:
         """Every vehicle's base command for the coming step, and the extra observation."""
         core, controller = self.core, self.controller
+        measurement = core.measurement
         if self.residual_mode == "acceleration":
             # the base ran in ``command``: the observation shows the command flown and the
             # estimates of that step's start state
             seen_thrust, seen_moment = self.requested_command()
         else:
-            self.base_thrust, self.base_moment = controller.compute(core.time, core.state,
+            self.base_thrust, self.base_moment = controller.compute(core.time, measurement,
                                                                     core.reference)
             zeros = np.zeros((core.n, 3))
             self.force_estimate = controller.diagnostics.get("force_estimate", zeros)
             self.torque_estimate = controller.diagnostics.get("torque_estimate", zeros)
             seen_thrust, seen_moment = self.base_thrust, self.base_moment
-        state = core.state
+        state = measurement
         residual_observation_kernel(
             np.ascontiguousarray(seen_thrust, dtype=np.float64),
             np.ascontiguousarray(seen_moment, dtype=np.float64),

@@ -259,6 +259,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
         if self._key_masks is None:  # the keys never change: their masks are made once
             self._key_masks = {f"_{key}": self._every_vehicle for key in info}
         info.update(self._key_masks)  # every vehicle reports these
+        estimate = info["estimate"]  # a nested dict carries its own masks, as Gymnasium's
+        estimate.update({f"_{key}": self._every_vehicle for key in list(estimate)})
         if ended_count:  # as a single env reports it: only where an episode ended
             reasons = self._no_reasons.copy()
             for i in np.flatnonzero(ended):

@@ -1,0 +1,194 @@
+"""The compiled sensing pass: every vehicle's readings, their delay lines and the state
+estimator, once per control step (``SensingStage`` calls it for the whole batch).
+
+A reading row holds, in this order: position (3), rotation (9, row-major), velocity (3),
+compass heading (1), gyroscope (3), accelerometer (3), rotor speeds (4). Each sensor draws
+its noise from its own key (``quad_dob_env.rng``: the n-th draw of a key depends on the
+key and n alone), so one sensor's settings never move another's noise, nor any other
+random draw of the flight.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from quad_dob_env.rng import gaussian_pair
+from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, matrix_entries
+
+READING_WIDTH = 26
+POSITION, ROTATION, VELOCITY, HEADING, GYRO, ACCEL, ROTORS = 0, 3, 12, 15, 16, 19, 22
+# estimator state per vehicle: position, velocity, rotation, gyroscope bias, accelerometer
+# bias (body), the last GNSS velocity fix, whether there is one
+ESTIMATE_WIDTH = 25
+# estimator history per vehicle and step: position, velocity, rotation, world specific force
+HISTORY_WIDTH = 18
+# keys per vehicle: pose, IMU, rotors, state noise, initial biases
+KEYS = 5
+POSE_KEY, IMU_KEY, ROTOR_KEY, STATE_KEY, BIAS_KEY = range(KEYS)
+
+
+@njit(cache=True, inline="always")
+def _normals(key, step, count, out):
+    """``count`` (even) standard normals for a key's ``step``-th reading."""
+    for j in range(count // 2):
+        out[2 * j], out[2 * j + 1] = gaussian_pair(key, 8 * step + j)
+
+
+@njit(cache=True, inline="always")
+def _heading(R):
+    """The heading of body x projected on the level plane [rad]; R row-major."""
+    return math.atan2(R[3], R[0])
+
+
+@njit(cache=True, inline="always")
+def _wrap(angle):
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit(cache=True, inline="always")
+def specific_force_vehicle(i, thrust, force, rotation, mass):
+    """What an ideal accelerometer reads [m/s², body]: (f e3 + Rᵀ d) / m, the
+    acceleration less gravity (d: every non-gravity force but the thrust, world frame)."""
+    out = [0.0, 0.0, 0.0]
+    for k in range(3):
+        for j in range(3):
+            out[k] += rotation[i, j, k] * force[i, j]
+        out[k] /= mass[i]
+    out[2] += thrust[i] / mass[i]
+    return out
+
+
+@njit(cache=True, inline="always")
+def rotor_speed(rotor_thrust, thrust_coefficient):
+    """A rotor's speed [rad/s] from its thrust, T = k_F ω²."""
+    return math.sqrt(max(rotor_thrust, 0.0) / thrust_coefficient)
+
+
+@njit(cache=True, nogil=True)
+def take_readings_kernel(start, stop, indices, step_count, position, velocity, rotation,
+                         angular_velocity, thrust, force, mass, rotor_thrusts,
+                         thrust_coefficient, keys, true_bias, pose, imu, rotors, state_noise,
+                         ring, reset):
+    """The readings of vehicles ``indices[start:stop]`` of their true state now, into each
+    delay line's slot ``step % depth`` (at a reset, into every slot: no older readings
+    exist). A source whose standard deviations are all zero draws nothing: its reading is
+    the same, and no other source's noise depends on it.
+
+    The gyroscope reads the body rate now; the accelerometer the step's mean specific force
+    (the applied thrust is the step's mean). Their white noise has the std density / √dt,
+    the density's over the step.
+
+    ``pose``: kind (0 mocap, 1 gnss), period in steps, position std, vertical std, attitude
+    std, velocity std, heading std. ``imu``: gyroscope and accelerometer std per sample, the
+    biases' walk per step, their initial std. ``rotors``: speed std. ``state_noise``:
+    position, velocity, attitude and rate std of ``SensorNoise`` (its mode has no IMU
+    noise, biases nor estimator: ``imu`` is all zeros)."""
+    _, period, position_std, vertical_std, attitude_std, velocity_std, heading_std = pose
+    gyro_std, accel_std, gyro_walk, accel_walk, gyro_bias0, accel_bias0 = imu
+    p_std, v_std, a_std, w_std = state_noise
+    depth = ring.shape[0]
+    g = np.zeros(12)
+    pose_noisy = position_std + vertical_std + attitude_std + velocity_std + heading_std > 0
+    imu_noisy = gyro_std + accel_std + gyro_walk + accel_walk > 0
+    for j in range(start, stop):
+        i = indices[j]
+        step = step_count[i]
+        slot = step % depth
+        R = matrix_entries(rotation[i])
+        if reset:  # a new episode's biases: zero, or drawn
+            if gyro_bias0 + accel_bias0 > 0:
+                _normals(keys[i, BIAS_KEY], 0, 6, g)
+            else:
+                g[:6] = 0.0
+            for k in range(3):
+                true_bias[i, k] = gyro_bias0 * g[k]
+                true_bias[i, 3 + k] = accel_bias0 * g[3 + k]
+        row = ring[slot, i]
+        # the pose fix (taken every ``period`` steps; the slot keeps whatever it held else)
+        if step % period == 0 or reset:
+            if pose_noisy:
+                _normals(keys[i, POSE_KEY], step, 10, g)
+            for k in range(3):
+                std = vertical_std if k == 2 else position_std
+                row[POSITION + k] = position[i, k] + std * g[k]
+                row[VELOCITY + k] = velocity[i, k] + velocity_std * g[6 + k]
+            turned = mat_mul_tuple(R, exp_tuple((attitude_std * g[3], attitude_std * g[4],
+                                                 attitude_std * g[5])))
+            for k in range(9):
+                row[ROTATION + k] = turned[k]
+            row[HEADING] = _wrap(_heading(R) + heading_std * g[9])
+        # the IMU, its biases walking first
+        if imu_noisy:
+            _normals(keys[i, IMU_KEY], step, 12, g)
+        else:
+            g[:] = 0.0
+        if not reset:
+            for k in range(3):
+                true_bias[i, k] += gyro_walk * g[6 + k]
+                true_bias[i, 3 + k] += accel_walk * g[9 + k]
+        specific = specific_force_vehicle(i, thrust, force, rotation, mass)
+        for k in range(3):
+            row[GYRO + k] = angular_velocity[i, k] + true_bias[i, k] + gyro_std * g[k]
+            row[ACCEL + k] = specific[k] + true_bias[i, 3 + k] + accel_std * g[3 + k]
+        if rotors[0] > 0:
+            _normals(keys[i, ROTOR_KEY], step, 4, g)
+        else:
+            g[:4] = 0.0
+        for k in range(4):
+            row[ROTORS + k] = (rotor_speed(rotor_thrusts[i, k], thrust_coefficient)
+                               + rotors[0] * g[k])
+        if p_std + v_std + a_std + w_std > 0.0:  # SensorNoise: noise on the state itself
+            _normals(keys[i, STATE_KEY], step, 12, g)
+            for k in range(3):
+                row[POSITION + k] = position[i, k] + p_std * g[k]
+                row[VELOCITY + k] = velocity[i, k] + v_std * g[3 + k]
+                row[GYRO + k] = angular_velocity[i, k] + w_std * g[9 + k]
+            turned = mat_mul_tuple(R, exp_tuple((a_std * g[6], a_std * g[7], a_std * g[8])))
+            for k in range(9):
+                row[ROTATION + k] = turned[k]
+        if reset:
+            for s in range(depth):
+                if s != slot:
+                    for k in range(READING_WIDTH):
+                        ring[s, i, k] = row[k]
+
+
+@njit(cache=True, nogil=True)
+def measurement_kernel(start, stop, indices, step_count, ring, imu_delay, rotor_delay,
+                       state_from_ring, position, velocity, rotation, rates, gyroscope,
+                       accelerometer, rotor_speeds):
+    """The measurement's raw readings from the delay line: the IMU's reading ``imu_delay``
+    steps old, the rotors' ``rotor_delay``, for vehicles ``indices[start:stop]``; with
+    ``state_from_ring`` (``SensorNoise``, no
+    estimator) the state too, from the reading the IMU's delay gives."""
+    depth = ring.shape[0]
+    for j in range(start, stop):
+        i = indices[j]
+        step = step_count[i]
+        imu = ring[max(step - imu_delay, 0) % depth, i]
+        telemetry = ring[max(step - rotor_delay, 0) % depth, i]
+        for k in range(3):
+            gyroscope[i, k] = imu[GYRO + k]
+            accelerometer[i, k] = imu[ACCEL + k]
+        for k in range(4):
+            rotor_speeds[i, k] = telemetry[ROTORS + k]
+        if state_from_ring:
+            for k in range(3):
+                position[i, k] = imu[POSITION + k]
+                velocity[i, k] = imu[VELOCITY + k]
+                rates[i, k] = imu[GYRO + k]
+                for c in range(3):
+                    rotation[i, k, c] = imu[ROTATION + 3 * k + c]
+
+
+@njit(cache=True)
+def ideal_readings_kernel(thrust, force, rotation, mass, rotor_thrusts, thrust_coefficient,
+                          accelerometer, rotor_speeds):
+    """What ideal sensors read now: the specific force and the rotor speeds."""
+    for i in range(thrust.shape[0]):
+        specific = specific_force_vehicle(i, thrust, force, rotation, mass)
+        for k in range(3):
+            accelerometer[i, k] = specific[k]
+        for k in range(4):
+            rotor_speeds[i, k] = rotor_speed(rotor_thrusts[i, k], thrust_coefficient)

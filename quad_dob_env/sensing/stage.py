@@ -1,0 +1,166 @@
+"""``SensingStage``: the batch's sensors, delay lines and estimator, between the physics
+and every policy. The core (``quad_dob_env.envs.core``) runs it after each step and at
+each reset; what it writes is ``measurement``, the one record controllers read."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from quad_dob_env.dynamics import VehicleState
+from quad_dob_env.memory import check_memory
+from quad_dob_env.params import VehicleParams
+from quad_dob_env.sensing.estimator import estimate_kernel, start_estimates_kernel
+from quad_dob_env.sensing.kernels import (
+    ESTIMATE_WIDTH,
+    HISTORY_WIDTH,
+    KEYS,
+    READING_WIDTH,
+    ideal_readings_kernel,
+    measurement_kernel,
+    take_readings_kernel,
+)
+from quad_dob_env.sensing.measurement import Measurement
+from quad_dob_env.sensing.models import SensorSuite
+from quad_dob_env.threads import run_over_batch
+from quad_dob_env.variation import SensorNoise
+
+
+def delay_steps(latency: float, dt: float) -> int:
+    """A latency [s] resolved on the control grid: the first step at or after it."""
+    return math.ceil(latency / dt - 1e-9)
+
+
+class SensingStage:
+    """What the controllers of a batch of ``n`` vehicles read (``measurement``).
+
+    - ``sensing`` None and no ``extra_latency``: the identity, ``measurement`` holds the
+      true state's own arrays (v1's loop, bit for bit); the IMU fields are ideal readings.
+    - a ``SensorNoise``: the true state plus its Gaussian noise, ``delay_steps`` plus the
+      extra latency late (no estimator); so is None with an extra latency, noise-free.
+    - a ``SensorSuite``: its sensors, each late by its own latency plus the extra one, and
+      the estimator (``quad_dob_env.sensing.estimator``) fusing them.
+    """
+
+    def __init__(self, sensing: SensorSuite | SensorNoise | None, extra_latency: float,
+                 truth: VehicleState, physics: tuple, vehicle: VehicleParams,
+                 dt: float) -> None:
+        n = truth.n
+        self.sensing, self.dt, self.gravity = sensing, float(dt), float(vehicle.gravity)
+        self.truth = truth
+        # applied thrust (N,), non-gravity force but thrust (N, 3), mass (N,), rotor thrusts
+        self.physics = physics
+        self.thrust_coefficient = float(vehicle.thrust_coefficient)
+        extra = delay_steps(extra_latency, dt)
+        self.extra_delay = extra
+        self.identity = sensing is None and extra == 0
+        self.keys = np.zeros((n, KEYS), dtype=np.uint64)
+        self.true_bias = np.zeros((n, 6))
+        self.estimating = isinstance(sensing, SensorSuite)
+        self._fresh = False
+        zeros4 = (0.0, 0.0, 0.0, 0.0)
+        self._state_noise = zeros4
+        self._imu = (0.0,) * 6
+        self._rotors = (0.0,)
+        if self.estimating:
+            pose, imu = sensing.pose, sensing.imu
+            self.period = max(1, round(1.0 / (pose.rate * dt)))  # a fix every so many steps
+            self._pose = (0 if pose.kind == "mocap" else 1, self.period, pose.position_std,
+                          pose.vertical_std, pose.attitude_std, pose.velocity_std,
+                          pose.heading_std)
+            root = math.sqrt(dt)
+            self._imu = (imu.gyroscope_noise_density / root,
+                         imu.accelerometer_noise_density / root,
+                         imu.gyroscope_bias_walk * root, imu.accelerometer_bias_walk * root,
+                         imu.gyroscope_initial_bias, imu.accelerometer_initial_bias)
+            self._rotors = (sensing.rotors.speed_std,)
+            self.delays = (delay_steps(pose.latency, dt) + extra,
+                           delay_steps(imu.latency, dt) + extra)
+            self.rotor_delay = delay_steps(sensing.rotors.latency, dt) + extra
+            gains = sensing.estimator
+            self._gains = (gains.position_bandwidth, gains.attitude_bandwidth,
+                           gains.velocity_bandwidth)
+            fix_period = self.period * dt  # the pose rate resolved on the control grid
+            if max(self._gains) * fix_period > 1.0:
+                raise ValueError(
+                    f"sensing {sensing.name!r} at dt = {dt:g} s takes a pose fix every "
+                    f"{fix_period:g} s, and its largest estimator bandwidth "
+                    f"{max(self._gains):g} rad/s times that is above 1: use a dt that divides "
+                    f"1 / {pose.rate:g} Hz, or smaller bandwidths")
+        else:
+            self.period = 1
+            self._pose = (0, 1) + (0.0,) * 5
+            state_delay = extra + (0 if sensing is None else int(sensing.delay_steps))
+            if isinstance(sensing, SensorNoise):
+                self._state_noise = (float(sensing.position_std), float(sensing.velocity_std),
+                                     float(sensing.attitude_std), float(sensing.rate_std))
+            self.delays = (state_delay, state_delay)
+            self.rotor_delay = state_delay
+        # the estimator integrates over the IMU's last two readings: one slot more
+        depth = max(*self.delays, self.rotor_delay) + 1 + int(self.estimating)
+        lag = max(self.delays[0] - self.delays[1], 0)
+        history = (lag + self.period + 1) if self.estimating else 1
+        check_memory(n * 8 * (depth * READING_WIDTH + history * HISTORY_WIDTH),
+                     f"the sensing delay lines of {depth - 1:,} steps for {n:,} vehicles",
+                     "use a shorter latency (SensorNoise.delay_steps, extra_latency)")
+        self.ring = np.zeros((depth, n, READING_WIDTH))
+        self.estimate_state = np.zeros((n, ESTIMATE_WIDTH))
+        self.history = np.zeros((history, n, HISTORY_WIDTH))
+        if self.identity:
+            self.measurement = Measurement(truth.position, truth.velocity, truth.rotation,
+                                           truth.angular_velocity)
+            self.measurement.gyroscope = truth.angular_velocity
+        else:
+            self.measurement = Measurement(*(np.zeros_like(getattr(truth, name)) for name in (
+                "position", "velocity", "rotation", "angular_velocity")))
+            self.measurement.rotation[:] = np.eye(3)
+
+    def start(self, index: int, rng: np.random.Generator) -> None:
+        """A new episode's sensor keys for vehicle ``index``, from a stream spawned off its
+        generator: spawning draws nothing from it, so the wind, gusts, starts and
+        randomisation it gives are the same with any sensing."""
+        self._fresh = False  # the identity's IMU readings are for the state before
+        if self.identity:
+            return
+        stream = rng.spawn(1)[0]
+        self.keys[index] = stream.integers(1, 2**63, size=KEYS, dtype=np.uint64)
+
+    def measure(self, indices: NDArray[np.intp], step_count: NDArray[np.int64],
+                reset: bool) -> None:
+        """The readings of the true state now, and the measurement they give (nothing
+        for the identity: see ``refresh_ideal``)."""
+        if self.identity:
+            return
+        thrust, force, mass, rotor_thrusts = self.physics
+        truth, m = self.truth, self.measurement
+        run_over_batch(take_readings_kernel, len(indices), indices, step_count,
+                       truth.position, truth.velocity, truth.rotation, truth.angular_velocity,
+                       thrust, force, mass, rotor_thrusts, self.thrust_coefficient,
+                       self.keys, self.true_bias, self._pose, self._imu, self._rotors,
+                       self._state_noise, self.ring, reset)
+        if self.estimating:
+            if reset:
+                start_estimates_kernel(indices, truth.position, truth.velocity,
+                                       truth.rotation, self.estimate_state, self.history)
+            run_over_batch(estimate_kernel, len(indices), indices, step_count, not reset,
+                           self.ring, self.delays, self.period, self._pose[0], self._gains,
+                           self.dt, self.gravity, self.estimate_state, self.history,
+                           m.position, m.velocity, m.rotation, m.angular_velocity)
+        run_over_batch(measurement_kernel, len(indices), indices, step_count, self.ring,
+                       self.delays[1], self.rotor_delay, not self.estimating, m.position,
+                       m.velocity, m.rotation, m.angular_velocity, m.gyroscope,
+                       m.accelerometer, m.rotor_speeds)
+
+    def refresh_ideal(self) -> None:
+        """The identity's IMU and rotor readings for the state now (``measurement`` holds
+        the true state's own arrays; these two are computed when first asked for after a
+        step or reset)."""
+        if self._fresh:
+            return
+        self._fresh = True
+        thrust, force, mass, rotor_thrusts = self.physics
+        m = self.measurement
+        ideal_readings_kernel(thrust, force, self.truth.rotation, mass, rotor_thrusts,
+                              self.thrust_coefficient, m.accelerometer, m.rotor_speeds)

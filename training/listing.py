@@ -1,0 +1,59 @@
+"""``quad-dob list``: every name the CLI takes, and the source of every preset number."""
+
+from __future__ import annotations
+
+
+def main() -> int:
+    """Print the ids, scenarios, wind presets, controllers, vehicles and sensing presets."""
+    import quad_dob_env
+    from quad_dob_baselines import CONTROLLERS
+    from quad_dob_env.params import VEHICLE_SOURCES
+    from quad_dob_env.scenarios import WIND_PRESETS, make_scenario
+
+    print("Environment ids:")
+    for env_id, scenario in quad_dob_env.ENV_IDS.items():
+        print(f"  {env_id:<26} default scenario {scenario}")
+    print("Scenarios (margins: share of each actuator limit the reference leaves, by "
+          "differential flatness without disturbance):")
+    for name in quad_dob_env.list_scenarios():
+        scenario = make_scenario(name)
+        print(f"  {name:<22} {scenario.description}")
+        print(f"  {'':<22} {scenario.actuation} actuation; margins "
+              f"{scenario.feasibility.summary()}")
+    print("Wind presets (mean wind at the flight altitude, turbulence W20 of MIL-F-8785C):")
+    for name, (mean, w20) in WIND_PRESETS.items():
+        print(f"  {name:<10} {mean:g} m/s mean, W20 = {w20:.2f} m/s")
+    print("Controllers:", ", ".join(CONTROLLERS))
+    print("Policies: any controller, residual (the shipped policy), residual:PATH, ppo:PATH")
+    print("Vehicles (every number and its source):")
+    for name, sources in VEHICLE_SOURCES.items():
+        vehicle = quad_dob_env.VEHICLES[name]
+        print(f"  {name}")
+        for field, source in sources.items():
+            print(f"    {field:<20} {_number(getattr(vehicle, field)):<24} {source}")
+    _list_sensing()
+    return 0
+
+
+def _list_sensing() -> None:
+    from quad_dob_env.sensing import SENSING_PRESETS, SENSING_SOURCES
+
+    print("Sensing presets (scenario option sensing=NAME; every number and its source):")
+    print("  ideal                  the true state, no delay (v1's loop)")
+    for name, suite in SENSING_PRESETS.items():
+        if suite is None:
+            continue
+        print(f"  {name}")
+        for path, source in SENSING_SOURCES[name].items():
+            part, field = path.split(".")
+            value = getattr(getattr(suite, part), field)
+            print(f"    {path:<34} {_number(value):<12} {source}")
+
+
+def _number(value: object) -> str:
+    """A vehicle field for the listing: 4 significant digits, inertia by its diagonal."""
+    if isinstance(value, tuple) and value and isinstance(value[0], tuple):
+        return "diag(" + ", ".join(f"{value[k][k]:.4g}" for k in range(3)) + ")"
+    if isinstance(value, tuple):
+        return "(" + ", ".join(f"{v:.4g}" for v in value) + ")"
+    return f"{value:.4g}" if isinstance(value, float) else str(value)

@@ -1,0 +1,64 @@
+"""Delay margins: how much latency a policy's flights take before one is lost.
+
+A policy's delay margin on a scenario is the largest extra latency of a grid
+(``Scenario.extra_latency``: added to every reading, pose, IMU and rotors alike) such that
+it, and every smaller value of the grid, keeps every flight of the seeds (none crashed,
+left its bounds or lost its attitude). The grid is searched upwards and stops at the
+first value that loses a flight, so a margin never rests on a lucky larger value.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from quad_dob_env.scenarios import make_scenario
+from quad_dob_training.policies import Policy, fly_policy
+
+# [s] the grid quad-dob evaluate searches by default: whole control steps at 100 Hz
+DELAY_GRID = (0.0, 0.01, 0.02, 0.03, 0.05, 0.08)
+
+
+@dataclass(frozen=True)
+class DelayMargin:
+    """``margin`` [s]: the largest grid value that kept every flight (None: flights are
+    lost at the grid's first value); ``lost_at``: the first value that lost one (None:
+    none did, the margin is at least the grid's last); ``grid``: what was searched."""
+
+    margin: float | None
+    lost_at: float | None
+    grid: tuple[float, ...]
+
+    def describe(self) -> str:
+        """``"20 ms"``, ``">= 80 ms"``, or ``"< 0 ms (loses flights at 0 ms)"``, in ms."""
+        if self.margin is None:
+            return f"none (loses flights at {1000 * self.grid[0]:g} ms)"
+        prefix = ">= " if self.lost_at is None else ""
+        return f"{prefix}{1000 * self.margin:g} ms"
+
+
+def check_grid(grid: Sequence[float]) -> tuple[float, ...]:
+    """The grid as increasing latencies >= 0, or a ValueError that says what is allowed."""
+    values = tuple(float(value) for value in grid)
+    if not values or any(v < 0 for v in values) or list(values) != sorted(set(values)):
+        raise ValueError(f"the delay grid must be increasing latencies >= 0 [s], such as "
+                         f"0,0.01,0.02; got {list(grid)!r}")
+    return values
+
+
+def delay_margin(policy: Policy, scenario: str, seeds: list[int],
+                 scenario_options: dict[str, object] | None = None,
+                 grid: Sequence[float] = DELAY_GRID) -> DelayMargin:
+    """``policy``'s delay margin on ``scenario`` over ``seeds`` (module docstring); the
+    extra latency is added to whatever ``scenario_options`` already set."""
+    values = check_grid(grid)
+    options = dict(scenario_options or {})
+    base_latency = float(options.pop("extra_latency", 0.0))
+    margin = None
+    for latency in values:
+        flown = make_scenario(scenario, **options, extra_latency=base_latency + latency)
+        flights = fly_policy(policy, flown, seeds)
+        if any(flight.termination_reason not in ("", "time_limit") for flight in flights):
+            return DelayMargin(margin, latency, values)
+        margin = latency
+    return DelayMargin(margin, None, values)
