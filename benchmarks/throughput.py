@@ -1,8 +1,10 @@
-"""Throughput of the simulator: single env via gym.make, the batched core, and the native
-vector env with and without the geometric+NDOB base controller in the loop.
+"""Throughput of the simulator: single env via gym.make, the batched core, the native
+vector env with and without the geometric+NDOB base controller in the loop, and that vector
+env under each sensing preset (``quad_dob_env.sensing``) beside the ideal one.
 
 Run by hand (not part of the test suite): ``python benchmarks/throughput.py``. Prints
 markdown tables; the README quotes them. Compilation happens before timing starts.
+``--sensing-only`` runs the sensing table alone.
 """
 
 from __future__ import annotations
@@ -10,8 +12,10 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import statistics
 import time
 import tracemalloc
+from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
@@ -23,6 +27,7 @@ from quad_dob_env.envs import QuadrotorBatch, QuadrotorVectorEnv
 from quad_dob_env.scenarios import make_scenario
 
 CALM, WINDY = "paper-none", "dryden-helix-gusts"
+SENSING_PRESETS = ("mocap", "gnss-imu")  # compared with the ideal sensing (None)
 
 
 def single_env_steps_per_second(steps: int, scenario: str = CALM) -> float:
@@ -54,27 +59,99 @@ def batch_steps_per_second(n: int, steps: int, scenario: str = CALM) -> float:
     return n * steps / (time.perf_counter() - start)
 
 
-def vector_env(n: int, with_base: bool) -> QuadrotorVectorEnv:
+def vector_env(n: int, with_base: bool, sensing: str | None = None,
+               compiled: bool = True) -> QuadrotorVectorEnv:
     """``QuadDOB/Track-v1`` (paper helix) as N vehicles; with the base, the residual twin
-    ``QuadDOB/TrackResidual-v1`` flown by geometric + NDOB (tuned observer)."""
+    ``QuadDOB/TrackResidual-v1`` flown by geometric + NDOB (tuned observer). ``sensing``: a
+    preset name (None: ideal); ``compiled=False`` runs the base through the staged path,
+    which any non-ideal sensing takes anyway."""
+    options = None if sensing is None else {"sensing": sensing}
     if with_base:
-        return ResidualVectorEnv(n, CALM, base_controller="geometric-ndob:tuned")
-    return QuadrotorVectorEnv(n, CALM)
+        return ResidualVectorEnv(n, CALM, scenario_options=options,
+                                 base_controller="geometric-ndob:tuned", compiled=compiled)
+    return QuadrotorVectorEnv(n, CALM, scenario_options=options)
+
+
+def compiled_and_warm(env: QuadrotorVectorEnv) -> np.ndarray:
+    """Small random actions for ``env``, after three steps that compile and warm it up."""
+    env.reset(seed=0)
+    actions = np.random.default_rng(0).uniform(-0.05, 0.05, (env.num_envs, 4))
+    for _ in range(3):
+        env.step(actions)
+    return actions
+
+
+def timed_env_steps_per_second(env: QuadrotorVectorEnv, actions: np.ndarray,
+                               steps: int) -> float:
+    """Env-steps per second of ``steps`` calls of ``env.step`` from a fresh reset (seed 0)."""
+    env.reset(seed=0)
+    start = time.perf_counter()
+    for _ in range(steps):
+        env.step(actions)
+    return env.num_envs * steps / (time.perf_counter() - start)
 
 
 def vector_env_steps_per_second(n: int, steps: int, with_base: bool) -> float:
     """Env-steps per second of ``QuadrotorVectorEnv.step`` (info dict and autoresets
     included), small random actions."""
     env = vector_env(n, with_base)
-    env.reset(seed=0)
-    actions = np.random.default_rng(0).uniform(-0.05, 0.05, (n, 4))
-    for _ in range(3):  # compile and warm up
-        env.step(actions)
-    env.reset(seed=0)
-    start = time.perf_counter()
-    for _ in range(steps):
-        env.step(actions)
-    return n * steps / (time.perf_counter() - start)
+    return timed_env_steps_per_second(env, compiled_and_warm(env), steps)
+
+
+@dataclass(frozen=True)
+class SensingVariant:
+    """One row of the sensing table: the vector env with or without the base, a sensing
+    preset (None: ideal) and, for the ideal base, whether its compiled fused pass runs."""
+
+    with_base: bool
+    sensing: str | None
+    compiled: bool = True
+
+    @property
+    def label(self) -> str:
+        base = "geometric-ndob:tuned" if self.with_base else "none (bare)"
+        path = ""
+        if self.with_base:
+            path = "fused pass" if self.compiled and self.sensing is None else "staged"
+        return f"{base} | {self.sensing or 'ideal'} | {path or '-'}"
+
+
+def sensing_variants() -> list[SensingVariant]:
+    """Base in the loop: ideal (fused pass), ideal through the staged path (what every
+    non-ideal sensing runs, so the two costs separate), then each preset; bare: ideal, then
+    each preset. The first of each group is its ratio's reference."""
+    with_base = [SensingVariant(True, None), SensingVariant(True, None, compiled=False)]
+    with_base += [SensingVariant(True, preset) for preset in SENSING_PRESETS]
+    bare = [SensingVariant(False, None)]
+    bare += [SensingVariant(False, preset) for preset in SENSING_PRESETS]
+    return with_base + bare
+
+
+def print_sensing_table(n: int, steps: int, repeats: int) -> None:
+    """Every ``sensing_variants`` env at ``n`` vehicles, all built and warmed first, then
+    timed in turn ``repeats`` times (the variants interleaved, so the machine's drift falls
+    on all of them alike); the median of each, and its ratio to the ideal sensing's."""
+    variants = sensing_variants()
+    envs = {variant: vector_env(n, variant.with_base, variant.sensing, variant.compiled)
+            for variant in variants}
+    actions = {variant: compiled_and_warm(env) for variant, env in envs.items()}
+    rates: dict[SensingVariant, list[float]] = {variant: [] for variant in variants}
+    for _ in range(repeats):
+        for variant in variants:
+            rates[variant].append(timed_env_steps_per_second(envs[variant], actions[variant],
+                                                             steps))
+    print(f"\nsensing: vector env ({CALM}, N = {n}, {steps} steps from a reset, median of "
+          f"{repeats} interleaved repeats); ratio to the ideal sensing of the same base\n")
+    print("| base | sensing | base path | env-steps/s | spread (min-max) / median | / ideal | "
+          "µs per env-step |")
+    print("|---|---|---|---|---|---|---|")
+    reference = {}
+    for variant in variants:
+        median = statistics.median(rates[variant])
+        reference.setdefault(variant.with_base, median)
+        spread = (max(rates[variant]) - min(rates[variant])) / median
+        print(f"| {variant.label} | {median:,.0f} | {spread:.2f} | "
+              f"{median / reference[variant.with_base]:.2f} | {1e6 / median:.3f} |")
 
 
 def memory_per_env(n: int, with_base: bool) -> float:
@@ -99,9 +176,20 @@ def main() -> None:
                         default=[1, 64, 256, 1024, 4096, 16384])
     parser.add_argument("--batch-vehicle-steps", type=int, default=4_000_000,
                         help="vehicle-steps per batch size (steps = this / N, at most 1000)")
+    parser.add_argument("--sensing-only", action="store_true",
+                        help="run the sensing table alone (ideal vs the sensing presets)")
+    parser.add_argument("--sensing-size", type=int, default=1024,
+                        help="vehicles in the sensing table")
+    parser.add_argument("--sensing-steps", type=int, default=300,
+                        help="env steps per timed repeat in the sensing table")
+    parser.add_argument("--sensing-repeats", type=int, default=7,
+                        help="interleaved repeats per variant in the sensing table (median)")
     args = parser.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, numpy {np.__version__}")
+    if args.sensing_only:
+        print_sensing_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
+        return
     print(f"\ncalm: {CALM} (no wind, no drag, instant motors); windy: {WINDY} (Dryden "
           "moderate + gusts, drag, motor lag)\n")
     calm, windy = (single_env_steps_per_second(args.single_steps, s) for s in (CALM, WINDY))
@@ -131,6 +219,8 @@ def main() -> None:
         flat = [cost for n, cost in costs.items() if n >= 256]
         if flat:
             print(f"per-env cost {label}, N >= 256: max / min = {max(flat) / min(flat):.2f}")
+    print_sensing_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
+    print()
     for with_base in (False, True):
         print(f"memory per env ({'base in the loop' if with_base else 'bare'}, N = 4096): "
               f"{memory_per_env(4096, with_base) / 1024:.1f} KiB")
