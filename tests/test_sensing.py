@@ -283,3 +283,39 @@ def test_the_estimator_integrates_a_spin_up_exactly():
     np.testing.assert_allclose(measured.rotation, truth.rotation, rtol=0, atol=1e-9)
     np.testing.assert_allclose(measured.angular_velocity, truth.angular_velocity, atol=1e-12)
     np.testing.assert_allclose(measured.position, truth.position, rtol=0, atol=1e-9)
+
+
+def test_unstable_estimator_gains_are_refused_with_the_loop_named():
+    # ω_p T = 0.6 passes the nominal check (below 1) but the position loop grows 1.45x a fix
+    fast = dataclasses.replace(
+        MOCAP, pose=dataclasses.replace(MOCAP.pose, latency=0.0),
+        estimator=dataclasses.replace(MOCAP.estimator, position_bandwidth=60.0))
+    with pytest.raises(ValueError, match=r"position loop is unstable .*error growth 1\.45"):
+        QuadrotorBatch(make_scenario("hover-calm", sensing=fast), 1)
+    slow_imu = dataclasses.replace(MOCAP, imu=dataclasses.replace(MOCAP.imu, latency=0.05))
+    with pytest.raises(ValueError, match=r"IMU's latency 0\.05 s is above the pose fix's"):
+        QuadrotorBatch(make_scenario("hover-calm", sensing=slow_imu), 1)
+
+
+def test_readings_at_a_reset_are_the_hovering_rotors_and_refresh_every_step():
+    """At a reset nothing is applied yet but the rotors turn at hover: a delayed IMU must
+    not feed the filter free fall (it did: 0.5 m/s of vertical velocity error at 50 ms)."""
+    core = QuadrotorBatch(make_scenario("hover-calm", sensing="mocap", extra_latency=0.05,
+                                        initial_position_noise=0.0,
+                                        initial_attitude_noise=0.0), 1)
+    core.reset(np.zeros(1, dtype=np.intp), [np.random.default_rng(0)])
+    weight = core.vehicle.mass * core.vehicle.gravity
+    np.testing.assert_allclose(core.measurement.accelerometer[0, 2], core.vehicle.gravity,
+                               atol=0.05)
+    hover_speed = np.sqrt(weight / 4 / core.vehicle.thrust_coefficient)
+    np.testing.assert_allclose(core.measurement.rotor_speeds[0], hover_speed, atol=5.0)
+    worst = 0.0
+    for _ in range(60):
+        core.step(np.zeros((1, 4)))  # hover command
+        worst = max(worst, abs(core.measurement.velocity[0, 2] - core.state.velocity[0, 2]))
+    assert worst < 0.02
+    ideal = QuadrotorBatch(make_scenario("hover-calm"), 1)
+    ideal.reset(np.zeros(1, dtype=np.intp), [np.random.default_rng(0)])
+    first = ideal.measurement.accelerometer.copy()
+    ideal.step(np.full((1, 4), 0.5))  # more thrust: the ideal accelerometer reads it
+    assert ideal.measurement.accelerometer[0, 2] > first[0, 2] + 1.0

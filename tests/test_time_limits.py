@@ -11,6 +11,7 @@ import pytest
 from gymnasium.wrappers import RecordEpisodeStatistics, TimeAwareObservation
 
 import quad_dob_env
+from quad_dob_env.envs import QuadrotorEnv
 from quad_dob_env.scenarios import make_scenario
 
 IDS = list(quad_dob_env.ENV_IDS)
@@ -112,3 +113,27 @@ def test_the_native_limit_is_named_and_never_longer_than_the_scenario():
     with pytest.raises(ValueError, match="max_episode_steps must be an integer >= 1"):
         gym.make_vec("QuadDOB/Hover-v1", num_envs=1, vectorization_mode="vector_entry_point",
                      max_episode_steps=0)
+
+
+def test_a_family_flown_past_its_end_stays_finite_and_seeded():
+    """Found by tests/fuzz.py: a reference family's table grew only when the step passed
+    all its members' rows together, so a vehicle stepped past its episode's end without a
+    reset read the next member's rows, and the last member's read past the table (NaN,
+    different from run to run)."""
+    scenario = make_scenario("random-lemniscates", duration=0.5)
+    runs = []
+    for _ in range(2):
+        env = QuadrotorEnv(scenario)
+        env.reset(seed=7)
+        actions = np.random.default_rng(0).uniform(-0.05, 0.05, (3 * scenario.steps, 4))
+        path = []
+        for action in actions:  # on, past the time limit, without a reset
+            obs, _, _, _, info = env.step(action)
+            assert np.isfinite(obs).all() and np.isfinite(info["reference_position"]).all()
+            path.append(info["reference_position"])
+        runs.append(np.array(path))
+    np.testing.assert_array_equal(*runs)
+    member = env.core.reference_member[0]
+    times = np.arange(1, 3 * scenario.steps + 1) * scenario.dt
+    expected = scenario.trajectory.members[member].table(times)[:, 0]
+    np.testing.assert_allclose(runs[0], expected, rtol=0, atol=1e-12)

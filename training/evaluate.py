@@ -141,7 +141,7 @@ def _row(scenario: str, policy: str, seeds: list[int], metrics: list[dict],
         row[f"{key}_std"] = float(values.std())
         row[f"{key}_low"], row[f"{key}_high"] = interval.low, interval.high
     for key in ESTIMATOR_SCORES:
-        values = np.array([m.get(key, 0.0) for m in metrics], dtype=float)
+        values = np.array([m.get(key, np.nan) for m in metrics], dtype=float)
         row[f"{key}_mean"] = float(values.mean())
     crashes = bootstrap_mean(np.array([m["crashed"] for m in metrics], dtype=float))
     row["crash_rate"] = row["crash_rate_mean"] = crashes.mean

@@ -131,7 +131,9 @@ class QuadrotorBatch:
         self.sensing = SensingStage(
             scenario.sensing, scenario.extra_latency, self.state,
             (self.applied.thrust, self.disturbance_force, self.mass, self.applied.rotor_thrusts),
-            self.vehicle, scenario.dt)
+            self.vehicle, scenario.dt,
+            hover=(self.vehicle.hover_thrust,
+                   self.actuator.to_rotors @ self.actuator.hover_output()))
         # the kernels write the true state's observation here; a policy reads ``obs``, the
         # same array for the identity, else rebuilt from the measurement
         self._true_obs = self.obs if self.sensing.identity else np.zeros_like(self.obs)
@@ -281,7 +283,7 @@ class QuadrotorBatch:
         """Before the compiled pass of a step: the tables long enough, and the random
         disturbances sampled over the step."""
         self._reference_now = None
-        rows = self._reference_table.shape[0]
+        rows = self._member_rows  # each member's block (a family stacks them)
         ahead = self._start_steps + 1  # the most rows a reference may be ahead of time
         if self._most_steps + ahead >= rows:  # maybe flown past the scenario's end
             self._most_steps = int(self.step_count.max())

@@ -8,7 +8,9 @@
   ``VehicleState``) with the raw gyroscope, accelerometer and rotor-speed readings.
 - ``kernels``: the compiled readings and their delay lines, each sensor on its own
   counter-based noise stream.
-- ``estimator``: the complementary filter fusing the IMU with each pose fix.
+- ``estimator``: the complementary filter fusing the IMU with each pose fix;
+  ``stability``: the check that refuses gains whose filter would not settle at the fix
+  period and lag a scenario gives it.
 - ``stage``: ``SensingStage``, which the env core runs after each step and reset.
 
 Sits between the dynamics and the envs: may import ``params``, ``dynamics``, ``so3``,

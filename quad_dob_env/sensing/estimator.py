@@ -17,14 +17,16 @@ fix compares against corrected values), with gains of a bandwidth times the fix 
 - position innovation ``y = p_m - p̂(t - L)``: ``p̂ += 3 ω_p T y``, ``v̂ += 3 ω_p² T y``,
   ``b̂_a -= ω_p³ T R̂ᵀ y`` (three poles at -ω_p, Mahony-style bias feedback);
 - GNSS velocity ``v̂ += ω_v T (v_m - v̂(t - L))``;
-- attitude error ``e`` (body frame): from mocap ``e = ½ vee(R̂ᵀR_m - R_mᵀR̂)``; from GNSS
-  with a compass ``e = R̂ᵀ(e_tilt + δψ e3)``, the heading error δψ and
+- attitude error: from mocap ``e_w = R̂ ½ vee(R̂ᵀR_m - R_mᵀR̂)`` (R̂ of the fix's time);
+  from GNSS with a compass ``e_w = e_tilt + δψ e3``, the heading error δψ and
   ``e_tilt = ŝ × s / (|ŝ| |s|)``, ``ŝ`` the IMU's mean world specific force over the fix
   interval and ``s = Δv_m / T + g e3`` what the receiver's velocities show (the
   acceleration-compensated levelling of GPS-aided AHRSs, Premerlani & Bizard, "Direction
-  Cosine Matrix IMU: Theory", 2009); then ``R̂ ← R̂ exp(ω_R T e)`` and
-  ``b̂_g -= (ω_R² / 4) T e`` (Mahony, Hamel, Pflimlin 2008, IEEE TAC 53(5): a
-  proportional-integral correction, here with a double pole at -ω_R / 2).
+  Cosine Matrix IMU: Theory", 2009), weighted by ``clip(1 - 2 | |s| / g - 1 |, 0, 1)``
+  (no levelling far from 1 g); then, with ``e_w`` the error in the world frame,
+  ``R̂ ← exp(ω_R T e_w) R̂`` and ``b̂_g -= (ω_R² / 4) T R̂ᵀ e_w`` (Mahony, Hamel,
+  Pflimlin 2008, IEEE TAC 53(5): a proportional-integral correction, here with a double
+  pole at -ω_R / 2). The history's attitudes and specific forces turn with the estimate.
 """
 
 import math
@@ -172,13 +174,14 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
         a20 = R_then[2] * Rm[0] + R_then[5] * Rm[3] + R_then[8] * Rm[6]
         a10 = R_then[1] * Rm[0] + R_then[4] * Rm[3] + R_then[7] * Rm[6]
         a01 = R_then[0] * Rm[1] + R_then[3] * Rm[4] + R_then[6] * Rm[7]
-        error = (0.5 * (a21 - a12), 0.5 * (a02 - a20), 0.5 * (a10 - a01))
+        # the error, a rotation vector in the body frame of then, turned into the world's
+        world = _world(R_then, (0.5 * (a21 - a12), 0.5 * (a02 - a20), 0.5 * (a10 - a01)))
     else:  # GNSS: velocity, heading and the levelling against its acceleration
         for k in range(3):
             shift_v[k] += velocity_bandwidth * T * (fix[VELOCITY + k] - then[HV + k])
         heading_error = ((fix[HEADING] - math.atan2(R_then[3], R_then[0]) + math.pi)
                          % (2.0 * math.pi) - math.pi)
-        world = [0.0, 0.0, heading_error]
+        levelling = [0.0, 0.0, 0.0]
         if e[HAS_LAST_V] > 0.0:
             measured = [0.0, 0.0, 0.0]  # the IMU's mean world specific force over the fix
             for j in range(period):
@@ -187,22 +190,29 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
                     measured[k] += entry[HS + k] / period
             shown = [(fix[VELOCITY + k] - e[LAST_V + k]) / T for k in range(3)]
             shown[2] += gravity
-            norm = math.sqrt((measured[0] ** 2 + measured[1] ** 2 + measured[2] ** 2)
-                             * (shown[0] ** 2 + shown[1] ** 2 + shown[2] ** 2))
+            shown_norm = math.sqrt(shown[0] ** 2 + shown[1] ** 2 + shown[2] ** 2)
+            norm = shown_norm * math.sqrt(measured[0] ** 2 + measured[1] ** 2
+                                          + measured[2] ** 2)
+            # trusted fully at 1 g of specific force, not at all below 0.5 g or above 1.5 g:
+            # far from 1 g (a climb, a cut of thrust) the direction says little
+            weight = min(max(1.0 - 2.0 * abs(shown_norm / gravity - 1.0), 0.0), 1.0)
             if norm > 0.0:
-                world[0] += (measured[1] * shown[2] - measured[2] * shown[1]) / norm
-                world[1] += (measured[2] * shown[0] - measured[0] * shown[2]) / norm
-                world[2] += (measured[0] * shown[1] - measured[1] * shown[0]) / norm
+                levelling[0] = weight * (measured[1] * shown[2] - measured[2] * shown[1]) / norm
+                levelling[1] = weight * (measured[2] * shown[0] - measured[0] * shown[2]) / norm
+                levelling[2] = weight * (measured[0] * shown[1] - measured[1] * shown[0]) / norm
         for k in range(3):
             e[LAST_V + k] = fix[VELOCITY + k]
         e[HAS_LAST_V] = 1.0
-        error = _body(R_then, (world[0], world[1], world[2]))
-    turn = exp_tuple((attitude_bandwidth * T * error[0], attitude_bandwidth * T * error[1],
-                      attitude_bandwidth * T * error[2]))
+        world = (levelling[0], levelling[1], levelling[2] + heading_error)
+    # applied in the world frame, R̂ ← exp(ω_R T e_w) R̂, to the estimate and its history
+    # alike (the attitude of then and now differ by the lag's rotation)
+    turn = exp_tuple((attitude_bandwidth * T * world[0], attitude_bandwidth * T * world[1],
+                      attitude_bandwidth * T * world[2]))
+    error = _body(R, world)  # in the body frame now, where the gyroscope's bias lives
     integral = 0.25 * attitude_bandwidth * attitude_bandwidth * T
     for k in range(3):
         e[BG + k] -= integral * error[k]
-    _store_rotation(e, R_, mat_mul_tuple(R, turn))
+    _store_rotation(e, R_, mat_mul_tuple(turn, R))
     for k in range(3):
         e[P + k] += shift_p[k]
         e[V + k] += shift_v[k]
@@ -211,4 +221,7 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
         for k in range(3):
             entry[HP + k] += shift_p[k]
             entry[HV + k] += shift_v[k]
-        _store_rotation(entry, HR, mat_mul_tuple(_rotation(entry, HR), turn))
+        _store_rotation(entry, HR, mat_mul_tuple(turn, _rotation(entry, HR)))
+        specific = _world(turn, (entry[HS], entry[HS + 1], entry[HS + 2]))
+        for k in range(3):
+            entry[HS + k] = specific[k]

@@ -68,16 +68,18 @@ def rotor_speed(rotor_thrust, thrust_coefficient):
 @njit(cache=True, nogil=True)
 def take_readings_kernel(start, stop, indices, step_count, position, velocity, rotation,
                          angular_velocity, thrust, force, mass, rotor_thrusts,
-                         thrust_coefficient, keys, true_bias, pose, imu, rotors, state_noise,
-                         ring, reset):
+                         thrust_coefficient, hover_thrust, hover_rotor_thrusts, keys,
+                         true_bias, pose, imu, rotors, state_noise, ring, reset):
     """The readings of vehicles ``indices[start:stop]`` of their true state now, into each
     delay line's slot ``step % depth`` (at a reset, into every slot: no older readings
     exist). A source whose standard deviations are all zero draws nothing: its reading is
     the same, and no other source's noise depends on it.
 
-    The gyroscope reads the body rate now; the accelerometer the step's mean specific force
-    (the applied thrust is the step's mean). Their white noise has the std density / √dt,
-    the density's over the step.
+    The gyroscope reads the body rate now; the accelerometer the specific force of the step
+    (its mean thrust, with the drag and disturbance at its end). At a reset nothing is
+    applied yet and the rotors turn at hover: the readings are ``hover_thrust``'s and
+    ``hover_rotor_thrusts``'. Their white noise has the std density / √dt, the density's
+    over the step.
 
     ``pose``: kind (0 mocap, 1 gnss), period in steps, position std, vertical std, attitude
     std, velocity std, heading std. ``imu``: gyroscope and accelerometer std per sample, the
@@ -128,6 +130,8 @@ def take_readings_kernel(start, stop, indices, step_count, position, velocity, r
                 true_bias[i, k] += gyro_walk * g[6 + k]
                 true_bias[i, 3 + k] += accel_walk * g[9 + k]
         specific = specific_force_vehicle(i, thrust, force, rotation, mass)
+        if reset:
+            specific[2] += (hover_thrust - thrust[i]) / mass[i]
         for k in range(3):
             row[GYRO + k] = angular_velocity[i, k] + true_bias[i, k] + gyro_std * g[k]
             row[ACCEL + k] = specific[k] + true_bias[i, 3 + k] + accel_std * g[3 + k]
@@ -136,7 +140,8 @@ def take_readings_kernel(start, stop, indices, step_count, position, velocity, r
         else:
             g[:4] = 0.0
         for k in range(4):
-            row[ROTORS + k] = (rotor_speed(rotor_thrusts[i, k], thrust_coefficient)
+            rotor_thrust = hover_rotor_thrusts[k] if reset else rotor_thrusts[i, k]
+            row[ROTORS + k] = (rotor_speed(rotor_thrust, thrust_coefficient)
                                + rotors[0] * g[k])
         if p_std + v_std + a_std + w_std > 0.0:  # SensorNoise: noise on the state itself
             _normals(keys[i, STATE_KEY], step, 12, g)

@@ -152,7 +152,22 @@ MARKER_SPAN = 2 * 0.315  # [m] markers at the arm tips of the paper vehicle (Lee
 ICM_42688_P = Imu(gyroscope_noise_density=math.radians(2.8e-3),
                   accelerometer_noise_density=70e-6 * G0,
                   gyroscope_bias_walk=2.66e-5, accelerometer_bias_walk=4.33e-4)
-ESC_TELEMETRY = RotorTelemetry(speed_std=100 / 7 * 2 * math.pi / 60 / math.sqrt(12))
+POLE_PAIRS = 7  # a 14-pole outrunner, as 10-inch multirotor motors are
+
+
+def _telemetry_std(hover_speed: float, pole_pairs: int = POLE_PAIRS) -> float:
+    """Bidirectional DShot's rotor speed noise at ``hover_speed`` [rad/s]: the ESC sends
+    the electrical period in µs as a 9-bit mantissa and 3-bit exponent, so the period's
+    step is 2^e µs; the speed's step is that share of the speed, quantisation noise
+    step / √12."""
+    period_us = 2 * math.pi / (hover_speed * pole_pairs) * 1e6
+    exponent = max(0, math.ceil(math.log2(period_us / 511)))
+    return hover_speed * 2**exponent / period_us / math.sqrt(12)
+
+
+# the paper vehicle's hover: 4.34 kg on four rotors of k_F = 1.49e-5 N/(rad/s)², 845 rad/s
+ESC_TELEMETRY = RotorTelemetry(speed_std=_telemetry_std(math.sqrt(
+    4.34 * 9.81 / 4 / (0.1155 * 1.225 * 0.254**4 / (2 * math.pi) ** 2))))
 MOCAP = SensorSuite(
     name="mocap",
     pose=PoseSensor(kind="mocap", rate=100.0, latency=0.01, position_std=MOCAP_POSITION_STD,
@@ -185,9 +200,11 @@ _IMU_SOURCES = {
     "imu.accelerometer_initial_bias": "zero, as the gyroscope's",
     "imu.latency": "zero: the IMU is read by the flight controller itself (the ICM-42688-P "
                    "samples at up to 32 kHz)",
-    "rotors.speed_std": "bidirectional DShot telemetry reports eRPM/100 (Betaflight PR 8554); "
-                        "a 14-pole motor's 7 pole pairs make a step of 100/7 RPM = 1.5 rad/s, "
-                        "quantisation noise step/√12 = 0.43 rad/s",
+    "rotors.speed_std": "bidirectional DShot telemetry: a 12-bit electrical period in µs, "
+                        "9-bit mantissa and 3-bit exponent (Betaflight's decoder; Betaflight "
+                        "wiki, Bidirectional DSHOT); at the paper vehicle's hover, 845 rad/s "
+                        "with 7 pole pairs, 1,062 µs in steps of 4 µs: a speed step of 3.2 "
+                        "rad/s, quantisation noise step/√12 = 0.92 rad/s",
     "rotors.latency": "zero: the ESC answers each DShot frame about 30 µs after it "
                       "(Betaflight wiki, Bidirectional DSHOT)",
 }
@@ -253,7 +270,11 @@ def resolve_sensing(value: object) -> SensorSuite | SensorNoise | None:
         for key in value:
             if key not in fields_:
                 raise unknown_name_error(f"{kind.__name__} field", key, fields_)
-        return kind(**value)
+        try:
+            return kind(**value)
+        except TypeError as error:  # a field missing, here or in a part's dict
+            raise ValueError(f"Scenario.sensing {kind.__name__}: {error}; its fields: "
+                             + ", ".join(fields_)) from None
     raise ValueError(f"Scenario.sensing must be a preset name ({', '.join(SENSING_PRESETS)}), "
                      f"a SensorSuite, a SensorNoise, a dict of either's fields or None, got "
                      f"{value!r}")

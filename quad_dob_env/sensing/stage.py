@@ -24,6 +24,7 @@ from quad_dob_env.sensing.kernels import (
 )
 from quad_dob_env.sensing.measurement import Measurement
 from quad_dob_env.sensing.models import SensorSuite
+from quad_dob_env.sensing.stability import check_stability
 from quad_dob_env.threads import run_over_batch
 from quad_dob_env.variation import SensorNoise
 
@@ -46,12 +47,16 @@ class SensingStage:
 
     def __init__(self, sensing: SensorSuite | SensorNoise | None, extra_latency: float,
                  truth: VehicleState, physics: tuple, vehicle: VehicleParams,
-                 dt: float) -> None:
+                 dt: float, hover: tuple[float, NDArray[np.float64]] | None = None) -> None:
         n = truth.n
         self.sensing, self.dt, self.gravity = sensing, float(dt), float(vehicle.gravity)
         self.truth = truth
         # applied thrust (N,), non-gravity force but thrust (N, 3), mass (N,), rotor thrusts
         self.physics = physics
+        # what the rotors give at a reset (they start at hover; nothing is applied yet)
+        weight = vehicle.mass * vehicle.gravity
+        self._hover = (float(weight), np.full(4, weight / 4)) if hover is None else (
+            float(hover[0]), np.asarray(hover[1], dtype=float))
         self.thrust_coefficient = float(vehicle.thrust_coefficient)
         extra = delay_steps(extra_latency, dt)
         self.extra_delay = extra
@@ -66,7 +71,8 @@ class SensingStage:
         self._rotors = (0.0,)
         if self.estimating:
             pose, imu = sensing.pose, sensing.imu
-            self.period = max(1, round(1.0 / (pose.rate * dt)))  # a fix every so many steps
+            # a fix every so many steps: the nearest grid period not faster than the rate
+            self.period = max(1, math.ceil(1.0 / (pose.rate * dt) - 1e-9))
             self._pose = (0 if pose.kind == "mocap" else 1, self.period, pose.position_std,
                           pose.vertical_std, pose.attitude_std, pose.velocity_std,
                           pose.heading_std)
@@ -79,16 +85,17 @@ class SensingStage:
             self.delays = (delay_steps(pose.latency, dt) + extra,
                            delay_steps(imu.latency, dt) + extra)
             self.rotor_delay = delay_steps(sensing.rotors.latency, dt) + extra
+            if self.delays[1] > self.delays[0]:
+                raise ValueError(
+                    f"sensing {sensing.name!r}: the IMU's latency {imu.latency:g} s is above "
+                    f"the pose fix's {pose.latency:g} s; the estimator runs on the IMU and "
+                    f"meets each fix at its own, earlier time: allowed, IMU latency <= pose "
+                    f"latency")
             gains = sensing.estimator
             self._gains = (gains.position_bandwidth, gains.attitude_bandwidth,
                            gains.velocity_bandwidth)
-            fix_period = self.period * dt  # the pose rate resolved on the control grid
-            if max(self._gains) * fix_period > 1.0:
-                raise ValueError(
-                    f"sensing {sensing.name!r} at dt = {dt:g} s takes a pose fix every "
-                    f"{fix_period:g} s, and its largest estimator bandwidth "
-                    f"{max(self._gains):g} rad/s times that is above 1: use a dt that divides "
-                    f"1 / {pose.rate:g} Hz, or smaller bandwidths")
+            check_stability(sensing.name, self._gains, dt, self.period,
+                            self.delays[0] - self.delays[1])
         else:
             self.period = 1
             self._pose = (0, 1) + (0.0,) * 5
@@ -121,7 +128,6 @@ class SensingStage:
         """A new episode's sensor keys for vehicle ``index``, from a stream spawned off its
         generator: spawning draws nothing from it, so the wind, gusts, starts and
         randomisation it gives are the same with any sensing."""
-        self._fresh = False  # the identity's IMU readings are for the state before
         if self.identity:
             return
         stream = rng.spawn(1)[0]
@@ -131,6 +137,7 @@ class SensingStage:
                 reset: bool) -> None:
         """The readings of the true state now, and the measurement they give (nothing
         for the identity: see ``refresh_ideal``)."""
+        self._fresh = False  # the identity's IMU readings are for the state before
         if self.identity:
             return
         thrust, force, mass, rotor_thrusts = self.physics
@@ -138,8 +145,9 @@ class SensingStage:
         run_over_batch(take_readings_kernel, len(indices), indices, step_count,
                        truth.position, truth.velocity, truth.rotation, truth.angular_velocity,
                        thrust, force, mass, rotor_thrusts, self.thrust_coefficient,
-                       self.keys, self.true_bias, self._pose, self._imu, self._rotors,
-                       self._state_noise, self.ring, reset)
+                       self._hover[0], self._hover[1], self.keys, self.true_bias,
+                       self._pose, self._imu, self._rotors, self._state_noise, self.ring,
+                       reset)
         if self.estimating:
             if reset:
                 start_estimates_kernel(indices, truth.position, truth.velocity,
