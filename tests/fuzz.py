@@ -718,7 +718,9 @@ class _Flight:
     def expected_limit(self) -> int:
         steps = self._scenario().steps
         given = self.config["kwargs"].get("max_episode_steps")
-        if isinstance(given, (int, np.integer)) and not isinstance(given, bool) and given >= 1:
+        if isinstance(given, bool):  # Gymnasium's TimeLimit takes a flag: True is one step
+            given = int(given)
+        if isinstance(given, (int, np.integer)) and given >= 1:
             return min(steps, int(given))
         return steps
 
@@ -727,9 +729,11 @@ class _Flight:
         single env (gym.make, or each env of make_vec's sync mode) at the user's
         ``max_episode_steps``, shorter than the scenario."""
         given = self.config["kwargs"].get("max_episode_steps")
+        if isinstance(given, bool):  # Gymnasium's TimeLimit takes a flag: True is one step
+            given = int(given)
         return (self.mode in ("single", "sync") and truncated and not terminated
-                and isinstance(given, (int, np.integer)) and not isinstance(given, bool)
-                and steps == given < self._scenario().steps)
+                and isinstance(given, (int, np.integer)) and steps == given
+                < self._scenario().steps)
 
     def check_scenario(self) -> None:
         scenario = self._scenario()
