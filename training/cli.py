@@ -13,6 +13,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from quad_dob_training.margins import DELAY_GRID
+
 # More timesteps than any run on record by five orders of magnitude: a larger --timesteps is
 # a typo, and SB3 would only find out after building the env and the model.
 MAX_TIMESTEPS = 10**11
@@ -128,21 +130,15 @@ def _key_values(pairs: list[str], option: str) -> dict[str, object]:
     return options
 
 
-# quad_dob_training.margins.DELAY_GRID, written here so the parser imports nothing heavy
-DELAY_GRID_TEXT = "0,0.01,0.02,0.03,0.05,0.08"
-
-
 def _delay_grid(text: str) -> tuple[float, ...]:
-    """``"0,0.01,0.02"`` -> increasing latencies >= 0 [s], or argparse's error."""
+    """``"0,0.01,0.02"`` -> increasing latencies >= 0 [s] (``margins.check_grid``), or
+    argparse's error."""
+    from quad_dob_training.margins import check_grid
+
     try:
-        values = tuple(float(part) for part in text.split(","))
-    except ValueError:
-        values = ()
-    if not values or any(not v >= 0 for v in values) or list(values) != sorted(set(values)):
-        raise argparse.ArgumentTypeError(f"GRID must be increasing latencies >= 0 in seconds, "
-                                         f"comma-separated, such as {DELAY_GRID_TEXT}; got "
-                                         f"{text!r}")
-    return values
+        return check_grid(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def _is_number(text: str) -> bool:
@@ -291,7 +287,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "dt=0.005, duration=20, wind_scale=1.5, motor_lag=true, ...); "
                           "repeatable")
     evaluate.add_argument("--delay-margins", nargs="?", type=_delay_grid, default=None,
-                          const=DELAY_GRID_TEXT, metavar="GRID",
+                          const=",".join(f"{v:g}" for v in DELAY_GRID), metavar="GRID",
                           help="also each policy's delay margin: the largest extra latency of "
                           "GRID (comma-separated seconds, default %(const)s) that keeps every "
                           "flight")

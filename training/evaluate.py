@@ -104,9 +104,9 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
     rows = []
     for scenario_name in scenarios:
         scenario = make_scenario(scenario_name, **(scenario_options or {}))
-        metrics, distinct = {}, {}
+        metrics, distinct, flights_of = {}, {}, {}
         for spec, policy in zip(flown, built, strict=True):
-            flights = fly_policy(policy, scenario, seeds)
+            flights = flights_of[spec] = fly_policy(policy, scenario, seeds)
             if first_flights is not None and spec in specs:
                 first_flights.setdefault(scenario_name, []).append(flights[0])
             metrics[spec] = [flight_metrics(f) for f in flights]
@@ -117,7 +117,7 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
             row["distinct_flights"] = distinct[spec]
             if delay_grid is not None:
                 margin = delay_margin(policy, scenario_name, seeds, scenario_options,
-                                      check_grid(delay_grid))
+                                      check_grid(delay_grid), flown=flights_of[spec])
                 row["delay_margin"] = margin.margin
                 row["delay_margin_text"] = margin.describe()
             rows.append(row)

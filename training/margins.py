@@ -11,9 +11,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from quad_dob_env.scenarios import make_scenario
-from quad_dob_training.policies import Policy, fly_policy
+if TYPE_CHECKING:  # flying imports the simulator and torch: the CLI's parser reads this
+    from quad_dob_training.policies import Policy
+    from quad_dob_training.rollout import Flight
 
 # [s] the grid quad-dob evaluate searches by default: whole control steps at 100 Hz
 DELAY_GRID = (0.0, 0.01, 0.02, 0.03, 0.05, 0.08)
@@ -37,27 +39,41 @@ class DelayMargin:
         return f"{prefix}{1000 * self.margin:g} ms"
 
 
-def check_grid(grid: Sequence[float]) -> tuple[float, ...]:
-    """The grid as increasing latencies >= 0, or a ValueError that says what is allowed."""
-    values = tuple(float(value) for value in grid)
-    if not values or any(v < 0 for v in values) or list(values) != sorted(set(values)):
+def check_grid(grid: Sequence[float] | str) -> tuple[float, ...]:
+    """The grid (or ``"0,0.01,0.02"``) as increasing latencies >= 0 [s], or a ValueError
+    that says what is allowed."""
+    try:
+        values = tuple(float(value) for value in (
+            grid.split(",") if isinstance(grid, str) else grid))
+    except (TypeError, ValueError):
+        values = ()
+    if (not values or any(not value >= 0 for value in values)
+            or list(values) != sorted(set(values))):
         raise ValueError(f"the delay grid must be increasing latencies >= 0 [s], such as "
-                         f"0,0.01,0.02; got {list(grid)!r}")
+                         f"{','.join(f'{v:g}' for v in DELAY_GRID)}; got {grid!r}")
     return values
 
 
 def delay_margin(policy: Policy, scenario: str, seeds: list[int],
                  scenario_options: dict[str, object] | None = None,
-                 grid: Sequence[float] = DELAY_GRID) -> DelayMargin:
+                 grid: Sequence[float] = DELAY_GRID,
+                 flown: list[Flight] | None = None) -> DelayMargin:
     """``policy``'s delay margin on ``scenario`` over ``seeds`` (module docstring); the
-    extra latency is added to whatever ``scenario_options`` already set."""
+    extra latency is added to whatever ``scenario_options`` already set. ``flown``: the
+    flights already flown with those options, which stand for a grid's first value of 0."""
+    from quad_dob_env.scenarios import make_scenario
+    from quad_dob_training.policies import fly_policy
+
     values = check_grid(grid)
     options = dict(scenario_options or {})
     base_latency = float(options.pop("extra_latency", 0.0))
     margin = None
     for latency in values:
-        flown = make_scenario(scenario, **options, extra_latency=base_latency + latency)
-        flights = fly_policy(policy, flown, seeds)
+        if latency == 0.0 and flown is not None:
+            flights = flown
+        else:
+            flights = fly_policy(policy, make_scenario(
+                scenario, **options, extra_latency=base_latency + latency), seeds)
         if any(flight.termination_reason not in ("", "time_limit") for flight in flights):
             return DelayMargin(margin, latency, values)
         margin = latency

@@ -150,7 +150,7 @@ def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Fli
     for _ in range(scenario.steps):
         actions = np.zeros((n, 4)) if policy.model is None else policy.act(obs)
         state, reference = core.state.copy(), core.reference
-        measured = core.measurement.copy()  # what the policy flies on, before the step
+        measured = core.measurement.estimate.copy()  # what the policy flies on, before it
         if not planned_in_step:
             desired, estimates = _diagnostics(core, residual, zeros)
         obs, _, terminated, truncated, _ = env.step(actions)

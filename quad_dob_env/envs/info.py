@@ -76,7 +76,7 @@ def info_arrays(core: QuadrotorBatch) -> dict[str, NDArray | dict[str, NDArray]]
                 block)
     info: dict = {name: block[:, columns] for name, columns in INFO_COLUMNS}
     info["actuator_saturated"] = applied.saturated.copy()
-    info["estimate"] = {"position": block[:, 36:39], "velocity": block[:, 39:42],
-                        "rotation": block[:, 42:51].reshape(-1, 3, 3),
-                        "angular_velocity": block[:, 51:54]}  # ESTIMATE_COLUMNS
+    estimate = {name: block[:, columns] for name, columns in ESTIMATE_COLUMNS}
+    estimate["rotation"] = estimate["rotation"].reshape(-1, 3, 3)
+    info["estimate"] = estimate
     return info

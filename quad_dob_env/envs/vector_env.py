@@ -132,6 +132,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
         self._every_vehicle = np.ones(self.num_envs, dtype=bool)
         self._every_vehicle.setflags(write=False)
         self._key_masks: dict[str, NDArray[np.bool_]] | None = None
+        self._estimate_masks: dict[str, NDArray[np.bool_]] = {}
         self._renderer = None if render_mode is None else FlightRenderer(self.core)
         self._rendered = range(min(self.num_envs, RENDERED_VEHICLES))
 
@@ -258,9 +259,10 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
             info.update(self.residual.info())
         if self._key_masks is None:  # the keys never change: their masks are made once
             self._key_masks = {f"_{key}": self._every_vehicle for key in info}
+            # a nested dict carries its own masks, as Gymnasium's
+            self._estimate_masks = {f"_{key}": self._every_vehicle for key in info["estimate"]}
         info.update(self._key_masks)  # every vehicle reports these
-        estimate = info["estimate"]  # a nested dict carries its own masks, as Gymnasium's
-        estimate.update({f"_{key}": self._every_vehicle for key in list(estimate)})
+        info["estimate"].update(self._estimate_masks)
         if ended_count:  # as a single env reports it: only where an episode ended
             reasons = self._no_reasons.copy()
             for i in np.flatnonzero(ended):

@@ -33,8 +33,17 @@ import math
 
 from numba import njit
 
-from quad_dob_env.sensing.kernels import ACCEL, GYRO, HEADING, POSITION, ROTATION, VELOCITY
-from quad_dob_env.so3 import exp_tuple, mat_mul_tuple
+from quad_dob_env.sensing.kernels import (
+    ACCEL,
+    GYRO,
+    HEADING,
+    POSITION,
+    ROTATION,
+    VELOCITY,
+    heading_of,
+    wrap_angle,
+)
+from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, mat_vec_tuple, transpose_tuple
 
 # estimator state columns (``kernels.ESTIMATE_WIDTH``)
 P, V, R_, BG, BA, LAST_V, HAS_LAST_V = 0, 3, 6, 15, 18, 21, 24
@@ -53,22 +62,6 @@ def _rotation(state, column):
 def _store_rotation(state, column, R):
     for k in range(9):
         state[column + k] = R[k]
-
-
-@njit(cache=True, inline="always")
-def _body(R, vector):
-    """Rᵀ vector, R row-major."""
-    return (R[0] * vector[0] + R[3] * vector[1] + R[6] * vector[2],
-            R[1] * vector[0] + R[4] * vector[1] + R[7] * vector[2],
-            R[2] * vector[0] + R[5] * vector[1] + R[8] * vector[2])
-
-
-@njit(cache=True, inline="always")
-def _world(R, vector):
-    """R vector, R row-major."""
-    return (R[0] * vector[0] + R[1] * vector[1] + R[2] * vector[2],
-            R[3] * vector[0] + R[4] * vector[1] + R[5] * vector[2],
-            R[6] * vector[0] + R[7] * vector[1] + R[8] * vector[2])
 
 
 @njit(cache=True)
@@ -119,7 +112,7 @@ def estimate_kernel(start, stop, indices, step_count, predict, ring, delays, per
             half = (0.5 * gyro[0] * dt, 0.5 * gyro[1] * dt, 0.5 * gyro[2] * dt)
             middle = mat_mul_tuple(R, exp_tuple(half))
             R = mat_mul_tuple(middle, exp_tuple(half))
-        specific = _world(middle, (imu[ACCEL] - e[BA], imu[ACCEL + 1] - e[BA + 1],
+        specific = mat_vec_tuple(middle, (imu[ACCEL] - e[BA], imu[ACCEL + 1] - e[BA + 1],
                                    imu[ACCEL + 2] - e[BA + 2]))
         if predict:
             for k in range(3):
@@ -160,7 +153,7 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
     for k in range(3):
         shift_p[k] = 3.0 * w * T * y[k]
         shift_v[k] = 3.0 * w * w * T * y[k]
-    bias_step = _body(R, y)
+    bias_step = mat_vec_tuple(transpose_tuple(R), y)
     for k in range(3):
         e[BA + k] -= w * w * w * T * bias_step[k]
     if kind == 0:  # mocap: the attitude itself
@@ -175,12 +168,11 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
         a10 = R_then[1] * Rm[0] + R_then[4] * Rm[3] + R_then[7] * Rm[6]
         a01 = R_then[0] * Rm[1] + R_then[3] * Rm[4] + R_then[6] * Rm[7]
         # the error, a rotation vector in the body frame of then, turned into the world's
-        world = _world(R_then, (0.5 * (a21 - a12), 0.5 * (a02 - a20), 0.5 * (a10 - a01)))
+        world = mat_vec_tuple(R_then, (0.5 * (a21 - a12), 0.5 * (a02 - a20), 0.5 * (a10 - a01)))
     else:  # GNSS: velocity, heading and the levelling against its acceleration
         for k in range(3):
             shift_v[k] += velocity_bandwidth * T * (fix[VELOCITY + k] - then[HV + k])
-        heading_error = ((fix[HEADING] - math.atan2(R_then[3], R_then[0]) + math.pi)
-                         % (2.0 * math.pi) - math.pi)
+        heading_error = wrap_angle(fix[HEADING] - heading_of(R_then))
         levelling = [0.0, 0.0, 0.0]
         if e[HAS_LAST_V] > 0.0:
             measured = [0.0, 0.0, 0.0]  # the IMU's mean world specific force over the fix
@@ -208,7 +200,8 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
     # alike (the attitude of then and now differ by the lag's rotation)
     turn = exp_tuple((attitude_bandwidth * T * world[0], attitude_bandwidth * T * world[1],
                       attitude_bandwidth * T * world[2]))
-    error = _body(R, world)  # in the body frame now, where the gyroscope's bias lives
+    # in the body frame now, where the gyroscope's bias lives
+    error = mat_vec_tuple(transpose_tuple(R), world)
     integral = 0.25 * attitude_bandwidth * attitude_bandwidth * T
     for k in range(3):
         e[BG + k] -= integral * error[k]
@@ -222,6 +215,6 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
             entry[HP + k] += shift_p[k]
             entry[HV + k] += shift_v[k]
         _store_rotation(entry, HR, mat_mul_tuple(turn, _rotation(entry, HR)))
-        specific = _world(turn, (entry[HS], entry[HS + 1], entry[HS + 2]))
+        specific = mat_vec_tuple(turn, (entry[HS], entry[HS + 1], entry[HS + 2]))
         for k in range(3):
             entry[HS + k] = specific[k]

@@ -36,13 +36,14 @@ def _normals(key, step, count, out):
 
 
 @njit(cache=True, inline="always")
-def _heading(R):
+def heading_of(R):
     """The heading of body x projected on the level plane [rad]; R row-major."""
     return math.atan2(R[3], R[0])
 
 
 @njit(cache=True, inline="always")
-def _wrap(angle):
+def wrap_angle(angle):
+    """``angle`` in [-π, π)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
@@ -119,7 +120,7 @@ def take_readings_kernel(start, stop, indices, step_count, position, velocity, r
                                                  attitude_std * g[5])))
             for k in range(9):
                 row[ROTATION + k] = turned[k]
-            row[HEADING] = _wrap(_heading(R) + heading_std * g[9])
+            row[HEADING] = wrap_angle(heading_of(R) + heading_std * g[9])
         # the IMU, its biases walking first
         if imu_noisy:
             _normals(keys[i, IMU_KEY], step, 12, g)

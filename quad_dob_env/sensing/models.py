@@ -12,6 +12,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+from quad_dob_env.params import VEHICLES
 from quad_dob_env.validation import as_finite, unknown_name_error
 from quad_dob_env.variation import SensorNoise
 
@@ -148,7 +149,7 @@ class SensorSuite:
 
 # Every number with its source in SENSING_SOURCES (a test holds each field to one).
 MOCAP_POSITION_STD = 0.74e-3  # [m]
-MARKER_SPAN = 2 * 0.315  # [m] markers at the arm tips of the paper vehicle (Lee 2010's arm)
+MARKER_SPAN = 2 * VEHICLES["paper"].arm_length  # [m] markers at the paper vehicle's arm tips
 ICM_42688_P = Imu(gyroscope_noise_density=math.radians(2.8e-3),
                   accelerometer_noise_density=70e-6 * G0,
                   gyroscope_bias_walk=2.66e-5, accelerometer_bias_walk=4.33e-4)
@@ -165,9 +166,9 @@ def _telemetry_std(hover_speed: float, pole_pairs: int = POLE_PAIRS) -> float:
     return hover_speed * 2**exponent / period_us / math.sqrt(12)
 
 
-# the paper vehicle's hover: 4.34 kg on four rotors of k_F = 1.49e-5 N/(rad/s)², 845 rad/s
+# at the paper vehicle's hover: each rotor holds a quarter of the weight, 845 rad/s
 ESC_TELEMETRY = RotorTelemetry(speed_std=_telemetry_std(math.sqrt(
-    4.34 * 9.81 / 4 / (0.1155 * 1.225 * 0.254**4 / (2 * math.pi) ** 2))))
+    VEHICLES["paper"].hover_thrust / 4 / VEHICLES["paper"].thrust_coefficient)))
 MOCAP = SensorSuite(
     name="mocap",
     pose=PoseSensor(kind="mocap", rate=100.0, latency=0.01, position_std=MOCAP_POSITION_STD,

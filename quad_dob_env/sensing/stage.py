@@ -54,19 +54,17 @@ class SensingStage:
         # applied thrust (N,), non-gravity force but thrust (N, 3), mass (N,), rotor thrusts
         self.physics = physics
         # what the rotors give at a reset (they start at hover; nothing is applied yet)
-        weight = vehicle.mass * vehicle.gravity
+        weight = vehicle.hover_thrust
         self._hover = (float(weight), np.full(4, weight / 4)) if hover is None else (
             float(hover[0]), np.asarray(hover[1], dtype=float))
         self.thrust_coefficient = float(vehicle.thrust_coefficient)
         extra = delay_steps(extra_latency, dt)
-        self.extra_delay = extra
         self.identity = sensing is None and extra == 0
         self.keys = np.zeros((n, KEYS), dtype=np.uint64)
         self.true_bias = np.zeros((n, 6))
         self.estimating = isinstance(sensing, SensorSuite)
         self._fresh = False
-        zeros4 = (0.0, 0.0, 0.0, 0.0)
-        self._state_noise = zeros4
+        self._state_noise = (0.0, 0.0, 0.0, 0.0)
         self._imu = (0.0,) * 6
         self._rotors = (0.0,)
         if self.estimating:
