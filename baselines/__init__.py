@@ -11,6 +11,8 @@ type), never ``quad_dob_training``.
 - ``geometric``: Lee–Leok–McClamroch 2010 on SE(3); with an observer, geometric + NDOB.
 - ``observer``: the nonlinear disturbance observer (Chen 2000 form).
 - ``pid``: cascaded PID; ``smc``: sliding-mode control.
+- ``inner``: their attitude laws, compiled per vehicle, for an inner loop that runs them
+  at its own rate (``InnerLaw``, what ``Controller.inner_law`` hands it).
 
 ``make_controller(name, vehicle)`` builds one by the name the CLI, evaluation and the
 residual wrapper use: ``geometric``, ``geometric-ndob`` (the paper's observer gains),

@@ -45,6 +45,11 @@ class Controller:
     # whether ``compute`` takes ``acceleration_correction`` (N, 3), an outer loop's addition
     # to the reference acceleration (what an acceleration residual flies through)
     accepts_acceleration_correction = False
+    # whether ``inner_law`` gives an attitude law an inner loop can run (else, with an inner
+    # loop, the command ``compute`` gives is held over the control step)
+    has_inner_law = False
+    # [s] the inner loop's period this controller flies with (``use_inner_loop``), or None
+    inner_period: float | None = None
 
     def __init__(self) -> None:
         self.vehicle: VehicleParams | None = None
@@ -70,6 +75,19 @@ class Controller:
     def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
         """What the actuators produced for the last ``compute`` (after saturation), with the
         state that command was computed from."""
+
+    def use_inner_loop(self, period: float | None) -> None:
+        """Fly with an inner loop of ``period`` s (None: without one). Then ``compute`` is
+        the outer part, leaving ``desired_force``, ``desired_rotation``,
+        ``desired_angular_velocity`` and ``desired_angular_acceleration`` in
+        ``diagnostics``, and the loop runs ``inner_law()`` at every tick
+        (``quad_dob_baselines.inner``). Called by whatever composes the controller with an
+        env, before its ``reset``."""
+        self.inner_period = period
+
+    def inner_law(self) -> Any:
+        """The ``quad_dob_baselines.inner.InnerLaw`` for the last ``compute``."""
+        raise NotImplementedError(f"{self.name} has no attitude law for an inner loop")
 
     def describe(self) -> dict[str, Any]:
         """Name and gains, for reports."""

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_baselines.base import Controller
+from quad_dob_baselines.inner import LEE, InnerLaw, inner_law
 from quad_dob_baselines.kernels import geometric_batch
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_env.dynamics import VehicleState
@@ -33,7 +34,7 @@ PAPER_GAINS = {"kx_per_mass": 16.0, "kv_per_mass": 5.6, "kR": 8.81, "kOmega": 2.
 _REFERENCE_ORDER = ("position", "velocity", "acceleration", "jerk", "snap", "heading",
                     "heading_rate", "heading_acceleration")
 _DIAGNOSTICS = ("desired_force", "desired_rotation", "desired_angular_velocity",
-                "attitude_error", "rate_error")
+                "desired_angular_acceleration", "attitude_error", "rate_error")
 
 
 class GeometricController(Controller):
@@ -94,6 +95,7 @@ class GeometricController(Controller):
             "desired_force": np.empty((n, 3)),
             "desired_rotation": np.empty((n, 3, 3)),
             "desired_angular_velocity": np.empty((n, 3)),
+            "desired_angular_acceleration": np.empty((n, 3)),
             "attitude_error": np.empty((n, 3)),
             "rate_error": np.empty((n, 3)),
             "force_estimate": force_estimate,
@@ -113,6 +115,23 @@ class GeometricController(Controller):
     def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
         if self.observer is not None:
             self.observer.update(state, thrust, moment)
+
+    has_inner_law = True
+
+    def use_inner_loop(self, period: float | None) -> None:
+        super().use_inner_loop(period)
+        if self.observer is not None:
+            self.observer.set_inner_period(period)
+
+    def inner_law(self) -> InnerLaw:
+        """Lee's attitude law (kR, kΩ) with the rotational observer at the inner rate."""
+        observer = None
+        if self.observer is not None:
+            km, alpha = self.observer.inner_gains
+            observer = (km, alpha, self.observer.torque_state[0])
+        return inner_law(LEE, np.stack([self.gains["kR"], self.gains["kOmega"]]),
+                         self.vehicle.inertia_matrix, self.diagnostics,
+                         len(self.diagnostics["desired_force"]), observer)
 
     def describe(self) -> dict[str, Any]:
         info: dict[str, Any] = {"name": self.name,

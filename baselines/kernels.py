@@ -69,7 +69,7 @@ def geometric_law(x, v, R, w, reference, mass, gravity, inertia, kx, kv, kR, kOm
     x⃜d, b1d, ḃ1d, b̈1d), ``acceleration_correction`` Δa an outer loop's (a residual
     policy's) addition to ẍd in F, held constant in Ḟ and F̈ as d̂x is (so a constant Δa
     moves the equilibrium by kx ex = m Δa and asks for no rotation). Returns thrust,
-    moment, F, Rd, Ωd, eR, eΩ."""
+    moment, F, Rd, Ωd, Ω̇d, eR, eΩ."""
     position, velocity, acceleration, jerk, snap, heading, heading_rate, heading_accel = reference
     position_error = combine(1.0, x, -1.0, position)
     velocity_error = combine(1.0, v, -1.0, velocity)
@@ -98,6 +98,16 @@ def geometric_law(x, v, R, w, reference, mass, gravity, inertia, kx, kv, kR, kOm
                   -kx[2] * acceleration_error[2] - kv[2] * jerk_error[2] + mass * snap[2])
     rd, rate_d, acceleration_d = desired_attitude(force, force_dot, force_ddot, heading,
                                                   heading_rate, heading_accel)
+    moment, attitude_error, rate_error = attitude_law(R, w, rd, rate_d, acceleration_d, inertia,
+                                                      kR, kOmega, torque_estimate)
+    return thrust, moment, force, rd, rate_d, acceleration_d, attitude_error, rate_error
+
+
+@njit(cache=True, inline="always")
+def attitude_law(R, w, rd, rate_d, acceleration_d, inertia, kR, kOmega, torque_estimate):
+    """Lee 2010's attitude law towards (Rd, Ωd, Ω̇d) with the torque estimate d̂Ω; returns
+    the moment, eR and eΩ. The geometric controller's monolithic law and its inner loop
+    (``quad_dob_baselines.inner``) both call it."""
     attitude_error, rate_error, r_t_rd = attitude_errors(R, w, rd, rate_d)
     rate_body = mat_vec_tuple(r_t_rd, rate_d)
     acceleration_body = mat_vec_tuple(r_t_rd, acceleration_d)
@@ -111,7 +121,7 @@ def geometric_law(x, v, R, w, reference, mass, gravity, inertia, kx, kv, kR, kOm
               - feedforward[1] - torque_estimate[1],
               -kR[2] * attitude_error[2] - kOmega[2] * rate_error[2] + gyroscopic[2]
               - feedforward[2] - torque_estimate[2])
-    return thrust, moment, force, rd, rate_d, attitude_error, rate_error
+    return moment, attitude_error, rate_error
 
 
 # --- batch loops (one call per control step for the whole batch) ---------------------------
@@ -119,10 +129,11 @@ def geometric_law(x, v, R, w, reference, mass, gravity, inertia, kx, kv, kR, kOm
 @njit(cache=True, inline="always")
 def geometric_vehicle(i, x, v, R, w, reference, mass, gravity, inertia, gains, force_estimate,
                       torque_estimate, acceleration_correction, thrust, moment, desired_force,
-                      desired_rotation, desired_rate, attitude_error, rate_error):
+                      desired_rotation, desired_rate, desired_acceleration, attitude_error,
+                      rate_error):
     """``geometric_law`` for vehicle i (``acceleration_correction`` its 3-tuple), its
     outputs written to row i."""
-    f, m, force, rd, rate_d, e_r, e_w = geometric_law(
+    f, m, force, rd, rate_d, acceleration_d, e_r, e_w = geometric_law(
         x, v, R, w, reference, mass, gravity, inertia, gains[0], gains[1], gains[2], gains[3],
         vector_at(force_estimate, i), vector_at(torque_estimate, i), acceleration_correction)
     thrust[i] = f
@@ -131,6 +142,7 @@ def geometric_vehicle(i, x, v, R, w, reference, mass, gravity, inertia, gains, f
     for k in range(9):
         desired_rotation[i, k // 3, k % 3] = rd[k]
     store_vector(desired_rate, i, rate_d)
+    store_vector(desired_acceleration, i, acceleration_d)
     store_vector(attitude_error, i, e_r)
     store_vector(rate_error, i, e_w)
 
@@ -139,7 +151,8 @@ def geometric_vehicle(i, x, v, R, w, reference, mass, gravity, inertia, gains, f
 def geometric_batch(start, stop, position, velocity, rotation, angular_velocity, reference,
                     mass, gravity, inertia, kx, kv, kR, kOmega, force_estimate,
                     torque_estimate, acceleration_correction, thrust, moment, desired_force,
-                    desired_rotation, desired_rate, attitude_error, rate_error):
+                    desired_rotation, desired_rate, desired_acceleration, attitude_error,
+                    rate_error):
     inertia_tuple = matrix_entries(inertia)
     gains = (as_vector(kx), as_vector(kv), as_vector(kR), as_vector(kOmega))
     for i in range(start, stop):
@@ -150,7 +163,8 @@ def geometric_batch(start, stop, position, velocity, rotation, angular_velocity,
                           vector_at(angular_velocity, i), ref, mass, gravity, inertia_tuple, gains,
                           force_estimate, torque_estimate,
                           vector_at(acceleration_correction, i), thrust, moment, desired_force,
-                          desired_rotation, desired_rate, attitude_error, rate_error)
+                          desired_rotation, desired_rate, desired_acceleration, attitude_error,
+                          rate_error)
 
 
 @njit(cache=True, inline="always")
@@ -205,10 +219,11 @@ def observer_estimate_batch(velocity, angular_velocity, gain, rotational_gain, z
 @njit(cache=True, inline="always")
 def observer_advance_vehicle(i, start_velocity, start_body_z, start_angular_velocity, thrust,
                              moment, end_rotation, end_angular_velocity, mass, gravity, J,
-                             gain, alpha, km, a_rot, z_force, z_torque):
+                             gain, alpha, km, a_rot, z_force, z_torque, advance_torque):
     """One forward-Euler step of vehicle i's z over a control step, with the thrust
     direction and the gyroscopic torque averaged over the step's two ends (unbiased to
-    second order in dt); ``J``, ``km`` and ``a_rot`` are 9-tuples."""
+    second order in dt); ``J``, ``km`` and ``a_rot`` are 9-tuples. Without
+    ``advance_torque`` zΩ is left to an inner loop, which advances it at its own rate."""
     end_body_z = (end_rotation[i, 0, 2], end_rotation[i, 1, 2], end_rotation[i, 2, 2])
     lift = combine(0.5 * thrust[i], vector_at(start_body_z, i), 0.5 * thrust[i], end_body_z)
     v, z = vector_at(start_velocity, i), vector_at(z_force, i)
@@ -216,23 +231,34 @@ def observer_advance_vehicle(i, start_velocity, start_body_z, start_angular_velo
     store_vector(z_force, i, (z[0] - alpha * (z[0] + gain * v[0] + lift[0]),
                      z[1] - alpha * (z[1] + gain * v[1] + lift[1]),
                      z[2] - alpha * (z[2] + gain * v[2] - mass * gravity + lift[2])))
-    w0, w1 = vector_at(start_angular_velocity, i), vector_at(end_angular_velocity, i)
+    if advance_torque:
+        store_vector(z_torque, i, torque_observer_step(
+            vector_at(z_torque, i), vector_at(start_angular_velocity, i),
+            vector_at(end_angular_velocity, i), vector_at(moment, i), J, km, a_rot))
+
+
+@njit(cache=True, inline="always")
+def torque_observer_step(zt, w0, w1, moment, J, km, a_rot):
+    """zΩ after one forward-Euler step from rates ``w0`` to ``w1`` with ``moment`` applied
+    (the gyroscopic torque averaged over the two ends); ``km``, ``a_rot`` the discrete gains
+    of the step's length. The control-rate observer and the inner loop's both call it."""
     gyroscopic = combine(0.5, cross_tuple(w0, mat_vec_tuple(J, w0)),
                          0.5, cross_tuple(w1, mat_vec_tuple(J, w1)))
-    zt = vector_at(z_torque, i)
     # żΩ = -Km J⁻¹(zΩ + Km Ω - Ω × JΩ + M)
     residual = add(combine(1.0, zt, 1.0, mat_vec_tuple(km, w0)),
-                   combine(-1.0, gyroscopic, 1.0, vector_at(moment, i)))
-    store_vector(z_torque, i, combine(1.0, zt, -1.0, mat_vec_tuple(a_rot, residual)))
+                   combine(-1.0, gyroscopic, 1.0, moment))
+    return combine(1.0, zt, -1.0, mat_vec_tuple(a_rot, residual))
 
 
 @njit(cache=True)
 def observer_advance_batch(start_velocity, start_body_z, start_angular_velocity, thrust,
                            moment, end_rotation, end_angular_velocity, mass, gravity, inertia,
-                           gain, alpha, rotational_gain, alpha_rotation, z_force, z_torque):
+                           gain, alpha, rotational_gain, alpha_rotation, z_force, z_torque,
+                           advance_torque):
     J, km = matrix_entries(inertia), matrix_entries(rotational_gain)
     a_rot = matrix_entries(alpha_rotation)
     for i in range(start_velocity.shape[0]):
         observer_advance_vehicle(i, start_velocity, start_body_z, start_angular_velocity,
                                  thrust, moment, end_rotation, end_angular_velocity, mass,
-                                 gravity, J, gain, alpha, km, a_rot, z_force, z_torque)
+                                 gravity, J, gain, alpha, km, a_rot, z_force, z_torque,
+                                 advance_torque)

@@ -75,6 +75,8 @@ class NonlinearDisturbanceObserver:
         self.rotational_gain = _as_gain_matrix(rotational_gain, "rotational_gain (Km)")
         self.force_estimate = np.zeros((0, 3))
         self.torque_estimate = np.zeros((0, 3))
+        self.inner_period: float | None = None
+        self.inner_gains: tuple[NDArray, NDArray] | None = None
 
     @classmethod
     def from_rates(cls, translational_rate: float, rotational_rate: ArrayLike,
@@ -108,8 +110,27 @@ class NonlinearDisturbanceObserver:
             self.torque_estimate = np.zeros((num_vehicles, 3))
             self._fresh = np.ones(num_vehicles, dtype=bool)
             self._pending = None
+            self.set_inner_period(self.inner_period)
         else:
             self._fresh[indices] = True
+
+    def set_inner_period(self, period: float | None) -> None:
+        """Run the rotational part at an inner loop's period [s] (None: at the control
+        rate): its discrete gains ``inner_gains`` are for that period, the control-rate
+        ``estimate`` reads zΩ with them and ``update`` leaves zΩ to the inner loop, which
+        advances it each tick (``quad_dob_baselines.inner``)."""
+        self.inner_period = period
+        if period is None or not hasattr(self, "_km"):
+            self.inner_gains = None
+            return
+        alpha = np.eye(3) - expm(-self.rotational_gain @ self.vehicle.inertia_inverse * period)
+        self.inner_gains = (np.ascontiguousarray(alpha @ self.vehicle.inertia_matrix / period),
+                            np.ascontiguousarray(alpha))
+
+    @property
+    def torque_state(self) -> tuple[NDArray, NDArray]:
+        """zΩ (N, 3) and the fresh flags (N,), the arrays themselves."""
+        return self._z_torque, self._fresh
 
     def kernel_state(self) -> ObserverKernelState:
         """The discrete gains and state arrays of the last ``reset`` (the arrays themselves,
@@ -126,11 +147,12 @@ class NonlinearDisturbanceObserver:
             observer_advance_batch(*self._pending, state.rotation, state.angular_velocity,
                                    vehicle.mass, vehicle.gravity, vehicle.inertia_matrix,
                                    self._ks, self._alpha, self._km, self._alpha_rotation,
-                                   self._z_force, self._z_torque)
+                                   self._z_force, self._z_torque, self.inner_gains is None)
             self._pending = None
         n = len(state.velocity)
         self.force_estimate, self.torque_estimate = np.empty((n, 3)), np.empty((n, 3))
-        observer_estimate_batch(state.velocity, state.angular_velocity, self._ks, self._km,
+        km = self._km if self.inner_gains is None else self.inner_gains[0]
+        observer_estimate_batch(state.velocity, state.angular_velocity, self._ks, km,
                                 self._z_force, self._z_torque, self._fresh,
                                 self.force_estimate, self.torque_estimate)
         return self.force_estimate, self.torque_estimate

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from quad_dob_baselines.attitude import track_thrust_vector
 from quad_dob_baselines.base import E3, Controller, validated_gains
+from quad_dob_baselines.inner import PID, InnerLaw, inner_law
 from quad_dob_env.dynamics import Actuator, VehicleState
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.so3 import cross
@@ -93,19 +94,37 @@ class CascadedPID(Controller):
         # each moment axis alone: its increment changes M by -J Kωi eω dt
         winding = self.moment_excess * -(rate_error @ J.T) > 0
         limit = g["rate_integral_limit"]
-        self.rate_integral = np.clip(self.rate_integral + ~winding * rate_error * dt,
-                                     -limit, limit)
+        rate_integral = np.clip(self.rate_integral + ~winding * rate_error * dt, -limit, limit)
         previous = np.where(self.fresh[:, None], rate_error, self.previous_rate_error)
+        if self.inner_period is None:
+            self.rate_integral = rate_integral
+            self.previous_rate_error, self.fresh[:] = rate_error, False
+        # else the inner loop runs the rate loop and keeps its state (``inner``); this
+        # step-start moment is what the anti-windup of the position loop reads
         rate_error_dot = (rate_error - previous) / dt
-        self.previous_rate_error, self.fresh[:] = rate_error, False
         angular_acceleration = (np.einsum("nij,nj->ni", r_t_rd, desired.angular_acceleration)
-                                - g["rate_kp"] * rate_error - g["rate_ki"] * self.rate_integral
+                                - g["rate_kp"] * rate_error - g["rate_ki"] * rate_integral
                                 - g["rate_kd"] * rate_error_dot)
         moment = cross(w, w @ J.T) + angular_acceleration @ J.T
         self.diagnostics = {"desired_rotation": desired.rotation,
-                            "attitude_error": attitude_error, "rate_error": rate_error}
+                            "attitude_error": attitude_error, "rate_error": rate_error,
+                            "desired_force": force,
+                            "desired_angular_velocity": desired.angular_velocity,
+                            "desired_angular_acceleration": desired.angular_acceleration}
         self._requested = (thrust, moment)
         return thrust, moment
+
+    has_inner_law = True
+
+    def inner_law(self) -> InnerLaw:
+        """Attitude P and rate PID at the inner rate, its integrator kept here."""
+        g = self.gains
+        gains = np.array([[g["attitude_kp"]], [g["rate_kp"]], [g["rate_ki"]], [g["rate_kd"]],
+                          [g["rate_integral_limit"]]]) * np.ones(3)
+        n = len(self.diagnostics["desired_force"])
+        return inner_law(PID, gains, self.vehicle.inertia_matrix, self.diagnostics, n,
+                         pid_state=(self.rate_integral, self.previous_rate_error, self.fresh,
+                                    self.moment_excess))
 
     def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
         """The anti-windup reads the mixer's clipping of the PID's own request, which is
@@ -113,10 +132,11 @@ class CascadedPID(Controller):
         requested_thrust, requested_moment = self._requested
         mixed = self.mixer.apply(requested_thrust, requested_moment)
         self.thrust_excess = requested_thrust - mixed.thrust
-        self.moment_excess = requested_moment - mixed.moment
         # rounding in the mixer's round trip is not saturation
         self.thrust_excess[np.abs(self.thrust_excess) < 1e-9] = 0.0
-        self.moment_excess[np.abs(self.moment_excess) < 1e-9] = 0.0
+        if self.inner_period is None:  # else the inner loop keeps it, tick by tick
+            self.moment_excess = requested_moment - mixed.moment
+            self.moment_excess[np.abs(self.moment_excess) < 1e-9] = 0.0
 
     def describe(self) -> dict[str, Any]:
         return {"name": self.name, **self.gains}

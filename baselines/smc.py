@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from quad_dob_baselines.attitude import track_thrust_vector
 from quad_dob_baselines.base import E3, Controller, validated_gains
+from quad_dob_baselines.inner import SMC, InnerLaw, inner_law
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.so3 import cross, hat
 from quad_dob_env.trajectories import Reference
@@ -76,8 +77,21 @@ class SlidingModeController(Controller):
                      - desired_acceleration_body) @ J.T
                   - correction @ J.T)
         self.diagnostics = {"desired_rotation": desired.rotation,
-                            "attitude_error": attitude_error, "sliding_surface": surface}
+                            "attitude_error": attitude_error, "sliding_surface": surface,
+                            "desired_force": force,
+                            "desired_angular_velocity": desired.angular_velocity,
+                            "desired_angular_acceleration": desired.angular_acceleration}
         return thrust, moment
+
+    has_inner_law = True
+
+    def inner_law(self) -> InnerLaw:
+        """The attitude sliding law at the inner rate."""
+        g = self.gains
+        gains = np.array([[g["attitude_lambda"]], [g["attitude_eta"]],
+                          [g["attitude_boundary"]]]) * np.ones(3)
+        return inner_law(SMC, gains, self.vehicle.inertia_matrix, self.diagnostics,
+                         len(self.diagnostics["desired_force"]))
 
     def position_eta(self, mass: float) -> float:
         """η [m/s²] = (1 + ETA_MARGIN) D / m: above the disturbance bound per unit mass."""

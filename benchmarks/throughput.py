@@ -4,7 +4,9 @@ env under each sensing preset (``quad_dob_env.sensing``) beside the ideal one.
 
 Run by hand (not part of the test suite): ``python benchmarks/throughput.py``. Prints
 markdown tables; the README quotes them. Compilation happens before timing starts.
-``--sensing-only`` runs the sensing table alone.
+``--sensing-only`` runs the sensing table alone; ``--loop-only`` the vehicle-loop table
+(Benchmark v2: v1, part 1's sensing, each of part 2's factors on top of it, and the full
+v2 loop, in one run).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from gymnasium.utils import seeding
 import quad_dob_env  # noqa: F401  (registers the ids)
 from quad_dob_composition import ResidualVectorEnv
 from quad_dob_env.envs import QuadrotorBatch, QuadrotorVectorEnv
+from quad_dob_env.scenario import V2_INNER_RATE
 from quad_dob_env.scenarios import make_scenario
 
 CALM, WINDY = "paper-none", "dryden-helix-gusts"
@@ -154,6 +157,54 @@ def print_sensing_table(n: int, steps: int, repeats: int) -> None:
               f"{median / reference[variant.with_base]:.2f} | {1e6 / median:.3f} |")
 
 
+# Benchmark v2's vehicle loop, factor by factor on top of part 1's mocap sensing
+FULL_LOOP = {"sensing": "mocap", "speed_motors": True, "thrust_uncertainty": True,
+             "rotor_aerodynamics": True}
+LOOP_VARIANTS: tuple[tuple[str, dict, bool], ...] = (
+    ("v1 (ideal sensing, fused pass)", {}, True),
+    ("v1 through the staged path", {}, False),
+    ("part 1: mocap sensing", {"sensing": "mocap"}, True),
+    ("+ inner loop 200 Hz", {"sensing": "mocap", "inner_rate": 200.0}, True),
+    ("+ inner loop 300 Hz", {"sensing": "mocap", "inner_rate": 300.0}, True),
+    ("+ inner loop 400 Hz", {"sensing": "mocap", "inner_rate": 400.0}, True),
+    ("+ speed motors", {"sensing": "mocap", "speed_motors": True}, True),
+    ("+ thrust uncertainty", {"sensing": "mocap", "thrust_uncertainty": True}, True),
+    ("+ rotor aerodynamics", {"sensing": "mocap", "rotor_aerodynamics": True}, True),
+    (f"full v2 loop, inner {V2_INNER_RATE:g} Hz (v2's)", {**FULL_LOOP,
+                                                          "inner_rate": V2_INNER_RATE}, True),
+    ("full v2 loop, inner 300 Hz", {**FULL_LOOP, "inner_rate": 300.0}, True),
+    ("full v2 loop, inner 400 Hz", {**FULL_LOOP, "inner_rate": 400.0}, True),
+)
+
+
+def print_loop_table(n: int, steps: int, repeats: int) -> None:
+    """Every ``LOOP_VARIANTS`` residual env (the geometric-ndob:tuned base, zero residual)
+    on ``WINDY`` at ``n`` vehicles, built and warmed first, then timed interleaved
+    ``repeats`` times; the median of each and its ratio to v1's."""
+    envs = [ResidualVectorEnv(n, WINDY, scenario_options=options,
+                              base_controller="geometric-ndob:tuned", compiled=compiled)
+            for _, options, compiled in LOOP_VARIANTS]
+    actions = [np.zeros((n, 4)) for _ in envs]
+    for env, action in zip(envs, actions, strict=True):
+        compiled_and_warm(env)
+        action[:] = 0.0
+    rates: list[list[float]] = [[] for _ in envs]
+    for _ in range(repeats):
+        for k, env in enumerate(envs):
+            rates[k].append(timed_env_steps_per_second(env, actions[k], steps))
+    print(f"\nvehicle loop: residual vector env ({WINDY}, base geometric-ndob:tuned, zero "
+          f"residual, N = {n}, {steps} steps from a reset, median of {repeats} interleaved "
+          "repeats); ratio to v1\n")
+    print("| loop | env-steps/s | spread (min-max) / median | / v1 | µs per env-step |")
+    print("|---|---|---|---|---|")
+    reference = statistics.median(rates[0])
+    for (label, _, _), measured in zip(LOOP_VARIANTS, rates, strict=True):
+        median = statistics.median(measured)
+        spread = (max(measured) - min(measured)) / median
+        print(f"| {label} | {median:,.0f} | {spread:.2f} | {median / reference:.2f} | "
+              f"{1e6 / median:.3f} |")
+
+
 def memory_per_env(n: int, with_base: bool) -> float:
     """Bytes held per vehicle (numpy arrays, Python objects) by a reset, stepped env."""
     tracemalloc.start()
@@ -184,11 +235,16 @@ def main() -> None:
                         help="env steps per timed repeat in the sensing table")
     parser.add_argument("--sensing-repeats", type=int, default=7,
                         help="interleaved repeats per variant in the sensing table (median)")
+    parser.add_argument("--loop-only", action="store_true",
+                        help="run the vehicle-loop table alone (v1, sensing, v2's factors)")
     args = parser.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, numpy {np.__version__}")
     if args.sensing_only:
         print_sensing_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
+        return
+    if args.loop_only:
+        print_loop_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
         return
     print(f"\ncalm: {CALM} (no wind, no drag, instant motors); windy: {WINDY} (Dryden "
           "moderate + gusts, drag, motor lag)\n")
@@ -220,6 +276,7 @@ def main() -> None:
         if flat:
             print(f"per-env cost {label}, N >= 256: max / min = {max(flat) / min(flat):.2f}")
     print_sensing_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
+    print_loop_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
     print()
     for with_base in (False, True):
         print(f"memory per env ({'base in the loop' if with_base else 'bare'}, N = 4096): "

@@ -7,6 +7,9 @@ simulator (``quad_dob_env``) and the controllers (``quad_dob_baselines``); the f
   that runs the geometric controller inside a residual step (``fused_pass_for``).
 - ``fused``: that pass (residual, command, physics, observer, the next base command, the
   extra observation and reward, per vehicle).
+- ``attitude_loop``: ``AttitudeLoop``, a controller's attitude law (``quad_dob_baselines
+  .inner``) at a scenario's inner rate inside the env's step, installed on a core by
+  whatever flies the controller there (the residual, ``ReferencePolicy``, evaluation).
 - ``policy``: ``ReferencePolicy``, any controller as an SB3-style ``predict`` in a direct
   env (it refuses a residual one).
 - ``envs``: what the registered ``QuadDOB/...Residual-v1`` ids build, by string entry

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from quad_dob_composition.attitude_loop import AttitudeLoop
 from quad_dob_composition.bases import fused_pass_for, make_base
 from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
 from quad_dob_env.envs.core import QuadrotorBatch
@@ -24,7 +25,7 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
     base = make_base(base_controller, env.unwrapped.core.vehicle)
     return ResidualActionWrapper(env, base, thrust_scale, moment_scale, residual_effort_weight,
                                  authority_gate, residual_mode, acceleration_scale,
-                                 vertical_floor)
+                                 vertical_floor, attitude_loop=AttitudeLoop.install)
 
 
 class ResidualVectorEnv(QuadrotorVectorEnv):
@@ -42,7 +43,8 @@ class ResidualVectorEnv(QuadrotorVectorEnv):
         vehicle = make_scenario(scenario, **(scenario_options or {})).vehicle
         base = make_base(base_controller, vehicle)
         super().__init__(num_envs, scenario, scenario_options, base_controller=base,
-                         fused_pass=fused_pass_for(base) if compiled else None, **kwargs)
+                         fused_pass=fused_pass_for(base) if compiled else None,
+                         attitude_loop=AttitudeLoop.install, **kwargs)
 
 
 def make_vector_env(num_envs: int, scenario: Any = "paper-none",
@@ -58,4 +60,4 @@ def residual_command(core: QuadrotorBatch, base_controller: Any = DEFAULT_BASE_C
     """A ``ResidualCommand`` for ``core`` with ``base_controller`` by name (or object)."""
     base = make_base(base_controller, core.vehicle)
     return ResidualCommand(core, base, fused_pass=fused_pass_for(base) if compiled else None,
-                           **options)
+                           attitude_loop=AttitudeLoop.install, **options)

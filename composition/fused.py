@@ -75,6 +75,7 @@ class PlanArguments(NamedTuple):
     desired_force: NDArray
     desired_rotation: NDArray
     desired_rate: NDArray
+    desired_acceleration: NDArray
     attitude_error: NDArray
     rate_error: NDArray
     estimate_scale: NDArray  # the extra observation's scales and the inverse action map
@@ -105,8 +106,8 @@ def plan_kernel(indices, position, velocity, rotation, angular_velocity, referen
                 reference_row, mass, gravity, inertia, gains, has_observer, observer_gain,
                 observer_rotational_gain, z_force, z_torque, fresh, force_estimate,
                 torque_estimate, thrust, moment, desired_force, desired_rotation,
-                desired_rate, attitude_error, rate_error, estimate_scale, inverse,
-                base_action, body_errors, extra):
+                desired_rate, desired_acceleration, attitude_error, rate_error, estimate_scale,
+                inverse, base_action, body_errors, extra):
     """Each vehicle of ``indices``: its observer estimate, base command and extra
     observation for the coming step, from its state now. Called with ``*PlanArguments``:
     the parameters after ``indices`` are its fields (a test holds them equal)."""
@@ -130,8 +131,8 @@ def plan_kernel(indices, position, velocity, rotation, angular_velocity, referen
                           reference_at(reference, row), mass, gravity, inertia_entries,
                           law_gains, force_estimate, torque_estimate, (0.0, 0.0, 0.0),
                           thrust, moment,
-                          desired_force, desired_rotation, desired_rate, attitude_error,
-                          rate_error)
+                          desired_force, desired_rotation, desired_rate, desired_acceleration,
+                          attitude_error, rate_error)
         residual_observation_vehicle(i, thrust, moment, force_estimate, torque_estimate,
                                      estimate_scale, position, velocity, rotation, reference,
                                      row, rotor_mode, centre, scale_up, scale_down, mixer,
@@ -171,7 +172,7 @@ def reward_and_observer_update(start, stop, velocity_before, body_z_before, rate
                                      applied_thrust, applied_moment, rotation,
                                      angular_velocity, mass, gravity, inertia_entries,
                                      observer_gain, alpha, km, alpha_entries, z_force,
-                                     z_torque)
+                                     z_torque, True)
 
 
 @njit(cache=True, nogil=True)
@@ -275,12 +276,14 @@ class FusedResidualStep:
         thrust, moment = np.empty(n), np.empty((n, 3))
         diagnostics = {"desired_force": np.empty((n, 3)), "desired_rotation": np.empty((n, 3, 3)),
                        "desired_angular_velocity": np.empty((n, 3)),
+                       "desired_angular_acceleration": np.empty((n, 3)),
                        "attitude_error": np.empty((n, 3)), "rate_error": np.empty((n, 3))}
         self._outputs = {"force_estimate": force_estimate, "torque_estimate": torque_estimate,
                          "thrust": thrust, "moment": moment,
                          "desired_force": diagnostics["desired_force"],
                          "desired_rotation": diagnostics["desired_rotation"],
                          "desired_rate": diagnostics["desired_angular_velocity"],
+                         "desired_acceleration": diagnostics["desired_angular_acceleration"],
                          "attitude_error": diagnostics["attitude_error"],
                          "rate_error": diagnostics["rate_error"]}
         self.controller.diagnostics = {**diagnostics, "force_estimate": force_estimate,

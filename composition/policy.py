@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 
 from quad_dob_baselines import make_controller
 from quad_dob_baselines.base import Controller
+from quad_dob_composition.attitude_loop import AttitudeLoop
 
 
 class ReferencePolicy:
@@ -19,7 +20,9 @@ class ReferencePolicy:
     The controller reads the env's measurement (``core.measurement``: the estimate, the
     true state with ideal sensing) and reference (not the observation), is
     reset when the env's episode restarts, and is told what the actuators applied after
-    each step, as the observer needs.
+    each step, as the observer needs. Where the scenario has an inner loop, the env's steps
+    fly the controller's attitude law at its rate from then on (the action's moment is then
+    the step's first tick's, for the record).
     """
 
     def __init__(self, controller: Controller | str, env: gym.Env) -> None:
@@ -35,6 +38,8 @@ class ReferencePolicy:
             raise ValueError(f"ReferencePolicy drives a single env, got {self.core.n} vehicles")
         self.controller = (make_controller(controller, self.core.vehicle)
                            if isinstance(controller, str) else controller)
+        # with an inner loop the env's steps fly the controller's attitude law at its rate
+        AttitudeLoop.install(self.core, self.controller)
         self._last_step: int | None = None
         self._last_state = None
 

@@ -53,13 +53,20 @@ class VehicleParams:
     # F_body = -(drag_linear ⊙ u + drag_quadratic ⊙ |u| ⊙ u); used where a scenario has drag.
     drag_linear: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [N/(m/s)]
     drag_quadratic: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [N/(m/s)²]
-    # First-order lag of each rotor's thrust; used where a scenario turns motor lag on.
+    # First-order lag of each rotor's thrust, or with speed motors of its speed; used where a
+    # scenario turns motor lag on.
     motor_time_constant: float = 0.0  # [s]
     # Rotor thrust per squared rotor speed, T = k_F ω² [N/(rad/s)²]: what rotor-speed
     # telemetry reports (quad_dob_env.sensing).
     thrust_coefficient: float = 1.4916e-5
     # Largest body rate the vehicle measures: the gyroscope's full-scale range.
     max_body_rate: float = math.radians(2000.0)  # [rad/s]
+    # Rotor aerodynamics (quad_dob_env.dynamics.rotors, where a scenario turns them on):
+    # rotor drag D = -k_d ω u_inplane per rotor, thrust T = k_F ω² - k_z ω u_axial, and the
+    # rotor hubs' height above the centre of mass, where the drag acts.
+    rotor_drag_coefficient: float = 0.0  # k_d [N/(rad/s · m/s)]
+    inflow_coefficient: float = 0.0  # k_z [N/(rad/s · m/s)]
+    rotor_height: float = 0.0  # [m]
     _matrices: dict = field(default=None, init=False, repr=False, compare=False, hash=False)
 
     def __post_init__(self) -> None:
@@ -73,9 +80,14 @@ class VehicleParams:
                 raise ValueError(f"VehicleParams.{name} must be three finite numbers >= 0, "
                                  f"got {getattr(self, name)!r}")
             object.__setattr__(self, name, tuple(float(v) for v in values))
-        if not (np.isfinite(self.motor_time_constant) and self.motor_time_constant >= 0):
-            raise ValueError("VehicleParams.motor_time_constant must be a finite number >= 0, "
-                             f"got {self.motor_time_constant!r}")
+        for name in ("motor_time_constant", "rotor_drag_coefficient", "inflow_coefficient"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"VehicleParams.{name} must be a finite number >= 0, "
+                                 f"got {value!r}")
+        if not (isinstance(self.rotor_height, (int, float)) and math.isfinite(self.rotor_height)):
+            raise ValueError(f"VehicleParams.rotor_height must be a finite number, got "
+                             f"{self.rotor_height!r}")
         if self.configuration not in CONFIGURATIONS:
             raise unknown_name_error("rotor configuration", self.configuration, CONFIGURATIONS)
         inertia = np.asarray(self.inertia, dtype=float)
@@ -190,6 +202,29 @@ APC_10X47_THRUST_COEFFICIENT = 0.1155 * 1.225 * 0.254**4 / (2 * math.pi) ** 2
 # Lee, Leok, McClamroch 2010 print c_τf = 8.004e-4 m: 20x less than a 10-inch propeller makes,
 # at most 0.04 N m of yaw on this vehicle. Kept by name to show what it cannot fly.
 LEE_TORQUE_COEFFICIENT = 8.004e-4
+# Rotor drag per rotor speed and in-plane airspeed of PX4's x500 (2 kg, ~11-inch rotors;
+# PX4-gazebo-models models/x500/model.sdf rotorDragCoefficient, after Martin & Salaün, ICRA
+# 2010), the nearest rotor class with a published coefficient; its hubs sit 0.06 m above
+# the centre of mass (x500_base/model.sdf), which the paper vehicle is assumed to share.
+X500_ROTOR_DRAG_COEFFICIENT = 8.06428e-5
+X500_ROTOR_HEIGHT = 0.06
+# The blade-element solidity and lift slope of a two-bladed 10-inch propeller: our estimate
+# (mean chord ~2 cm: σ = 2c/(πR) ≈ 0.1) and thin-aerofoil 2π times 0.91 (Leishman 2006).
+APC_10X47_SOLIDITY, BLADE_LIFT_SLOPE = 0.1, 5.73
+
+
+def heave_damping_coefficient(thrust: float, thrust_coefficient: float, radius: float,
+                              solidity: float, lift_slope: float, density: float = 1.225
+                              ) -> float:
+    """k_z [N/(rad/s · m/s)] of a rotor at ``thrust``: the fall of thrust with axial inflow at
+    fixed speed, ``∂C_T/∂μ_z = -2 a σ λ₀ / (16 λ₀ + a σ)`` (Padfield, Helicopter Flight
+    Dynamics, 2007, §4.2 heave damping), λ₀ = v_h / (ωR), v_h = sqrt(T / (2ρA)); then
+    ``∂T/∂V = ρ A ω R ∂C_T/∂μ_z`` = k_z ω."""
+    area = math.pi * radius * radius
+    speed = math.sqrt(thrust / thrust_coefficient)
+    inflow_ratio = math.sqrt(thrust / (2 * density * area)) / (speed * radius)
+    slope = 2 * lift_slope * solidity * inflow_ratio / (16 * inflow_ratio + lift_slope * solidity)
+    return density * area * radius * slope
 
 VEHICLES: dict[str, VehicleParams] = {
     "paper": VehicleParams(
@@ -198,6 +233,11 @@ VEHICLES: dict[str, VehicleParams] = {
         rotor_radius=0.127, configuration="plus",
         drag_linear=(0.3, 0.3, 0.4), drag_quadratic=(0.06, 0.06, 0.1), motor_time_constant=0.04,
         thrust_coefficient=APC_10X47_THRUST_COEFFICIENT,
+        rotor_drag_coefficient=X500_ROTOR_DRAG_COEFFICIENT,
+        inflow_coefficient=heave_damping_coefficient(
+            4.34 * 9.81 / 4, APC_10X47_THRUST_COEFFICIENT, 0.127, APC_10X47_SOLIDITY,
+            BLADE_LIFT_SLOPE),
+        rotor_height=X500_ROTOR_HEIGHT,
     ),
     "crazyflie": VehicleParams(
         name="crazyflie", mass=0.027, inertia=_diagonal(1.4e-5, 1.4e-5, 2.17e-5),
@@ -207,6 +247,8 @@ VEHICLES: dict[str, VehicleParams] = {
         # at the hover rotor speed Σω = 4 x 1697 rad/s (k_F = 2.3e-8 N/(rad/s)², 27 g)
         drag_linear=(6.96e-3, 6.96e-3, 5.03e-3), drag_quadratic=(0.0, 0.0, 0.0),
         motor_time_constant=0.015, thrust_coefficient=3.16e-10 * (60.0 / (2 * math.pi)) ** 2,
+        # Förster 2015 through rotorpy 3 (crazyflie_params.py): k_d, k_z per rotor
+        rotor_drag_coefficient=10.2506e-7, inflow_coefficient=7.553e-7, rotor_height=0.0,
     ),
 }
 
@@ -228,12 +270,23 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
                        "0.3 N s/m horizontal, 0.4 vertical",
         "drag_quadratic": "our estimate: ½ ρ C_d A with ρ = 1.2 kg/m³, C_d ≈ 1, A ≈ 0.1 m² "
                           "frontal (0.06 N s²/m²), 0.17 m² from above (0.1)",
-        "motor_time_constant": "our estimate for 10-inch brushless motors, 40 ms",
+        "motor_time_constant": "our estimate for 10-inch brushless motors, 40 ms, of the thrust "
+                               "(v1's lag) or of the rotor speed (speed motors): between PX4 "
+                               "x500's 12.5 ms up / 25 ms down and PX4 SIH's SIH_T_TAU 50 ms",
         "thrust_coefficient": "UIUC Propeller Data Site, APC 10x4.7 SF static C_T = 0.1155: "
                               "k_F = C_T ρ D⁴/(2π)² = 1.49e-5 N/(rad/s)² at ρ = 1.225 kg/m³ "
                               "(hover at 845 rad/s, 8,070 RPM)",
         "max_body_rate": "±2000 °/s, the full-scale range of the MPU-6000 / ICM-20602 "
                          "gyroscopes autopilots fly with (InvenSense datasheets)",
+        "rotor_drag_coefficient": "PX4 x500 (2 kg, ~11-inch rotors), PX4-gazebo-models "
+                                  "model.sdf rotorDragCoefficient 8.06428e-5 N/(rad/s · m/s) "
+                                  "(Martin & Salaün 2010's model): 3.3 N on four rotors at "
+                                  "hover in 12 m/s, where drag_linear gave 3.6 N",
+        "inflow_coefficient": "Padfield 2007 §4.2 heave damping, ∂C_T/∂μ_z = -2aσλ₀/(16λ₀ + aσ) "
+                              "at hover (a = 5.73, σ ≈ 0.1 our estimate): 4.0e-4, thrust falls "
+                              "3.2 % per m/s of climb",
+        "rotor_height": "assumed as PX4 x500's hubs, 0.06 m above the centre of mass "
+                        "(x500_base/model.sdf); Lee 2010 gives none",
     },
     "crazyflie": {
         "mass": "Bitcraze Crazyflie 2.x, 27 g",
@@ -254,6 +307,9 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
                                "is for the rotor speed)",
         "max_body_rate": "±2000 °/s, the full-scale range of the Crazyflie 2.x's BMI088 "
                          "gyroscope (Bosch datasheet)",
+        "rotor_drag_coefficient": "Förster 2015 K_xy = 10.2506e-7 kg/rad, rotorpy 3's k_d",
+        "inflow_coefficient": "rotorpy 3's k_z = 7.553e-7 kg/rad (crazyflie_params.py)",
+        "rotor_height": "rotorpy 3: hubs in the centre of mass's plane",
     },
 }
 

@@ -28,6 +28,11 @@ from quad_dob_env.variation import Randomization, SensorNoise
 # 0.1 ms to 0.1 s, at most a million steps per episode (its reference is tabulated), and
 # at most 100 physics substeps per control step.
 MIN_DT, MAX_DT, MAX_STEPS, MAX_SUBSTEPS = 1e-4, 0.1, 1_000_000, 100
+# Benchmark v2's inner loop [Hz]: PX4's attitude loop rate (IMU_INTEG_RATE, 200 Hz by
+# default; its rate loop runs at IMU_GYRO_RATEMAX, 400 Hz), over the 100 Hz position loop
+# of dt = 0.01 s. The highest multiple of 100 Hz at which the full v2 loop keeps a third of
+# v1's throughput with the base at N = 1024 (README, "Speed of the vehicle loop").
+V2_INNER_RATE = 200.0
 # Bytes per row of the tables a scenario's flight builds (measured with tracemalloc, and
 # rounded up): the core's reference table (8 fields x 3 float64) for each member, held
 # twice while a grown table is concatenated; the feasibility check's arrays (448 B a row,
@@ -80,8 +85,21 @@ class Scenario:
     # [s] added to every reading (pose, IMU, rotors alike), resolved on the control grid
     # (the first step at or after it)
     extra_latency: float = 0.0
-    # the rotors' time constant is the vehicle's times this (needs motor_lag)
+    # the rotors' time constant is the vehicle's times this (needs motor_lag or speed_motors)
     motor_time_constant_scale: float = 1.0
+    # Benchmark v2's vehicle loop, one switch per factor (``quad_dob_env.dynamics.rotors``),
+    # each off giving v1's flight bit for bit:
+    # [Hz] the attitude loop's rate, a multiple of the control rate 1/dt: the controllers'
+    # attitude laws (and thrust_rates' rate loop) run at it on the inner-rate estimate, the
+    # physics in one interval per tick; None: one monolithic controller at 1/dt
+    inner_rate: float | None = None
+    # motors on rotor speed (first-order in ω, thrust and yaw torque ∝ ω², with the
+    # vehicle's motor time constant), replacing motor_lag's lag of the thrust
+    speed_motors: bool = False
+    # per-episode thrust coefficient and battery sag within the flight, seeded
+    thrust_uncertainty: bool = False
+    # rotor drag and its moment, thrust with axial inflow; they replace drag_linear
+    rotor_aerodynamics: bool = False
     randomization: Randomization | None = None
     description: str = field(default="", compare=False)
     # A reference that needs more than the actuators give is refused unless this is set.
@@ -131,10 +149,10 @@ class Scenario:
                            as_finite(self.extra_latency, "Scenario.extra_latency", 0.0))
         scale = as_finite(self.motor_time_constant_scale, "Scenario.motor_time_constant_scale",
                           0.0, strictly=True)
-        if scale != 1.0 and not self.motor_lag:
+        if scale != 1.0 and not (self.motor_lag or self.speed_motors):
             raise ValueError(f"Scenario.motor_time_constant_scale = {scale:g} scales the motor "
                              f"lag, but scenario {self.name!r} flies without it: set "
-                             f"motor_lag=True too")
+                             f"motor_lag=True (or speed_motors=True) too")
         object.__setattr__(self, "motor_time_constant_scale", scale)
         dt = as_finite(self.dt, "Scenario.dt", MIN_DT)
         if dt > MAX_DT:
@@ -170,6 +188,7 @@ class Scenario:
         object.__setattr__(self, "duration", duration)
         family = isinstance(self.trajectory, TrajectoryFamily)
         members = self.trajectory.members if family else (self.trajectory,)
+        self._check_rotor_factors()
         self._check_table_memory(len(members))
         # a family is as feasible as its hardest member
         checks = [check_reference(member, self.vehicle, self.actuation,
@@ -183,13 +202,49 @@ class Scenario:
             raise ValueError(refusal(name, self.vehicle, self.actuation, feasibility))
         object.__setattr__(self, "feasibility", feasibility)
 
+    def _check_rotor_factors(self) -> None:
+        for name in ("speed_motors", "thrust_uncertainty", "rotor_aerodynamics"):
+            value = getattr(self, name)
+            if not isinstance(value, (bool, np.bool_)):
+                raise ValueError(f"Scenario.{name} must be True or False, got {value!r}")
+            if value and self.actuation != "rotors":
+                raise ValueError(f"Scenario.{name} models the rotors, but scenario "
+                                 f"{self.name!r} flies actuation={self.actuation!r} (the "
+                                 "paper's wrench, no rotors): use actuation='rotors'")
+        if self.rotor_aerodynamics and not self.drag:
+            raise ValueError(f"Scenario.rotor_aerodynamics acts on the air-relative velocity, "
+                             f"but scenario {self.name!r} flies without drag: set drag=True")
+        if self.inner_rate is not None:
+            rate = as_finite(self.inner_rate, "Scenario.inner_rate", 0.0, strictly=True)
+            ticks = rate * self.dt
+            if abs(ticks - round(ticks)) > 1e-6 or round(ticks) < 1:
+                raise ValueError(
+                    f"Scenario.inner_rate must be a whole multiple of the control rate "
+                    f"1/dt = {1 / self.dt:g} Hz (e.g. {2 / self.dt:g}, {4 / self.dt:g}), got "
+                    f"{self.inner_rate!r}")
+            if round(ticks) * self.substeps > MAX_SUBSTEPS:
+                raise ValueError(f"Scenario.inner_rate {rate:g} Hz with substeps "
+                                 f"{self.substeps} needs {round(ticks) * self.substeps} physics "
+                                 f"intervals a step; at most {MAX_SUBSTEPS}")
+            object.__setattr__(self, "inner_rate", float(rate))
+
+    @property
+    def inner_ticks(self) -> int:
+        """Inner-loop ticks per control step (1 without an inner loop)."""
+        return 1 if self.inner_rate is None else round(self.inner_rate * self.dt)
+
+    @property
+    def integration_intervals(self) -> int:
+        """CF4 steps per control step: ``substeps`` per inner tick."""
+        return self.inner_ticks * self.substeps
+
     def _check_table_memory(self, members: int) -> None:
         """Refuse, before anything is tabulated, tables that would pass the memory budget
         (``quad_dob_env.memory``): the rows run from 0 to the duration plus the start
         spread, at dt."""
         rows = self.table_rows
         size = rows * (members * REFERENCE_ROW_BYTES + FEASIBILITY_ROW_BYTES
-                       + (2 * self.substeps + 1) * DISTURBANCE_SAMPLE_BYTES)
+                       + (2 * self.integration_intervals + 1) * DISTURBANCE_SAMPLE_BYTES)
         check_memory(size, f"scenario {self.name!r}: {members} reference(s) tabulated over "
                      f"{rows:,} rows (duration {self.duration:g} s + reference_start_spread "
                      f"{self.reference_start_spread:g} s, at dt {self.dt:g} s)",

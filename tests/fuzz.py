@@ -42,6 +42,7 @@ import argparse
 import collections
 import contextlib
 import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -181,6 +182,40 @@ def _randomization(d: _Draw) -> Any:
     return chosen
 
 
+def _vehicle_loop_options(d: _Draw, scenario: str, options: dict[str, Any]) -> None:
+    """Benchmark v2's vehicle-loop switches: an inner rate (a multiple of the control rate,
+    now and then not), and the rotor factors, marked invalid where the scenario has no
+    rotors (wrench actuation) or, for the rotor aerodynamics, no drag."""
+    if d.chance(0.08):
+        if d.bad_chance(0.1):
+            d.invalid.append("inner_rate")
+            options["inner_rate"] = d.pick([150.0, -100.0, 0.0, float("nan")])
+        else:
+            dt = options.get("dt", 0.01)
+            options["inner_rate"] = d.pick([1, 2, 4]) / dt if isinstance(dt, float) else 200.0
+    defaults = _actuation_and_drag(scenario)
+    if defaults is None:
+        return  # a bad scenario name: its own refusal comes first
+    rotors = options.get("actuation", defaults[0]) == "rotors"
+    for key in ("speed_motors", "thrust_uncertainty", "rotor_aerodynamics"):
+        if d.chance(0.06):
+            options[key] = True
+            if not rotors:
+                d.invalid.append(key)
+            elif key == "rotor_aerodynamics" and not options.get("drag", defaults[1]):
+                d.invalid.append(key)
+
+
+@functools.cache
+def _actuation_and_drag(scenario: str) -> tuple[str, bool] | None:
+    """A named scenario's default actuation and drag (None: no such scenario)."""
+    try:
+        built = scenario_registry.make_scenario(scenario)
+    except (ValueError, TypeError):
+        return None
+    return built.actuation, built.drag
+
+
 def _scenario_options(d: _Draw, scenario: str) -> dict[str, Any]:
     """Options for ``make_scenario(scenario, ...)``: its builder's and ``Scenario`` fields."""
     builder = BUILDER_OPTIONS.get(scenario, ())
@@ -218,6 +253,7 @@ def _scenario_options(d: _Draw, scenario: str) -> dict[str, Any]:
         options["randomization"] = None if d.chance(0.1) else _randomization(d)
     if d.chance(0.05):
         options["actuation"] = d.name("actuation", ("rotors", "wrench"), ("motors", "Rotors"))
+    _vehicle_loop_options(d, scenario, options)
     if d.chance(0.05):
         options["initial_position_noise"] = d.number("initial_position_noise", 0.0, 0.3,
                                                      extra_bad=(-0.1,))

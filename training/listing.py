@@ -32,7 +32,23 @@ def main() -> int:
         for field, source in sources.items():
             print(f"    {field:<20} {_number(getattr(vehicle, field)):<24} {source}")
     _list_sensing()
+    _list_vehicle_loop()
     return 0
+
+
+def _list_vehicle_loop() -> None:
+    from quad_dob_env.envs.vehicle_loop import SAG_RATE_RANGE, THRUST_SCALE_RANGE
+
+    print("Vehicle loop (Benchmark v2 part 2; scenario options, each off by default = v1):")
+    print("  inner_rate=HZ          controllers' attitude laws (and thrust_rates' rate loop) "
+          "at HZ, a multiple of 1/dt (PX4: attitude 200 Hz, rates 400 Hz)")
+    print("  speed_motors=true      rotor speed first-order with motor_time_constant, "
+          "thrust and yaw torque ∝ ω²")
+    print(f"  thrust_uncertainty=true  k_F x U{THRUST_SCALE_RANGE} per episode (air density "
+          f"0-30 °C, ISA), battery sag (1 - r t)², r ~ U{SAG_RATE_RANGE} /s (LiPo 4.05->3.5 "
+          "V a cell over 10-15 min, PX4 BAT_V_*)")
+    print("  rotor_aerodynamics=true  rotor drag -k_d ω u_inplane at the hubs and its moment, "
+          "thrust - k_z ω u_axial; replaces drag_linear (vehicle fields above)")
 
 
 def _list_sensing() -> None:

@@ -14,6 +14,7 @@ from gymnasium.utils import seeding
 from numpy.typing import NDArray
 
 from quad_dob_baselines.base import Controller
+from quad_dob_composition.attitude_loop import AttitudeLoop
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.memory import check_memory, format_bytes
@@ -164,8 +165,13 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
         return flights
     actuation = actuations[0]
     cores = [QuadrotorBatch(s, 1) for s in scenarios]
-    for core in cores:
+    if len({s.inner_ticks if s.inner_rate is not None else None for s in scenarios}) > 1:
+        raise ValueError("fly() needs scenarios with one inner loop (or none); got "
+                         + ", ".join(f"{s.name} (inner_rate={s.inner_rate})" for s in scenarios))
+    for i, core in enumerate(cores):
         core.reset(np.zeros(1, dtype=np.intp), [seeding.np_random(seed)[0]])
+        # core i is row i of the controller's batch
+        AttitudeLoop.install(core, controller, slice(i, i + 1))
     n = len(cores)
     controller.reset(n, vehicle, dt, actuation=actuation)
     steps = [s.steps for s in scenarios]

@@ -17,7 +17,7 @@ May import ``params``, ``so3``, ``dynamics``, ``linalg``, ``rng``, ``validation`
 ``threads``; nothing above.
 """
 
-from quad_dob_env.disturbances.base import Disturbance, Sum
+from quad_dob_env.disturbances.base import Disturbance, Sum, split_by_randomness
 from quad_dob_env.disturbances.forces import AtanRamp, Constant, Impulse, Sinusoid, Window
 from quad_dob_env.disturbances.ground_effect import GROUND_EFFECT_MODELS, GroundEffect
 from quad_dob_env.disturbances.wind import DRYDEN_INTENSITIES, Dryden, Gust
@@ -35,4 +35,5 @@ __all__ = [
     "Sinusoid",
     "Sum",
     "Window",
+    "split_by_randomness",
 ]

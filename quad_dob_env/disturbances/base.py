@@ -9,6 +9,7 @@ follows from its seed alone.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 
 import numpy as np
@@ -108,3 +109,17 @@ class Sum(Disturbance):
 
     def __repr__(self) -> str:
         return " + ".join(repr(part) for part in self.parts)
+
+
+def split_by_randomness(disturbance: Disturbance | None, n: int, dt: float
+                        ) -> tuple[list[Disturbance], Disturbance | None]:
+    """The parts of ``disturbance`` that depend on time alone (to tabulate once), and its
+    random ones as one disturbance (None if there are none): copies, bound to ``n`` vehicles
+    at ``dt``, because their per-vehicle parameters live in the object."""
+    parts = [] if disturbance is None else (
+        disturbance.parts if isinstance(disturbance, Sum) else [disturbance])
+    random = [copy.deepcopy(p) for p in parts if p.is_random]
+    combined = None if not random else (random[0] if len(random) == 1 else Sum(random))
+    if combined is not None:
+        combined.bind(n, dt)
+    return [p for p in parts if not p.is_random], combined

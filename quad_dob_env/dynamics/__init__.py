@@ -5,6 +5,9 @@
   integrator, compiled per vehicle; the in-ground-effect thrust law it evaluates.
 - ``actuation``: rotor allocation and saturation (``rotors``) or direct wrench limits
   (``wrench``), reporting what was actually applied.
+- ``rotors``: the rotors' own physics, a switch each (Benchmark v2): motors on rotor speed,
+  thrust uncertainty (per-episode k_F, battery sag), rotor drag and its moment, thrust with
+  axial inflow.
 
 May import ``params``, ``so3``, ``validation`` and ``threads``; nothing above.
 """

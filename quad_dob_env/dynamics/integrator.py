@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from quad_dob_env.dynamics.rotors import rotor_speeds_at, rotor_wrench, speeds_of_output
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.so3 import (
     cross_tuple,
@@ -90,12 +91,22 @@ def body_drag(v, rotation, wind, drag_linear, drag_quadratic):
 
 @njit(cache=True, inline="always")
 def _accelerations(x, v, rotation, omega, thrust, moment, force, torque, wind, mass, gravity,
-                   inertia, inertia_inverse, drag_linear, drag_quadratic, law):
-    """Linear acceleration (world) and angular acceleration (body) of one vehicle."""
-    lift = thrust * thrust_multiplier_scalar(x[2], law)
+                   inertia, inertia_inverse, drag_linear, drag_quadratic, law, speeds, rotors,
+                   thrust_scale):
+    """Linear acceleration (world) and angular acceleration (body) of one vehicle; with the
+    rotors' own model on (``rotors[0]``) the rotors' wrench comes from their ``speeds`` and
+    the air (``quad_dob_env.dynamics.rotors``), else it is ``thrust`` and ``moment``."""
     drag = body_drag(v, rotation, wind, drag_linear, drag_quadratic)
-    # m v' = -m g e3 + k f R e3 + R F_drag + d_x  (DESIGN.md, with drag as issue 4 adds it)
-    body_force = mat_vec_tuple(rotation, (drag[0], drag[1], drag[2] + lift))
+    if rotors[0]:
+        rotor_force, moment = rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale,
+                                           rotors)
+        lift = rotor_force[2] * thrust_multiplier_scalar(x[2], law)
+        body_force = mat_vec_tuple(rotation, (drag[0] + rotor_force[0],
+                                              drag[1] + rotor_force[1], drag[2] + lift))
+    else:
+        lift = thrust * thrust_multiplier_scalar(x[2], law)
+        # m v' = -m g e3 + k f R e3 + R F_drag + d_x  (DESIGN.md, with drag as issue 4 adds it)
+        body_force = mat_vec_tuple(rotation, (drag[0], drag[1], drag[2] + lift))
     linear = ((body_force[0] + force[0]) / mass, (body_force[1] + force[1]) / mass,
               (body_force[2] + force[2]) / mass - gravity)
     # J Ω' = -Ω × JΩ + M + d_Ω  (DESIGN.md)
@@ -173,50 +184,67 @@ def actuator_wrench(start, command, factor, to_wrench):
 
 
 @njit(cache=True, inline="always")
-def _stage_inputs(start, command, time_constant, to_wrench, tables, own, row, i, grid, elapsed):
-    """Thrust, moment, force, torque and wind at grid sample ``grid``, ``elapsed`` s in."""
-    f, m = actuator_wrench(start, command, lag_factor(elapsed, time_constant), to_wrench)
-    return (f, m, sample(tables[0], row, own[0], i, grid), sample(tables[1], row, own[1], i, grid),
-            sample(tables[2], row, own[2], i, grid))
+def _stage_inputs(start, command, time_constant, to_wrench, tables, own, row, i, grid, elapsed,
+                  rotors):
+    """Thrust, moment, rotor speeds, force, torque and wind at grid sample ``grid``,
+    ``elapsed`` s in (the rotor speeds are what the rotors' own model reads, when on)."""
+    factor = lag_factor(elapsed, time_constant)
+    if rotors[0]:
+        speeds = speeds_of_output(rotor_speeds_at(start, command, factor), rotors)
+        f, m = 0.0, (0.0, 0.0, 0.0)
+    else:
+        speeds = (0.0, 0.0, 0.0, 0.0)
+        f, m = actuator_wrench(start, command, factor, to_wrench)
+    return (f, m, speeds, sample(tables[0], row, own[0], i, grid),
+            sample(tables[1], row, own[1], i, grid), sample(tables[2], row, own[2], i, grid))
 
 
 @njit(cache=True)
 def advance_vehicle(x, v, R, w, start, command, time_constant, to_wrench, tables, row, own, i,
-                    physics, dt, substeps, law):
+                    physics, dt, substeps, law, rotors, thrust_scale, first_sample):
     """One vehicle over ``dt`` in ``substeps`` CF4 steps; returns the new (x, v, R, Ω).
 
-    Actuators: their output (rotor thrusts, or the wrench itself) moves from ``start`` to
-    ``command`` as ``command + (start - command) e^{-t/τ}`` (exact first-order lag; τ = 0
-    is instantaneous); ``to_wrench`` maps it to (f, M).
+    Actuators: their output (rotor thrusts, the wrench, or with speed motors the rotor
+    speeds) moves from ``start`` to ``command`` as ``command + (start - command) e^{-t/τ}``
+    (exact first-order lag; τ = 0 is instantaneous); ``to_wrench`` maps it to (f, M), or
+    with the rotors' own model on (``rotors``, ``quad_dob_env.dynamics.rotors``) their
+    speeds give the wrench with the air's effect and ``thrust_scale``.
     ``tables`` / ``own``: force, torque and wind velocity on the substep grid
-    ``t0 + k h / 2`` (k = 0 .. 2 substeps), shared rows plus each vehicle's own part.
+    ``t0 + k h / 2``, shared rows plus each vehicle's own part; this interval's samples start
+    at ``first_sample`` (an inner loop flies a control step as several such intervals).
     ``physics``: mass, gravity, inertia, inverse inertia, linear and quadratic drag.
     """
     mass, gravity, inertia, inertia_inverse, drag_linear, drag_quadratic = physics
     h = dt / substeps
     for s in range(substeps):
         t0 = s * h
-        f1, m1, d1, t1, w1 = _stage_inputs(start, command, time_constant, to_wrench, tables,
-                                           own, row, i, 2 * s, t0)
-        f2, m2, d2, t2, w2 = _stage_inputs(start, command, time_constant, to_wrench, tables,
-                                           own, row, i, 2 * s + 1, t0 + 0.5 * h)
-        f4, m4, d4, t4, w4 = _stage_inputs(start, command, time_constant, to_wrench, tables,
-                                           own, row, i, 2 * s + 2, t0 + h)
+        grid = first_sample + 2 * s
+        f1, m1, u1, d1, t1, w1 = _stage_inputs(start, command, time_constant, to_wrench,
+                                               tables, own, row, i, grid, t0, rotors)
+        f2, m2, u2, d2, t2, w2 = _stage_inputs(start, command, time_constant, to_wrench,
+                                               tables, own, row, i, grid + 1, t0 + 0.5 * h,
+                                               rotors)
+        f4, m4, u4, d4, t4, w4 = _stage_inputs(start, command, time_constant, to_wrench,
+                                               tables, own, row, i, grid + 2, t0 + h, rotors)
         a1, al1 = _accelerations(x, v, R, w, f1, m1, d1, t1, w1, mass, gravity, inertia,
-                                 inertia_inverse, drag_linear, drag_quadratic, law)
+                                 inertia_inverse, drag_linear, drag_quadratic, law, u1, rotors,
+                                 thrust_scale)
         x2, v2, om2 = _axpy(h / 2, v, x), _axpy(h / 2, a1, v), _axpy(h / 2, al1, w)
         R2 = mat_mul_tuple(R, exp_tuple((h / 2 * w[0], h / 2 * w[1], h / 2 * w[2])))
         a2, al2 = _accelerations(x2, v2, R2, om2, f2, m2, d2, t2, w2, mass, gravity, inertia,
-                                 inertia_inverse, drag_linear, drag_quadratic, law)
+                                 inertia_inverse, drag_linear, drag_quadratic, law, u2, rotors,
+                                 thrust_scale)
         x3, v3, om3 = _axpy(h / 2, v2, x), _axpy(h / 2, a2, v), _axpy(h / 2, al2, w)
         R3 = mat_mul_tuple(R, exp_tuple((h / 2 * om2[0], h / 2 * om2[1], h / 2 * om2[2])))
         a3, al3 = _accelerations(x3, v3, R3, om3, f2, m2, d2, t2, w2, mass, gravity, inertia,
-                                 inertia_inverse, drag_linear, drag_quadratic, law)
+                                 inertia_inverse, drag_linear, drag_quadratic, law, u2, rotors,
+                                 thrust_scale)
         x4, v4, om4 = _axpy(h, v3, x), _axpy(h, a3, v), _axpy(h, al3, w)
         # CF4 stage 4: Y4 = Y2 exp(h (Ω3 - Ω1 / 2))
         R4 = mat_mul_tuple(R2, exp_tuple(_weighted(h, -0.5, 0.0, 1.0, 0.0, w, om2, om3, w)))
         a4, al4 = _accelerations(x4, v4, R4, om4, f4, m4, d4, t4, w4, mass, gravity, inertia,
-                                 inertia_inverse, drag_linear, drag_quadratic, law)
+                                 inertia_inverse, drag_linear, drag_quadratic, law, u4, rotors,
+                                 thrust_scale)
         # CF4 update: R1 = R0 exp(h(Ω1/4 + Ω2/6 + Ω3/6 - Ω4/12)) exp(h(-Ω1/12 + Ω2/6 + Ω3/6 + Ω4/4))
         first = exp_tuple(_weighted(h, 0.25, 1 / 6, 1 / 6, -1 / 12, w, om2, om3, om4))
         second = exp_tuple(_weighted(h, -1 / 12, 1 / 6, 1 / 6, 0.25, w, om2, om3, om4))
@@ -242,10 +270,13 @@ def vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag):
             (drag[i, 0], drag[i, 1], drag[i, 2]), (drag[i, 3], drag[i, 4], drag[i, 5]))
 
 
-def physics_arrays(params: VehicleParams, n: int, drag: bool = False) -> tuple:
+def physics_arrays(params: VehicleParams, n: int, drag: bool = False,
+                   rotor_drag: bool = False) -> tuple:
     """Per-vehicle (mass, inertia, inverse inertia, drag) arrays of ``params`` for N vehicles;
-    the drag columns are zero unless ``drag``."""
-    coefficients = (np.concatenate([params.drag_linear, params.drag_quadratic]) if drag
+    the drag columns are zero unless ``drag``, the linear ones also with ``rotor_drag`` (the
+    rotors' own drag, ``dynamics.rotors``, replaces them)."""
+    linear = np.zeros(3) if rotor_drag else np.asarray(params.drag_linear, dtype=float)
+    coefficients = (np.concatenate([linear, params.drag_quadratic]) if drag
                     else np.zeros(6))
     return (np.full(n, params.mass), np.broadcast_to(params.inertia_matrix, (n, 3, 3)).copy(),
             np.broadcast_to(params.inertia_inverse, (n, 3, 3)).copy(),

@@ -11,6 +11,10 @@
   ways) and ``screen_actions``, the check every env face runs on its actions.
 - ``kernels``: its compiled per-vehicle step, reset and observation loops (cut across the
   cores by ``quad_dob_env.threads``).
+- ``ticks``: the pieces of a control step an inner loop flies tick by tick (the inner-rate
+  estimate, ``thrust_rates``' rate law, mixer -> battery -> motors -> physics).
+- ``vehicle_loop``: ``VehicleLoop``, Benchmark v2's vehicle loop for a core: the rotors'
+  model, its per-episode thrust draws, the inner loop's ticks.
 - ``quadrotor_env``: ``QuadrotorEnv(gym.Env)``, its N = 1 view, with the tables of spaces,
   reward, start and end in its docstring.
 - ``vector_env``: ``QuadrotorVectorEnv(gymnasium.vector.VectorEnv)``, its N-vehicle view

@@ -13,13 +13,12 @@ integration -> observation, reward, termination.
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.disturbances import Disturbance, Sum
+from quad_dob_env.disturbances import split_by_randomness
 from quad_dob_env.dynamics import (
     NO_GROUND_EFFECT,
     Actuator,
@@ -36,7 +35,13 @@ from quad_dob_env.envs.kernels import (
     start_kernel,
     step_kernel,
 )
-from quad_dob_env.envs.limits import EpisodeLimits, RewardWeights, check_vehicle_memory
+from quad_dob_env.envs.limits import (
+    EpisodeLimits,
+    RewardWeights,
+    check_vehicle_memory,
+    episode_steps,
+)
+from quad_dob_env.envs.vehicle_loop import VehicleLoop
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.memory import check_memory
 from quad_dob_env.scenario import REFERENCE_ROW_BYTES
@@ -78,9 +83,11 @@ class QuadrotorBatch:
         self.thrust_law = (NO_GROUND_EFFECT if scenario.ground_effect is None
                            else scenario.ground_effect.law(self.vehicle, scenario.floor_height))
         self._law = tuple(float(value) for value in self.thrust_law)
-        samples = 2 * scenario.substeps + 1
+        samples = 2 * scenario.integration_intervals + 1
         self._sample_offsets = np.arange(samples) * (scenario.dt / (samples - 1))
-        self._split_disturbance(scenario.disturbance)
+        # tabulate what depends on time alone; keep random parts to evaluate each step
+        self._timed_parts, self.random_disturbance = split_by_randomness(
+            scenario.disturbance, n, scenario.dt)
         trajectory = scenario.trajectory
         self._members = (trajectory.members if isinstance(trajectory, TrajectoryFamily)
                          else (trajectory,))
@@ -91,8 +98,7 @@ class QuadrotorBatch:
         self.step_count = np.zeros(n, dtype=np.int64)
         self._start_steps = scenario.start_spread_steps
         self._tabulate(scenario.table_rows)
-        # an episode is truncated after this many steps: the scenario's, or fewer where a
-        # client asks for a shorter time limit (``set_time_limit``)
+        # an episode is truncated after this many steps (``set_time_limit``)
         self.episode_steps = scenario.steps
         self.state = VehicleState.at_rest(n)
         self._most_steps = 0  # at least step_count.max(), kept without a pass over N
@@ -110,14 +116,15 @@ class QuadrotorBatch:
         self.wind_velocity = np.zeros((n, 3))
         self._own = tuple(np.zeros((n, samples, 3)) for _ in range(3))  # force, torque, wind
         # per-vehicle physics (mass, inertia, inverse, drag), so vehicles can differ
-        self._nominal = physics_arrays(self.vehicle, 1, scenario.drag)
+        self._nominal = physics_arrays(self.vehicle, 1, scenario.drag,
+                                       scenario.rotor_aerodynamics)
         self.mass, self.inertia, self.inertia_inverse, self.drag = physics_arrays(
-            self.vehicle, n, scenario.drag)
+            self.vehicle, n, scenario.drag, scenario.rotor_aerodynamics)
         self.sampled: list[dict[str, float]] = [{} for _ in range(n)]
         self.actuator_state = np.zeros((n, 4))
         self._actuation = self.actuator.kernel_arguments()
         time_constant = (self.vehicle.motor_time_constant * scenario.motor_time_constant_scale
-                         if scenario.motor_lag else 0.0)
+                         if scenario.motor_lag or scenario.speed_motors else 0.0)
         self._actuator = (self.actuator.to_wrench, self.actuator.to_rotors, float(time_constant),
                           self.actuator_state)
         limits_ = self.limits
@@ -134,8 +141,8 @@ class QuadrotorBatch:
             self.vehicle, scenario.dt,
             hover=(self.vehicle.hover_thrust,
                    self.actuator.to_rotors @ self.actuator.hover_output()))
-        # the kernels write the true state's observation here; a policy reads ``obs``, the
-        # same array for the identity, else rebuilt from the measurement
+        # the kernels write the true state's observation here; a policy reads ``obs`` (the
+        # same array for the identity, else rebuilt from the measurement)
         self._true_obs = self.obs if self.sensing.identity else np.zeros_like(self.obs)
         self._all = np.arange(n)
         # what a reset writes, looked up once: a reset of a few vehicles is mostly fixed cost
@@ -143,19 +150,11 @@ class QuadrotorBatch:
             scenario.initial_position, scenario.initial_velocity,
             scenario.initial_angular_velocity))
         self._initial_rotation = scenario.initial_rotation_matrix()
-        self._hover_output = self.actuator.hover_output()
-
-    def _split_disturbance(self, disturbance: Disturbance | None) -> None:
-        """Tabulate what depends on time alone; keep random parts to evaluate each step."""
-        parts = [] if disturbance is None else (
-            disturbance.parts if isinstance(disturbance, Sum) else [disturbance])
-        # each core owns its random models, whose per-vehicle parameters live in the object
-        random = [copy.deepcopy(p) for p in parts if p.is_random]
-        self._timed_parts = [p for p in parts if not p.is_random]
-        self.random_disturbance = None if not random else (
-            random[0] if len(random) == 1 else Sum(random))
-        if self.random_disturbance is not None:
-            self.random_disturbance.bind(self.n, self.scenario.dt)
+        m = self.sensing.measurement
+        self.loop = VehicleLoop(scenario, self.actuator, n, action_mode,
+                                (not self.sensing.identity, m.rotation, m.angular_velocity))
+        self._hover_output = self.loop.hover_output(self.actuator.hover_output())
+        self.attitude_loop = None  # flies a controller's attitude law at the inner rate
 
     def _tabulate(self, rows: int) -> None:
         """Reference and time-only disturbances on the grid ``t = step * dt``, ``rows`` steps;
@@ -237,7 +236,10 @@ class QuadrotorBatch:
             if randomization is not None:
                 r = randomization
                 scales[j] = [rng.uniform(*r.mass), rng.uniform(*r.inertia), rng.uniform(*r.drag)]
-            self.sensing.start(int(indices[j]), rng)
+            streams = (rng.spawn(2) if not self.sensing.identity or self.loop.needs_streams
+                       else None)
+            self.sensing.start(int(indices[j]), None if streams is None else streams[0])
+            self.loop.start(int(indices[j]), streams)
         offsets = np.zeros((count, 6))  # position, velocity
         offsets[:, :3] = draws[:, :3] * sc.initial_position_noise
         rows = members * self._member_rows + starts
@@ -261,6 +263,7 @@ class QuadrotorBatch:
                     "mass": float(self.mass[index]), "inertia_scale": float(scales[j, 1]),
                     "drag_scale": float(scales[j, 2])}),
                 **({} if random is None else random.sampled_parameters(index)),
+                **self.loop.sampled(index),
             }
         self._reference_now = None
         self._measure(indices, reset=True)
@@ -274,9 +277,12 @@ class QuadrotorBatch:
         true ``disturbance_force`` / ``disturbance_torque``.
         """
         self.prepare_step()
-        self._actions[...] = self.action_map.flown(actions, self.state.angular_velocity,
-                                                   self.inertia)
-        run_over_batch(step_kernel, self.n, self._actions, *self._kernel_arguments()[0])
+        self._actions[...] = (actions if self.loop.rates else self.action_map.flown(
+            actions, self.measurement.angular_velocity, self.inertia))  # the gyro's, not truth
+        if self.attitude_loop is not None:  # a controller's attitude law at the inner rate
+            self.attitude_loop.fly(self._actions)
+        else:
+            run_over_batch(step_kernel, self.n, self._actions, *self._kernel_arguments()[0])
         self.finish_step()
 
     def prepare_step(self) -> None:
@@ -324,7 +330,9 @@ class QuadrotorBatch:
         s, sc, applied = self.state, self.scenario, self.applied
         return StepArguments(
             action_map=self.action_map.forward, actuation=self._actuation,
-            actuator=self._actuator, position=s.position, velocity=s.velocity,
+            actuator=self._actuator, rotors=self.loop.model.kernel_arguments(),
+            rotor_state=self.loop.rotor_state(), inner=self.loop.inner,
+            position=s.position, velocity=s.velocity,
             rotation=s.rotation, angular_velocity=s.angular_velocity,
             step_count=self.step_count, reference_row=self.reference_row, tables=self._tables,
             own=self._own, reference=self._reference_table,
@@ -374,14 +382,7 @@ class QuadrotorBatch:
     def set_time_limit(self, max_episode_steps: int | None) -> None:
         """Truncate episodes after ``max_episode_steps`` steps (``make_vec(...,
         max_episode_steps=N)``) or at the scenario's end if sooner; None: the scenario's."""
-        steps = self.scenario.steps
-        if max_episode_steps is not None:
-            if (not isinstance(max_episode_steps, (int, np.integer))
-                    or isinstance(max_episode_steps, bool) or max_episode_steps < 1):
-                raise ValueError(f"max_episode_steps must be an integer >= 1 or None, got "
-                                 f"{max_episode_steps!r}")
-            steps = min(steps, int(max_episode_steps))
-        self.episode_steps = steps
+        self.episode_steps = episode_steps(self.scenario.steps, max_episode_steps)
 
     @property
     def terminated(self) -> NDArray[np.bool_]:

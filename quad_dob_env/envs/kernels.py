@@ -11,18 +11,23 @@ from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_env.dynamics import (
-    actuate_vehicle,
     actuator_wrench,
-    advance_vehicle,
     all_finite,
     body_drag,
-    lag_factor,
     load_vehicle,
     sample,
     store_applied,
     store_vehicle,
     thrust_multiplier_scalar,
     vehicle_physics,
+)
+from quad_dob_env.dynamics.rotors import nominal_wrench, rotor_wrench, speeds_of_output
+from quad_dob_env.envs.ticks import (
+    battery_scale_at,
+    fly_tick,
+    inner_estimate,
+    rate_law,
+    tick_factors,
 )
 from quad_dob_env.so3 import mat_vec_tuple
 
@@ -149,6 +154,9 @@ class StepArguments(NamedTuple):
     action_map: tuple  # ``ActionMap.forward``
     actuation: tuple  # ``Actuator.kernel_arguments()``
     actuator: tuple  # to_wrench, to_rotors, time constant, actuator state (N, 4)
+    rotors: tuple  # ``RotorModel.kernel_arguments()``
+    rotor_state: tuple  # per vehicle: thrust scale (N,), battery sag rate (N,) [1/s]
+    inner: tuple  # ``InnerLoop``: ticks per step, rate law, its gains, the estimate
     position: NDArray  # the state, updated in place
     velocity: NDArray
     rotation: NDArray
@@ -160,7 +168,7 @@ class StepArguments(NamedTuple):
     reference: NDArray  # the reference table (members x rows, 8, 3)
     physics: tuple  # mass, g, inertia, inverse inertia, drag (per vehicle)
     dt: float
-    substeps: int
+    substeps: int  # CF4 steps per inner tick (per control step without an inner loop)
     law: tuple  # the ground-effect ``ThrustLaw``
     limits: tuple  # the episode limits
     reward_weights: tuple  # position scale, effort weight
@@ -203,84 +211,121 @@ class StartArguments(NamedTuple):
     code: NDArray
 
 
-@njit(cache=True, nogil=True)
-def step_kernel(start, stop, actions, action_map, actuation, actuator, position, velocity,
-                rotation, angular_velocity, step_count, reference_row, tables, own, reference,
-                physics, dt,
-                substeps, law, limits, reward_weights, rotation_mode, obs, reward, code,
-                applied_thrust, applied_moment, rotor_thrusts, saturated, disturbance_force,
-                disturbance_torque, wind_velocity):
-    """One control step of vehicles ``start..stop-1``: action -> command -> actuators ->
-    integration -> observation, reward, termination and the true disturbance
-    (``quad_dob_env.threads`` splits the batch across cores). Called as
-    ``step_kernel(start, stop, actions, *StepArguments(...))``: the record is built by
-    keyword and its fields are these parameters, in this order (a test holds them equal),
-    so nothing is placed by position. A record passed whole would cost numba's slow typing
-    path, ~3 µs a call (20 % of a single env's step)."""
-    rotor_mode, centre, scale_up, scale_down, allocation = action_map
-    to_wrench, to_rotors, time_constant, actuator_state = actuator
-    mass, gravity, inertia, inertia_inverse, drag = physics
+@njit(cache=True)
+def finish_vehicle_step(i, x, v, R, w, diverged, end, actions, actuator, rotors, rotor_state,
+                        position, velocity, rotation, angular_velocity, step_count,
+                        reference_row, tables, own, reference, vehicle, law, limits,
+                        reward_weights, rotation_mode, obs, reward, code, disturbance_force,
+                        disturbance_torque, wind_velocity):
+    """After vehicle i's step: its state stored (unless it diverged), the clock, the
+    observation, termination and reward, and the true disturbance now (external force and
+    torque, the ground effect's extra lift, the aerodynamic drag, and with the rotors' own
+    model what it makes beyond the nominal one)."""
+    to_wrench = actuator[0]
     force_table, torque_table, wind_table = tables
     force_own, torque_own, wind_own = own
     position_scale, effort_weight = reward_weights
     last = force_table.shape[1] - 1
-    # share of the old actuator output in the step's mean, and left at its end
-    if time_constant > 0.0:
-        mean_factor = time_constant / dt * (1.0 - np.exp(-dt / time_constant))
+    row = step_count[i]
+    if not diverged:
+        store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
+    step_count[i] = row + 1
+    reference_row[i] += 1  # time indexes the disturbance tables, this the reference's
+    code[i], error = _sense(i, x, v, R, w, reference, reference_row[i], rotation_mode, limits,
+                            obs)
+    if diverged:
+        code[i] = 4
+    effort = 0.0
+    for k in range(4):
+        effort += min(actions[i, k] * actions[i, k], 1.0)
+    reward[i] = np.exp(-error / position_scale) - effort_weight * effort / 4.0
+    wind = sample(wind_table, row, wind_own, i, last)
+    drag_body = body_drag(v, R, wind, vehicle[4], vehicle[5])
+    multiplier = thrust_multiplier_scalar(x[2], law)
+    if rotors[0]:
+        speeds = speeds_of_output(end, rotors)
+        true_force, true_moment = rotor_wrench(speeds, v, R, w, wind, rotor_state[0][i], rotors)
+        nominal_thrust, nominal_moment, _ = nominal_wrench(speeds, rotors, to_wrench)
+        extra = (drag_body[0] + true_force[0], drag_body[1] + true_force[1],
+                 drag_body[2] + true_force[2] * multiplier - nominal_thrust)
+        moment_error = (true_moment[0] - nominal_moment[0], true_moment[1] - nominal_moment[1],
+                        true_moment[2] - nominal_moment[2])
     else:
-        mean_factor = 0.0
-    end_factor = lag_factor(dt, time_constant)
+        thrust_now = actuator_wrench(end, end, 0.0, to_wrench)[0]
+        extra = (drag_body[0], drag_body[1], drag_body[2] + (multiplier - 1.0) * thrust_now)
+        moment_error = (0.0, 0.0, 0.0)
+    drag_world = mat_vec_tuple(R, extra)
+    external = sample(force_table, row, force_own, i, last)
+    torque = sample(torque_table, row, torque_own, i, last)
+    for k in range(3):
+        disturbance_force[i, k] = external[k] + drag_world[k]
+        disturbance_torque[i, k] = torque[k] + moment_error[k]
+        wind_velocity[i, k] = wind[k]
+
+
+@njit(cache=True, nogil=True)
+def step_kernel(start, stop, actions, action_map, actuation, actuator, rotors, rotor_state,
+                inner, position, velocity, rotation, angular_velocity, step_count,
+                reference_row, tables, own, reference, physics, dt, substeps, law, limits,
+                reward_weights, rotation_mode, obs, reward, code, applied_thrust,
+                applied_moment, rotor_thrusts, saturated, disturbance_force,
+                disturbance_torque, wind_velocity):
+    """One control step of vehicles ``start..stop-1``: action -> command -> (inner loop
+    ticks: mixer -> motors -> integration) -> observation, reward, termination and the true
+    disturbance (``quad_dob_env.threads`` splits the batch across cores). Called as
+    ``step_kernel(start, stop, actions, *StepArguments(...))``: the record is built by
+    keyword and its fields are these parameters, in this order (a test holds them equal),
+    so nothing is placed by position. A record passed whole would cost numba's slow typing
+    path, ~3 µs a call (20 % of a single env's step).
+
+    With an inner loop (``inner[0]`` ticks per step) the ``thrust_rates`` rate law runs at
+    every tick on the inner estimate; other actions are held over the step."""
+    rotor_mode, centre, scale_up, scale_down, allocation = action_map
+    to_wrench, to_rotors, time_constant, actuator_state = actuator
+    mass, gravity, inertia, inertia_inverse, drag = physics
+    ticks, rates = inner[0], inner[1]
+    tick_dt = dt / ticks
+    mean_factor, end_factor = tick_factors(time_constant, tick_dt)
     for i in range(start, stop):
         f_cmd, m_cmd = _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation)
-        command, saturated[i] = actuate_vehicle(f_cmd, m_cmd, *actuation)
-        start = (actuator_state[i, 0], actuator_state[i, 1], actuator_state[i, 2],
+        begin = (actuator_state[i, 0], actuator_state[i, 1], actuator_state[i, 2],
                  actuator_state[i, 3])
-        mean = _blend(start, command, mean_factor)
-        store_applied(i, mean, to_wrench, to_rotors, applied_thrust, applied_moment,
-                      rotor_thrusts)
-        end = _blend(start, command, end_factor)
-        for k in range(4):
-            actuator_state[i, k] = end[k]
         row = step_count[i]
         vehicle = vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag)
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        xn, vn, Rn, wn = advance_vehicle(x, v, R, w, start, command, time_constant, to_wrench,
-                                         tables, row, own, i, vehicle, dt, substeps, law)
-        diverged = not all_finite(xn, vn, Rn, wn)
-        if not diverged:
+        battery = battery_scale_at(i, row, dt, rotors, rotor_state)
+        r0, w0 = R, w
+        total = (0.0, 0.0, 0.0, 0.0)
+        any_saturated, diverged, end = False, False, begin
+        for tick in range(ticks):
+            f_t, m_t = f_cmd, m_cmd
+            if rates:
+                seen_rotation, seen_rate = inner_estimate(i, R, w, inner, r0, w0)
+                f_t, m_t = rate_law(actions, i, f_cmd, seen_rotation, seen_rate, vehicle[2],
+                                    inner)
+            xn, vn, Rn, wn, next_end, mean, hit, _ = fly_tick(
+                i, x, v, R, w, end, f_t, m_t, actuation, actuator, rotors, rotor_state,
+                battery, tables, own, row, vehicle, tick_dt, substeps, law,
+                2 * substeps * tick, mean_factor, end_factor)
+            end = next_end
+            total = (total[0] + mean[0], total[1] + mean[1], total[2] + mean[2],
+                     total[3] + mean[3])
+            any_saturated = any_saturated or hit
+            if not all_finite(xn, vn, Rn, wn):
+                diverged = True
+                break
             x, v, R, w = xn, vn, Rn, wn
-            store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
-        step_count[i] = row + 1
-        reference_row[i] += 1  # time indexes the disturbance tables, this the reference's
-        code[i], error = _sense(i, x, v, R, w, reference, reference_row[i], rotation_mode,
-                                limits, obs)
-        if diverged:
-            code[i] = 4
-        effort = 0.0
+        mean = (total[0] / ticks, total[1] / ticks, total[2] / ticks, total[3] / ticks)
+        saturated[i] = any_saturated
+        store_applied(i, mean, to_wrench, to_rotors, applied_thrust, applied_moment,
+                      rotor_thrusts)
         for k in range(4):
-            effort += min(actions[i, k] * actions[i, k], 1.0)
-        reward[i] = np.exp(-error / position_scale) - effort_weight * effort / 4.0
-        # the true disturbance now: external force and torque, the ground effect's extra
-        # lift and the aerodynamic drag
-        thrust_now = actuator_wrench(end, end, 0.0, to_wrench)[0]
-        extra_lift = (thrust_multiplier_scalar(x[2], law) - 1.0) * thrust_now
-        wind = sample(wind_table, row, wind_own, i, last)
-        drag_body = body_drag(v, R, wind, vehicle[4], vehicle[5])
-        drag_world = mat_vec_tuple(R, (drag_body[0], drag_body[1], drag_body[2] + extra_lift))
-        external = sample(force_table, row, force_own, i, last)
-        torque = sample(torque_table, row, torque_own, i, last)
-        for k in range(3):
-            disturbance_force[i, k] = external[k] + drag_world[k]
-            disturbance_torque[i, k] = torque[k]
-            wind_velocity[i, k] = wind[k]
-
-
-@njit(cache=True, inline="always")
-def _blend(start, command, factor):
-    return (command[0] + (start[0] - command[0]) * factor,
-            command[1] + (start[1] - command[1]) * factor,
-            command[2] + (start[2] - command[2]) * factor,
-            command[3] + (start[3] - command[3]) * factor)
+            actuator_state[i, k] = end[k]
+        finish_vehicle_step(i, x, v, R, w, diverged, end, actions, actuator, rotors,
+                            rotor_state, position, velocity, rotation, angular_velocity,
+                            step_count, reference_row, tables, own, reference, vehicle, law,
+                            limits, reward_weights, rotation_mode, obs, reward, code,
+                            disturbance_force, disturbance_torque, wind_velocity)
 
 
 @njit(cache=True)

@@ -77,3 +77,15 @@ class SpecWithEpisodeLength:
         if spec is not None and spec.max_episode_steps is None:
             spec = dataclasses.replace(spec, max_episode_steps=int(self.core.episode_steps))
         self._spec = spec
+
+
+def episode_steps(scenario_steps: int, max_episode_steps: int | None) -> int:
+    """Steps after which an episode is truncated: the scenario's, or ``max_episode_steps``
+    (``make_vec(..., max_episode_steps=N)``) if sooner."""
+    if max_episode_steps is None:
+        return scenario_steps
+    if (not isinstance(max_episode_steps, (int, np.integer))
+            or isinstance(max_episode_steps, bool) or max_episode_steps < 1):
+        raise ValueError(f"max_episode_steps must be an integer >= 1 or None, got "
+                         f"{max_episode_steps!r}")
+    return min(scenario_steps, int(max_episode_steps))

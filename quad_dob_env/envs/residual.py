@@ -112,7 +112,8 @@ class ResidualCommand:
                  residual_effort_weight: float = 0.01,
                  fused_pass: Callable[[ResidualCommand], Any] | None = None,
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
-                 acceleration_scale: float = 3.0, vertical_floor: float = 0.5) -> None:
+                 acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
+                 attitude_loop: Callable[[QuadrotorBatch, Any], Any] | None = None) -> None:
         if core.action_map.rate_loop is not None:
             raise ValueError("a residual adds to its base's thrust and moments: "
                              "action_mode='thrust_rates' is for direct control only")
@@ -155,9 +156,13 @@ class ResidualCommand:
         self._residual = np.zeros((n, 4))
         self._started = False
         by_acceleration = residual_mode == "acceleration"
-        # the compiled pass reads the true state: for the identity sensing only
+        # the compiled pass reads the true state (for the identity sensing only) and flies the
+        # monolithic controller
         self._fused = (None if fused_pass is None or by_acceleration
-                       or not core.sensing.identity else fused_pass(self))
+                       or not core.sensing.identity or core.loop.active else fused_pass(self))
+        # with an inner loop, the base's attitude law runs at its rate (installed by
+        # ``quad_dob_composition``, ``AttitudeLoop.install``), the residual added each tick
+        self._attitude = None if attitude_loop is None else attitude_loop(core, self.controller)
 
     def restart(self, indices: NDArray[np.intp]) -> None:
         """After ``core.reset(indices)``: restart those vehicles' controller state (all of
@@ -224,6 +229,8 @@ class ResidualCommand:
                                 self.residual_range, np.ascontiguousarray(self.base_thrust),
                                 np.ascontiguousarray(self.base_moment), core.action_map.inverse,
                                 self._residual, self.requested_thrust, actions)
+        if self._attitude is not None:  # what the inner loop adds to its law at every tick
+            self._attitude.addition[...] = self._residual * self.residual_range
         if self.residual_mode == "acceleration":
             self._residual = clipped  # the effort term scores the whole residual
         return actions

@@ -61,8 +61,9 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     ``acceleration_scale`` m/s² in the base's force law (``vertical_floor``: how low it may
     take the force's vertical part) and a yaw moment (``quad_dob_env.envs.residual``: the
     command, the 16 extra observation entries, the reward); ``fused_pass`` runs
-    thrust-and-moment residuals in one compiled pass per step. ``info`` then adds
-    ``base_thrust``, ``base_moment``, ``force_estimate`` and ``torque_estimate``.
+    thrust-and-moment residuals in one compiled pass per step, ``attitude_loop`` the base's
+    attitude law at a scenario's inner rate (``quad_dob_composition`` passes both). ``info``
+    then adds ``base_thrust``, ``base_moment``, ``force_estimate`` and ``torque_estimate``.
     ``reward_effort_weight`` defaults to 0.01 without a base and to 0 with one (the
     residual's own effort is ``residual_effort_weight``).
     """
@@ -82,7 +83,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
                  max_episode_steps: int | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
-                 acceleration_scale: float = 3.0, vertical_floor: float = 0.5) -> None:
+                 acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
+                 attitude_loop: Any = None) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -110,7 +112,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
                              + ", ".join(mode.value for mode in modes))
         self.residual = None if base_controller is None else ResidualCommand(
             self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
-            fused_pass, authority_gate, residual_mode, acceleration_scale, vertical_floor)
+            fused_pass, authority_gate, residual_mode, acceleration_scale, vertical_floor,
+            attitude_loop)
         # None without a base; with one, its name and gains (also in the reset info)
         self.base_controller = (None if self.residual is None
                                 else self.residual.controller.describe())

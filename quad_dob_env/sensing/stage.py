@@ -122,13 +122,13 @@ class SensingStage:
                 "position", "velocity", "rotation", "angular_velocity")))
             self.measurement.rotation[:] = np.eye(3)
 
-    def start(self, index: int, rng: np.random.Generator) -> None:
-        """A new episode's sensor keys for vehicle ``index``, from a stream spawned off its
-        generator: spawning draws nothing from it, so the wind, gusts, starts and
-        randomisation it gives are the same with any sensing."""
+    def start(self, index: int, stream: np.random.Generator | None) -> None:
+        """A new episode's sensor keys for vehicle ``index``, from ``stream``, the first
+        child spawned off its generator (None: the identity needs none): spawning draws
+        nothing from it, so the wind, gusts, starts and randomisation it gives are the same
+        with any sensing."""
         if self.identity:
             return
-        stream = rng.spawn(1)[0]
         self.keys[index] = stream.integers(1, 2**63, size=KEYS, dtype=np.uint64)
 
     def measure(self, indices: NDArray[np.intp], step_count: NDArray[np.int64],

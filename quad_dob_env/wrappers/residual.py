@@ -23,13 +23,16 @@ class ResidualActionWrapper(gym.Wrapper):
 
     ``info`` also holds ``base_thrust``, ``base_moment`` (the base command for the coming
     step), ``force_estimate`` and ``torque_estimate`` (the observer's, zero without one).
+    ``attitude_loop``: what runs the base's attitude law where the scenario has an inner
+    loop (``quad_dob_composition`` passes ``AttitudeLoop.install``).
     """
 
     def __init__(self, env: gym.Env, base_controller: Any,
                  thrust_scale: float = 0.1, moment_scale: float = 0.1,
                  residual_effort_weight: float = 0.01,
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
-                 acceleration_scale: float = 3.0, vertical_floor: float = 0.5) -> None:
+                 acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
+                 attitude_loop: Any = None) -> None:
         super().__init__(env)
         core = getattr(env.unwrapped, "core", None)
         if core is None or core.n != 1:
@@ -40,7 +43,8 @@ class ResidualActionWrapper(gym.Wrapper):
                                         authority_gate=authority_gate,
                                         residual_mode=residual_mode,
                                         acceleration_scale=acceleration_scale,
-                                        vertical_floor=vertical_floor)
+                                        vertical_floor=vertical_floor,
+                                        attitude_loop=attitude_loop)
         env.unwrapped.base_controller = self.residual.controller.describe()
         self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.observation_space = gym.spaces.Box(

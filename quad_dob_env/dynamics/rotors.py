@@ -1,0 +1,179 @@
+"""The rotors' own physics (Benchmark v2): motors on rotor speed, thrust uncertainty and
+rotor aerodynamics, compiled per vehicle for the integrator.
+
+Each factor is a switch (``RotorModel``); with all of them off the integrator keeps v1's
+actuator (rotor thrusts or the wrench, lagged directly) and nothing here runs.
+
+- **Motors on rotor speed** (``speed_motors``): each rotor's speed follows its command
+  ``ω_c = sqrt(T_c / k_F)`` as ``ω̇ = (ω_c - ω) / τ`` (exact over a step:
+  ``ω(t) = ω_c + (ω₀ - ω_c) e^{-t/τ}``); thrust ``T = k_F ω²`` and yaw torque
+  ``Q = c_τ k_F ω²`` (c_τ the vehicle's torque per thrust), so both go as ω². Speeds lie in
+  ``[0, sqrt(max_rotor_thrust / k_F)]`` because the mixer clips the thrusts it asks for.
+- **Thrust uncertainty** (``thrust_uncertainty``): the true ``k_F`` (and with it the yaw
+  torque) is the nominal times a per-episode ``thrust_scale`` (air density), and the
+  battery's sag scales every command's thrust by ``(1 - sag_rate t)²`` (open-loop ESCs:
+  speed per command goes with the pack voltage, thrust with its square).
+- **Rotor aerodynamics** (``aerodynamics``), per rotor at its hub's air-relative velocity
+  ``u = Rᵀ(v - w) + Ω × p`` (body frame): rotor drag ("H-force", blade flapping and induced
+  drag) ``D = -k_d ω (u_x, u_y, 0)``, acting at the hub, so it makes a moment ``p × D``
+  about the centre of mass, and the change of thrust with axial inflow
+  ``T = k_F ω² - k_z ω u_z`` (blade-element momentum theory linearised about hover). These
+  replace the linear body drag (``drag_linear``), which stood for the rotors' induced drag.
+
+What the controllers are told was applied (``AppliedCommand``) is what the nominal model
+gives for the rotors' speeds, ``k_F ω²`` through the allocation matrix: an autopilot's best
+knowledge from its ESC telemetry. The rest, the true wrench minus that, is part of the true
+disturbance the env reports (``disturbance_force``/``disturbance_torque``), as the ground
+effect's extra lift is.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from quad_dob_env.params import VehicleParams
+
+
+class RotorModel(NamedTuple):
+    """Which of the rotors' factors a flight has, and their coefficients."""
+
+    speed_motors: bool = False
+    thrust_uncertainty: bool = False
+    aerodynamics: bool = False
+    thrust_coefficient: float = 1.0  # nominal k_F [N/(rad/s)²]
+    drag_coefficient: float = 0.0  # k_d [N/(rad/s · m/s)]
+    inflow_coefficient: float = 0.0  # k_z [N/(rad/s · m/s)]
+    positions: NDArray = np.zeros((4, 3))  # hubs in the body frame [m]
+    spin: NDArray = np.zeros(4)  # the allocation's yaw signs times c_τ [m]
+
+    @property
+    def active(self) -> bool:
+        return self.speed_motors or self.thrust_uncertainty or self.aerodynamics
+
+    @classmethod
+    def of(cls, vehicle: VehicleParams, speed_motors: bool, thrust_uncertainty: bool,
+           aerodynamics: bool) -> RotorModel:
+        allocation = vehicle.allocation_matrix
+        # the allocation's moment rows: Mx = py T, My = -px T, Mz = spin c_τ T
+        positions = np.stack([-allocation[2], allocation[1],
+                              np.full(4, vehicle.rotor_height)], axis=1)
+        return cls(bool(speed_motors), bool(thrust_uncertainty), bool(aerodynamics),
+                   float(vehicle.thrust_coefficient), float(vehicle.rotor_drag_coefficient),
+                   float(vehicle.inflow_coefficient), np.ascontiguousarray(positions),
+                   np.ascontiguousarray(allocation[3]))
+
+    def kernel_arguments(self) -> tuple:
+        return (self.active, self.speed_motors, self.aerodynamics, self.thrust_coefficient,
+                self.drag_coefficient, self.inflow_coefficient, self.positions, self.spin)
+
+
+@njit(cache=True, inline="always")
+def rotor_speeds_at(start, command, factor):
+    """The four outputs ``command + (start - command) factor``."""
+    return (command[0] + (start[0] - command[0]) * factor,
+            command[1] + (start[1] - command[1]) * factor,
+            command[2] + (start[2] - command[2]) * factor,
+            command[3] + (start[3] - command[3]) * factor)
+
+
+@njit(cache=True, inline="always")
+def speed_of_thrust(thrust, thrust_coefficient):
+    """``ω = sqrt(T / k_F)`` [rad/s], T clipped at 0."""
+    return math.sqrt(max(thrust, 0.0) / thrust_coefficient)
+
+
+@njit(cache=True, inline="always")
+def speeds_of_output(output, rotors):
+    """The rotor speeds an actuator output stands for: the output itself on speed motors,
+    else the speeds of its rotor thrusts."""
+    if rotors[1]:
+        return output
+    k = rotors[3]
+    return (speed_of_thrust(output[0], k), speed_of_thrust(output[1], k),
+            speed_of_thrust(output[2], k), speed_of_thrust(output[3], k))
+
+
+@njit(cache=True, inline="always")
+def motor_target(thrusts, command_scale, rotors):
+    """What the motors move to for the mixer's rotor ``thrusts``, the battery's
+    ``command_scale`` applied: speeds on speed motors, else thrusts."""
+    if rotors[1]:
+        k = rotors[3] / command_scale  # ω_c = sqrt(s T / k_F)
+        return (speed_of_thrust(thrusts[0], k), speed_of_thrust(thrusts[1], k),
+                speed_of_thrust(thrusts[2], k), speed_of_thrust(thrusts[3], k))
+    return (thrusts[0] * command_scale, thrusts[1] * command_scale,
+            thrusts[2] * command_scale, thrusts[3] * command_scale)
+
+
+@njit(cache=True)
+def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
+    """The rotors' true force (body frame) and moment about the centre of mass at rotor
+    ``speeds``, for a vehicle at velocity ``v``, attitude ``rotation`` (row-major 9-tuple),
+    body rates ``omega`` in air moving at ``wind``. Returns ((Fx, Fy, Fz), (Mx, My, Mz))."""
+    _, _, aerodynamics, k_f, k_d, k_z, positions, spin = rotors
+    r = rotation
+    a = (v[0] - wind[0], v[1] - wind[1], v[2] - wind[2])
+    body = (r[0] * a[0] + r[3] * a[1] + r[6] * a[2], r[1] * a[0] + r[4] * a[1] + r[7] * a[2],
+            r[2] * a[0] + r[5] * a[1] + r[8] * a[2])
+    fx = fy = fz = mx = my = mz = 0.0
+    for k in range(4):
+        px, py, pz = positions[k, 0], positions[k, 1], positions[k, 2]
+        w = speeds[k]
+        thrust = thrust_scale * k_f * w * w
+        dx = dy = 0.0
+        if aerodynamics:
+            # the hub's air-relative velocity u = Rᵀ(v - w) + Ω × p
+            ux = body[0] + omega[1] * pz - omega[2] * py
+            uy = body[1] + omega[2] * px - omega[0] * pz
+            uz = body[2] + omega[0] * py - omega[1] * px
+            thrust = max(thrust - k_z * w * uz, 0.0)  # T = k_F ω² - k_z ω u_z
+            dx, dy = -k_d * w * ux, -k_d * w * uy  # D = -k_d ω (u_x, u_y, 0)
+        fx += dx
+        fy += dy
+        fz += thrust
+        # p × (Dx, Dy, T), and the rotor's drag torque spin c_τ T about its axis
+        mx += py * thrust - pz * dy
+        my += pz * dx - px * thrust
+        mz += px * dy - py * dx + spin[k] * thrust
+    return (fx, fy, fz), (mx, my, mz)
+
+
+@njit(cache=True, inline="always")
+def nominal_wrench(speeds, rotors, allocation):
+    """What the nominal model gives for rotor ``speeds``: k_F ω² through the allocation,
+    as f, (Mx, My, Mz) and the four thrusts."""
+    k = rotors[3]
+    t = (k * speeds[0] * speeds[0], k * speeds[1] * speeds[1], k * speeds[2] * speeds[2],
+         k * speeds[3] * speeds[3])
+    a = allocation
+    return (a[0, 0] * t[0] + a[0, 1] * t[1] + a[0, 2] * t[2] + a[0, 3] * t[3],
+            (a[1, 0] * t[0] + a[1, 1] * t[1] + a[1, 2] * t[2] + a[1, 3] * t[3],
+             a[2, 0] * t[0] + a[2, 1] * t[1] + a[2, 2] * t[2] + a[2, 3] * t[3],
+             a[3, 0] * t[0] + a[3, 1] * t[1] + a[3, 2] * t[2] + a[3, 3] * t[3]), t)
+
+
+@njit(cache=True, inline="always")
+def mean_square_speeds(start, command, tau, elapsed):
+    """The mean of ω(t)² over ``elapsed`` s for ``ω = c + (s - c) e^{-t/τ}``:
+    ``c² + 2 c (s - c) m₁ + (s - c)² m₂`` with ``m₁ = τ/T (1 - e^{-T/τ})`` and
+    ``m₂ = τ/(2T) (1 - e^{-2T/τ})`` (τ = 0: the command's)."""
+    if tau > 0.0:
+        m1 = tau / elapsed * (1.0 - math.exp(-elapsed / tau))
+        m2 = tau / (2.0 * elapsed) * (1.0 - math.exp(-2.0 * elapsed / tau))
+    else:
+        m1 = m2 = 0.0
+    out = [0.0, 0.0, 0.0, 0.0]
+    for k in range(4):
+        c, d = command[k], start[k] - command[k]
+        out[k] = c * c + 2.0 * c * d * m1 + d * d * m2
+    return (out[0], out[1], out[2], out[3])
+
+
+def battery_scale(sag_rate: NDArray, time: NDArray) -> NDArray[np.float64]:
+    """The thrust per command left after ``time`` s of sag: ``(1 - sag_rate t)²``."""
+    return (1.0 - np.asarray(sag_rate) * np.asarray(time)) ** 2

@@ -1,0 +1,117 @@
+"""The pieces of one control step, per vehicle, compiled: an inner loop's ticks.
+
+With a scenario's ``inner_rate`` a control step is flown as ``ticks`` intervals; each tick
+the command is formed (held, ``thrust_rates``' rate law here, or a controller's attitude law
+in ``quad_dob_composition.attitude_loop``) from the inner-rate estimate, then
+``fly_tick`` runs the mixer, the battery, the motors and the physics. ``kernels.step_kernel``
+and the composition's loop both call these, so each equation is written once.
+"""
+
+import numpy as np
+from numba import njit
+
+from quad_dob_env.dynamics import (
+    actuate_vehicle,
+    advance_vehicle,
+    lag_factor,
+)
+from quad_dob_env.dynamics.rotors import mean_square_speeds, motor_target
+from quad_dob_env.so3 import cross_tuple, mat_mul_tuple, mat_vec_tuple
+
+
+@njit(cache=True, inline="always")
+def _blend(start, command, factor):
+    return (command[0] + (start[0] - command[0]) * factor,
+            command[1] + (start[1] - command[1]) * factor,
+            command[2] + (start[2] - command[2]) * factor,
+            command[3] + (start[3] - command[3]) * factor)
+
+
+@njit(cache=True, inline="always")
+def inner_estimate(i, R, w, inner, start_rotation, start_rate):
+    """The attitude and rates an inner loop reads now: the truth's, moved by the estimate's
+    error at the step's start (``inner``'s estimate arrays; none: the truth itself). The
+    error is held over the step: the gyroscope's noise is drawn at the control rate."""
+    if not inner[5]:
+        return R, w
+    e, r0, w0 = inner[6], start_rotation, start_rate
+    # E = R̂₀ R₀ᵀ, the world-frame error of the estimate at the step's start
+    error = (e[i, 0, 0] * r0[0] + e[i, 0, 1] * r0[1] + e[i, 0, 2] * r0[2],
+             e[i, 0, 0] * r0[3] + e[i, 0, 1] * r0[4] + e[i, 0, 2] * r0[5],
+             e[i, 0, 0] * r0[6] + e[i, 0, 1] * r0[7] + e[i, 0, 2] * r0[8],
+             e[i, 1, 0] * r0[0] + e[i, 1, 1] * r0[1] + e[i, 1, 2] * r0[2],
+             e[i, 1, 0] * r0[3] + e[i, 1, 1] * r0[4] + e[i, 1, 2] * r0[5],
+             e[i, 1, 0] * r0[6] + e[i, 1, 1] * r0[7] + e[i, 1, 2] * r0[8],
+             e[i, 2, 0] * r0[0] + e[i, 2, 1] * r0[1] + e[i, 2, 2] * r0[2],
+             e[i, 2, 0] * r0[3] + e[i, 2, 1] * r0[4] + e[i, 2, 2] * r0[5],
+             e[i, 2, 0] * r0[6] + e[i, 2, 1] * r0[7] + e[i, 2, 2] * r0[8])
+    rates = inner[7]
+    return (mat_mul_tuple(error, R),
+            (w[0] + rates[i, 0] - w0[0], w[1] + rates[i, 1] - w0[1], w[2] + rates[i, 2] - w0[2]))
+
+
+@njit(cache=True, inline="always")
+def rate_law(actions, i, thrust, R, w, inertia, inner):
+    """``thrust_rates``' inner loop: ``M = J k_ω (ω_cmd - ω) + ω × J ω`` (Lee et al. 2010,
+    eq. 16's rate and gyroscopic terms), ``ω_cmd = a₁..₃ · max_rate``, each moment clipped
+    to its limit as the action map would."""
+    gain, max_rate, limit = inner[2], inner[3], inner[4]
+    error = (min(max(actions[i, 1], -1.0), 1.0) * max_rate - w[0],
+             min(max(actions[i, 2], -1.0), 1.0) * max_rate - w[1],
+             min(max(actions[i, 3], -1.0), 1.0) * max_rate - w[2])
+    torque = mat_vec_tuple(inertia, (gain * error[0], gain * error[1], gain * error[2]))
+    spin = cross_tuple(w, mat_vec_tuple(inertia, w))
+    return thrust, (min(max(torque[0] + spin[0], -limit[0]), limit[0]),
+                    min(max(torque[1] + spin[1], -limit[1]), limit[1]),
+                    min(max(torque[2] + spin[2], -limit[2]), limit[2]))
+
+
+@njit(cache=True, inline="always")
+def fly_tick(i, x, v, R, w, start, thrust, moment, actuation, actuator, rotors, rotor_state,
+             battery, tables, own, row, vehicle, tick_dt, substeps, law, first_sample,
+             mean_factor, end_factor):
+    """One inner tick (a whole control step without an inner loop) of vehicle i from
+    actuator output ``start``: the command (thrust, moment) through the mixer's limits and
+    the battery, the motors and the physics. Returns the new state, the actuator output at
+    its end, the tick's mean output as rotor thrusts or the wrench (what the nominal model
+    says was applied), whether a limit was hit and what the mixer made of the command."""
+    to_wrench, _, time_constant, _ = actuator
+    code, mixer, max_rotor, max_total, moment_limit = actuation
+    command, saturated = actuate_vehicle(thrust, moment, code, mixer, max_rotor, max_total,
+                                         moment_limit)
+    if rotors[0]:
+        target = motor_target(command, battery, rotors)
+        if rotors[1]:  # the nominal model's k_F times the mean of ω² over the tick
+            squares = mean_square_speeds(start, target, time_constant, tick_dt)
+            k = rotors[3]
+            mean = (k * squares[0], k * squares[1], k * squares[2], k * squares[3])
+        else:
+            mean = _blend(start, target, mean_factor)
+    else:
+        target = command
+        mean = _blend(start, command, mean_factor)
+    end = _blend(start, target, end_factor)
+    xn, vn, Rn, wn = advance_vehicle(x, v, R, w, start, target, time_constant, to_wrench,
+                                     tables, row, own, i, vehicle, tick_dt, substeps, law,
+                                     rotors, rotor_state[0][i], first_sample)
+    return xn, vn, Rn, wn, end, mean, saturated, command
+
+
+@njit(cache=True, inline="always")
+def tick_factors(time_constant, tick_dt):
+    """The share of the old actuator output in a tick's mean, and left at its end."""
+    if time_constant > 0.0:
+        mean_factor = time_constant / tick_dt * (1.0 - np.exp(-tick_dt / time_constant))
+    else:
+        mean_factor = 0.0
+    return mean_factor, lag_factor(tick_dt, time_constant)
+
+
+@njit(cache=True, inline="always")
+def battery_scale_at(i, row, dt, rotors, rotor_state):
+    """The thrust per command the battery leaves vehicle i at step ``row``:
+    ``(1 - sag_rate t)²`` (1 without thrust uncertainty)."""
+    if not rotors[0]:
+        return 1.0
+    left = 1.0 - rotor_state[1][i] * row * dt
+    return left * left
