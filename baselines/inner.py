@@ -17,7 +17,7 @@ turns the inner-rate estimate of (R, Ω) into ``f = F · R e3`` and a moment:
 
 ``InnerLaw`` is what a controller hands the loop (``Controller.inner_law``); the loop that
 runs it between the physics' ticks lives in ``quad_dob_composition.attitude_loop``.
-``tests/test_inner_loop.py`` holds each law at one tick to the controller's own
+``tests/test_vehicle_loop.py`` holds each law, run once a step, to the controller's own
 control-rate equations.
 """
 

@@ -134,6 +134,8 @@ class AttitudeLoop:
     def __init__(self, core: Any, controller: Any, rows: slice | None = None) -> None:
         self.core, self.controller, self.rows = core, controller, rows
         self.addition = np.zeros((core.n, 4))
+        self._arguments: tuple = ()  # the core's step arguments, kept while its tables are
+        self._tables = None
 
     @staticmethod
     def install(core: Any, controller: Any, rows: slice | None = None) -> AttitudeLoop | None:
@@ -158,5 +160,9 @@ class AttitudeLoop:
             law = law._replace(**{name: getattr(law, name)[rows] for name in (
                 "desired_force", "desired_rotation", "desired_rate", "desired_acceleration",
                 "torque_state", "integral", "previous_error", "fresh", "excess")})
-        run_over_batch(attitude_loop_kernel, self.core.n, self.addition, tuple(law), actions,
-                       *self.core.step_arguments())
+        core = self.core
+        if core.reference_table is not self._tables:  # built once per table, as the core does
+            self._arguments = tuple(core.step_arguments())
+            self._tables = core.reference_table
+        run_over_batch(attitude_loop_kernel, core.n, self.addition, tuple(law), actions,
+                       *self._arguments)

@@ -30,8 +30,9 @@ from quad_dob_env.variation import Randomization, SensorNoise
 MIN_DT, MAX_DT, MAX_STEPS, MAX_SUBSTEPS = 1e-4, 0.1, 1_000_000, 100
 # Benchmark v2's inner loop [Hz]: PX4's attitude loop rate (IMU_INTEG_RATE, 200 Hz by
 # default; its rate loop runs at IMU_GYRO_RATEMAX, 400 Hz), over the 100 Hz position loop
-# of dt = 0.01 s. The highest multiple of 100 Hz at which the full v2 loop keeps a third of
-# v1's throughput with the base at N = 1024 (README, "Speed of the vehicle loop").
+# of dt = 0.01 s. There the full v2 loop with the base at N = 1024 keeps 0.38-0.43 of v1's
+# throughput, above the third asked for; at 400 Hz 0.28-0.32 (README, "Speed of the
+# vehicle loop"). Part 3's benchmark="v2" flies it.
 V2_INNER_RATE = 200.0
 # Bytes per row of the tables a scenario's flight builds (measured with tracemalloc, and
 # rounded up): the core's reference table (8 fields x 3 float64) for each member, held

@@ -185,7 +185,11 @@ def _randomization(d: _Draw) -> Any:
 def _vehicle_loop_options(d: _Draw, scenario: str, options: dict[str, Any]) -> None:
     """Benchmark v2's vehicle-loop switches: an inner rate (a multiple of the control rate,
     now and then not), and the rotor factors, marked invalid where the scenario has no
-    rotors (wrench actuation) or, for the rotor aerodynamics, no drag."""
+    rotors (wrench actuation) or, for the rotor aerodynamics, no drag. Drawn from a stream
+    of their own, so every other draw of a configuration is what it was without them."""
+    own = _Draw(d.rng.spawn(1)[0], d.bad)
+    own.invalid, own.huge = d.invalid, d.huge
+    d = own
     if d.chance(0.08):
         if d.bad_chance(0.1):
             d.invalid.append("inner_rate")

@@ -17,7 +17,8 @@ actuator (rotor thrusts or the wrench, lagged directly) and nothing here runs.
   ``u = Rᵀ(v - w) + Ω × p`` (body frame): rotor drag ("H-force", blade flapping and induced
   drag) ``D = -k_d ω (u_x, u_y, 0)``, acting at the hub, so it makes a moment ``p × D``
   about the centre of mass, and the change of thrust with axial inflow
-  ``T = k_F ω² - k_z ω u_z`` (blade-element momentum theory linearised about hover). These
+  ``T = k_F ω² - k_z ω u_z`` (blade-element momentum theory linearised about hover; the
+  rotor's yaw torque stays ``c_τ k_F ω²``, its change with inflow left out). These
   replace the linear body drag (``drag_linear``), which stood for the rotors' induced drag.
 
 What the controllers are told was applied (``AppliedCommand``) is what the nominal model
@@ -73,8 +74,9 @@ class RotorModel(NamedTuple):
 
 
 @njit(cache=True, inline="always")
-def rotor_speeds_at(start, command, factor):
-    """The four outputs ``command + (start - command) factor``."""
+def lagged_output(start, command, factor):
+    """The four actuator outputs ``command + (start - command) factor`` of a first-order lag
+    (factor: the share of the old output left)."""
     return (command[0] + (start[0] - command[0]) * factor,
             command[1] + (start[1] - command[1]) * factor,
             command[2] + (start[2] - command[2]) * factor,
@@ -125,6 +127,7 @@ def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
         px, py, pz = positions[k, 0], positions[k, 1], positions[k, 2]
         w = speeds[k]
         thrust = thrust_scale * k_f * w * w
+        torque = spin[k] * thrust  # the rotor's drag torque, ∝ ω² (inflow left out of it)
         dx = dy = 0.0
         if aerodynamics:
             # the hub's air-relative velocity u = Rᵀ(v - w) + Ω × p
@@ -136,10 +139,10 @@ def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
         fx += dx
         fy += dy
         fz += thrust
-        # p × (Dx, Dy, T), and the rotor's drag torque spin c_τ T about its axis
+        # p × (Dx, Dy, T), and the rotor's drag torque spin c_τ κ k_F ω² about its axis
         mx += py * thrust - pz * dy
         my += pz * dx - px * thrust
-        mz += px * dy - py * dx + spin[k] * thrust
+        mz += px * dy - py * dx + torque
     return (fx, fy, fz), (mx, my, mz)
 
 
@@ -172,8 +175,3 @@ def mean_square_speeds(start, command, tau, elapsed):
         c, d = command[k], start[k] - command[k]
         out[k] = c * c + 2.0 * c * d * m1 + d * d * m2
     return (out[0], out[1], out[2], out[3])
-
-
-def battery_scale(sag_rate: NDArray, time: NDArray) -> NDArray[np.float64]:
-    """The thrust per command left after ``time`` s of sag: ``(1 - sag_rate t)²``."""
-    return (1.0 - np.asarray(sag_rate) * np.asarray(time)) ** 2

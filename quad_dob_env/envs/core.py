@@ -236,10 +236,11 @@ class QuadrotorBatch:
             if randomization is not None:
                 r = randomization
                 scales[j] = [rng.uniform(*r.mass), rng.uniform(*r.inertia), rng.uniform(*r.drag)]
-            streams = (rng.spawn(2) if not self.sensing.identity or self.loop.needs_streams
-                       else None)
-            self.sensing.start(int(indices[j]), None if streams is None else streams[0])
-            self.loop.start(int(indices[j]), streams)
+            # one child a reset (the sensors read it, the rotors a grandchild of it)
+            child = (rng.spawn(1)[0] if not self.sensing.identity or self.loop.needs_streams
+                     else None)
+            self.sensing.start(int(indices[j]), child)
+            self.loop.start(int(indices[j]), child)
         offsets = np.zeros((count, 6))  # position, velocity
         offsets[:, :3] = draws[:, :3] * sc.initial_position_noise
         rows = members * self._member_rows + starts
@@ -263,8 +264,7 @@ class QuadrotorBatch:
                     "mass": float(self.mass[index]), "inertia_scale": float(scales[j, 1]),
                     "drag_scale": float(scales[j, 2])}),
                 **({} if random is None else random.sampled_parameters(index)),
-                **self.loop.sampled(index),
-            }
+                **self.loop.sampled(index)}
         self._reference_now = None
         self._measure(indices, reset=True)
 

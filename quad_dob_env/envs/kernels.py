@@ -217,7 +217,7 @@ def finish_vehicle_step(i, x, v, R, w, diverged, end, actions, actuator, rotors,
                         reference_row, tables, own, reference, vehicle, law, limits,
                         reward_weights, rotation_mode, obs, reward, code, disturbance_force,
                         disturbance_torque, wind_velocity):
-    """After vehicle i's step: its state stored (unless it diverged), the clock, the
+    """After vehicle i's step: its state stored (the last finite one), the clock, the
     observation, termination and reward, and the true disturbance now (external force and
     torque, the ground effect's extra lift, the aerodynamic drag, and with the rotors' own
     model what it makes beyond the nominal one)."""
@@ -227,8 +227,8 @@ def finish_vehicle_step(i, x, v, R, w, diverged, end, actions, actuator, rotors,
     position_scale, effort_weight = reward_weights
     last = force_table.shape[1] - 1
     row = step_count[i]
-    if not diverged:
-        store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
+    # the last finite state (where a step diverged: its start, or its last finite tick)
+    store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
     step_count[i] = row + 1
     reference_row[i] += 1  # time indexes the disturbance tables, this the reference's
     code[i], error = _sense(i, x, v, R, w, reference, reference_row[i], rotation_mode, limits,

@@ -162,7 +162,19 @@ class ResidualCommand:
                        or not core.sensing.identity or core.loop.active else fused_pass(self))
         # with an inner loop, the base's attitude law runs at its rate (installed by
         # ``quad_dob_composition``, ``AttitudeLoop.install``), the residual added each tick
-        self._attitude = None if attitude_loop is None else attitude_loop(core, self.controller)
+        if attitude_loop is not None:
+            self._attitude = attitude_loop(core, self.controller)
+        elif core.loop.active and getattr(self.controller, "has_inner_law", False):
+            raise ValueError(
+                f"scenario {core.scenario.name!r} has an inner loop (inner_rate="
+                f"{core.scenario.inner_rate:g} Hz) and the base {self.controller.name!r} an "
+                "attitude law for it, but nothing was given to run it: build the env through "
+                "quad_dob_composition (ResidualVectorEnv, make_residual_env, "
+                "residual_command), which passes attitude_loop=AttitudeLoop.install")
+        else:
+            self._attitude = None
+            if hasattr(self.controller, "use_inner_loop"):
+                self.controller.use_inner_loop(None)
 
     def restart(self, indices: NDArray[np.intp]) -> None:
         """After ``core.reset(indices)``: restart those vehicles' controller state (all of

@@ -15,16 +15,8 @@ from quad_dob_env.dynamics import (
     advance_vehicle,
     lag_factor,
 )
-from quad_dob_env.dynamics.rotors import mean_square_speeds, motor_target
+from quad_dob_env.dynamics.rotors import lagged_output, mean_square_speeds, motor_target
 from quad_dob_env.so3 import cross_tuple, mat_mul_tuple, mat_vec_tuple
-
-
-@njit(cache=True, inline="always")
-def _blend(start, command, factor):
-    return (command[0] + (start[0] - command[0]) * factor,
-            command[1] + (start[1] - command[1]) * factor,
-            command[2] + (start[2] - command[2]) * factor,
-            command[3] + (start[3] - command[3]) * factor)
 
 
 @njit(cache=True, inline="always")
@@ -86,11 +78,11 @@ def fly_tick(i, x, v, R, w, start, thrust, moment, actuation, actuator, rotors, 
             k = rotors[3]
             mean = (k * squares[0], k * squares[1], k * squares[2], k * squares[3])
         else:
-            mean = _blend(start, target, mean_factor)
+            mean = lagged_output(start, target, mean_factor)
     else:
         target = command
-        mean = _blend(start, command, mean_factor)
-    end = _blend(start, target, end_factor)
+        mean = lagged_output(start, command, mean_factor)
+    end = lagged_output(start, target, end_factor)
     xn, vn, Rn, wn = advance_vehicle(x, v, R, w, start, target, time_constant, to_wrench,
                                      tables, row, own, i, vehicle, tick_dt, substeps, law,
                                      rotors, rotor_state[0][i], first_sample)
@@ -113,5 +105,5 @@ def battery_scale_at(i, row, dt, rotors, rotor_state):
     ``(1 - sag_rate t)²`` (1 without thrust uncertainty)."""
     if not rotors[0]:
         return 1.0
-    left = 1.0 - rotor_state[1][i] * row * dt
+    left = max(1.0 - rotor_state[1][i] * row * dt, 0.0)  # an empty pack makes no thrust
     return left * left

@@ -3,8 +3,8 @@
 
 ``VehicleLoop`` gathers what the compiled step takes for them (``StepArguments.rotors``,
 ``rotor_state`` and ``inner``) and draws each episode's thrust scale and battery sag from a
-stream spawned off the vehicle's generator, so turning the factor on or off changes no other
-random draw.
+stream spawned off the episode's child of the vehicle's generator (the sensors draw from that
+child itself), so turning the factor on or off changes no other random draw.
 """
 
 from __future__ import annotations
@@ -24,8 +24,6 @@ THRUST_SCALE_RANGE = (0.95, 1.05)
 # 3.5 V a cell (PX4's BAT_V_CHARGED, BAT_V_EMPTY) loses 25 % of its thrust per command over
 # a 10-15 min flight, 0.03-0.04 %/s of thrust: r up to 2.5e-4 /s (0.05 %/s).
 SAG_RATE_RANGE = (0.0, 2.5e-4)
-# Which child of a vehicle's generator each consumer draws from (SensingStage takes 0).
-THRUST_STREAM = 1
 
 
 class VehicleLoop:
@@ -61,11 +59,12 @@ class VehicleLoop:
     def rotor_state(self) -> tuple[NDArray, NDArray]:
         return (self.thrust_scale, self.sag_rate)
 
-    def start(self, index: int, streams: list[np.random.Generator] | None) -> None:
-        """Vehicle ``index``'s draws for a new episode (``streams``: its generator's
-        children, None when nothing needs them)."""
+    def start(self, index: int, child: np.random.Generator | None) -> None:
+        """Vehicle ``index``'s draws for a new episode, from a stream spawned off ``child``
+        (the episode's child of its generator, whose own draws are the sensors'; None when
+        nothing needs it): spawning draws nothing from it."""
         if self.uncertain:
-            stream = streams[THRUST_STREAM]
+            stream = child.spawn(1)[0]
             self.thrust_scale[index] = stream.uniform(*THRUST_SCALE_RANGE)
             self.sag_rate[index] = stream.uniform(*SAG_RATE_RANGE)
 
