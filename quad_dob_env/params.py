@@ -22,9 +22,12 @@ from numpy.typing import NDArray
 
 from quad_dob_env.validation import unknown_name_error
 
+# where every number of each preset comes from (a test holds every field to a source)
+from quad_dob_env.vehicle_sources import VEHICLE_SOURCES as VEHICLE_SOURCES
+
 Actuation = Literal["rotors", "wrench"]
 ACTUATIONS: tuple[str, ...] = ("rotors", "wrench")
-CONFIGURATIONS: tuple[str, ...] = ("plus", "x")
+CONFIGURATIONS: tuple[str, ...] = ("plus", "x", "wide-x")
 
 
 def _require_positive(name: str, value: float) -> None:
@@ -48,6 +51,9 @@ class VehicleParams:
     max_rotor_thrust: float  # [N], each rotor is clipped to [0, max_rotor_thrust]
     rotor_radius: float  # [m], sets the ground effect's reach
     configuration: str = "plus"
+    # "wide-x" only: the rotors sit at (±arm_length, ±arm_width) [m], front-back and sideways
+    # half spacings (an X stretched sideways); the other configurations ignore it
+    arm_width: float = 0.0
     gravity: float = 9.81
     # Body-frame aerodynamic drag on the air-relative velocity u = Rᵀ(v - w):
     # F_body = -(drag_linear ⊙ u + drag_quadratic ⊙ |u| ⊙ u); used where a scenario has drag.
@@ -90,6 +96,8 @@ class VehicleParams:
                              f"{self.rotor_height!r}")
         if self.configuration not in CONFIGURATIONS:
             raise unknown_name_error("rotor configuration", self.configuration, CONFIGURATIONS)
+        if self.configuration == "wide-x":
+            _require_positive("arm_width", self.arm_width)
         inertia = np.asarray(self.inertia, dtype=float)
         if inertia.shape != (3, 3) or not np.all(np.isfinite(inertia)):
             raise ValueError(
@@ -120,10 +128,13 @@ class VehicleParams:
     def _build_matrices(self, inertia: NDArray) -> dict:
         if self.configuration == "plus":
             positions = self.arm_length * np.array([[1.0, 0], [0, 1], [-1, 0], [0, -1]])
-        else:
+        elif self.configuration == "x":
             positions = self.arm_length / math.sqrt(2) * np.array(
                 [[1.0, -1], [1, 1], [-1, 1], [-1, -1]]
             )
+        else:  # wide-x: the X's rotor order, front-back and sideways spacings apart
+            positions = np.array([[1.0, -1], [1, 1], [-1, 1], [-1, -1]]) * np.array(
+                [self.arm_length, self.arm_width])
         spin = np.array([-1.0, 1, -1, 1])  # opposite rotors turn the same way
         allocation = np.vstack([
             np.ones(4), positions[:, 1], -positions[:, 0], spin * self.torque_coefficient
@@ -213,6 +224,39 @@ X500_ROTOR_HEIGHT = 0.06
 APC_10X47_SOLIDITY, BLADE_LIFT_SLOPE = 0.1, 5.73
 
 
+# PX4's x500 model (PX4-gazebo-models models/x500/model.sdf, ~11-inch rotors): thrust per
+# squared speed (motorConstant), yaw torque per thrust (momentConstant), and the slower of
+# its motors' time constants (timeConstantDown; up: 12.5 ms).
+X500_THRUST_COEFFICIENT, X500_TORQUE_COEFFICIENT = 8.54858e-6, 0.016
+X500_MOTOR_TIME_CONSTANT = 0.025
+
+# Neural-Fly's custom PX4 quadrotor (O'Connell et al., Science Robotics 2022, Tables S1-S2):
+# 2.53 kg, thrust/weight 2.2, 11-inch rotors 39 cm apart front to back in a wide X 85 cm
+# across (over the rotors: 0.85 - 0.279 m between the motors sideways).
+NEURAL_FLY_MASS, NEURAL_FLY_THRUST_TO_WEIGHT = 2.53, 2.2
+NEURAL_FLY_HALF_SPACING = (0.39 / 2, (0.85 - 11 * 0.0254) / 2)  # front-back, sideways [m]
+
+
+def _point_mass_inertia(mass: float, arm: tuple[float, float], rotor_mass: float,
+                        body: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
+    """Our estimate where a vehicle's inertia is unpublished: four rotor groups of
+    ``rotor_mass`` at (±arm[0], ±arm[1]) and the rest a uniform box of sides ``body``."""
+    core = mass - 4 * rotor_mass
+    a, b, c = body
+    x, y = arm
+    return _diagonal(4 * rotor_mass * y * y + core * (b * b + c * c) / 12,
+                     4 * rotor_mass * x * x + core * (a * a + c * c) / 12,
+                     4 * rotor_mass * (x * x + y * y) + core * (a * a + b * b) / 12)
+
+
+def _body_drag_coefficient(force: float, airspeed: float, mass: float,
+                           thrust_coefficient: float, rotor_drag: float) -> float:
+    """c₂ [N/(m/s)²] that, with four rotors' drag at hover (k_d ω_h u), makes ``force`` at
+    ``airspeed``: ``(F - 4 k_d ω_h u) / u²``."""
+    hover_speed = math.sqrt(mass * 9.81 / 4 / thrust_coefficient)
+    return (force - 4 * rotor_drag * hover_speed * airspeed) / airspeed**2
+
+
 def heave_damping_coefficient(thrust: float, thrust_coefficient: float, radius: float,
                               solidity: float, lift_slope: float, density: float = 1.225
                               ) -> float:
@@ -225,6 +269,19 @@ def heave_damping_coefficient(thrust: float, thrust_coefficient: float, radius: 
     inflow_ratio = math.sqrt(thrust / (2 * density * area)) / (speed * radius)
     slope = 2 * lift_slope * solidity * inflow_ratio / (16 * inflow_ratio + lift_slope * solidity)
     return density * area * radius * slope
+
+# Neural-Fly's measured aerodynamic force in 12.1 m/s of wind, about -15.7 N along the wind
+# at the start of custom_figure8_baseline_100wind.csv (aerorobotics/neural-fly's data, near
+# hover): a physical measurement, not the tracking errors its figure-8 scenarios are checked
+# against. The body's quadratic drag makes what the rotors' drag does not.
+NEURAL_FLY_BODY_DRAG = _body_drag_coefficient(15.7, 12.1, NEURAL_FLY_MASS,
+                                              X500_THRUST_COEFFICIENT,
+                                              X500_ROTOR_DRAG_COEFFICIENT)
+
+NEURAL_FLY_HOVER_SPEED = math.sqrt(NEURAL_FLY_MASS * 9.81 / 4 / X500_THRUST_COEFFICIENT)
+NEURAL_FLY_INFLOW = heave_damping_coefficient(NEURAL_FLY_MASS * 9.81 / 4, X500_THRUST_COEFFICIENT,
+                                              11 * 0.0254 / 2, APC_10X47_SOLIDITY,
+                                              BLADE_LIFT_SLOPE)
 
 VEHICLES: dict[str, VehicleParams] = {
     "paper": VehicleParams(
@@ -250,68 +307,26 @@ VEHICLES: dict[str, VehicleParams] = {
         # Förster 2015 through rotorpy 3 (crazyflie_params.py): k_d, k_z per rotor
         rotor_drag_coefficient=10.2506e-7, inflow_coefficient=7.553e-7, rotor_height=0.0,
     ),
+    "neural-fly": VehicleParams(
+        name="neural-fly", mass=NEURAL_FLY_MASS,
+        inertia=_point_mass_inertia(NEURAL_FLY_MASS, NEURAL_FLY_HALF_SPACING, 0.12,
+                                    (0.2, 0.15, 0.1)),
+        arm_length=NEURAL_FLY_HALF_SPACING[0], arm_width=NEURAL_FLY_HALF_SPACING[1],
+        configuration="wide-x", torque_coefficient=X500_TORQUE_COEFFICIENT,
+        max_rotor_thrust=NEURAL_FLY_THRUST_TO_WEIGHT * NEURAL_FLY_MASS * 9.81 / 4,
+        rotor_radius=11 * 0.0254 / 2, thrust_coefficient=X500_THRUST_COEFFICIENT,
+        motor_time_constant=X500_MOTOR_TIME_CONSTANT,
+        # v1's linear drag is the rotors' aerodynamics linearised at hover: 4 k_d ω_h
+        # sideways, 4 k_z ω_h vertically; the body's quadratic drag makes the rest of the
+        # 15.7 N measured at 12.1 m/s (see the sources)
+        drag_linear=tuple(4 * k * NEURAL_FLY_HOVER_SPEED for k in (
+            X500_ROTOR_DRAG_COEFFICIENT, X500_ROTOR_DRAG_COEFFICIENT, NEURAL_FLY_INFLOW)),
+        drag_quadratic=(NEURAL_FLY_BODY_DRAG,) * 2 + (NEURAL_FLY_BODY_DRAG * 0.1 / 0.06,),
+        rotor_drag_coefficient=X500_ROTOR_DRAG_COEFFICIENT,
+        inflow_coefficient=NEURAL_FLY_INFLOW, rotor_height=X500_ROTOR_HEIGHT,
+    ),
 }
 
-# Where every number of each preset comes from (a test holds every field to a source).
-VEHICLE_SOURCES: dict[str, dict[str, str]] = {
-    "paper": {
-        "mass": "the paper and Lee, Leok, McClamroch 2010 (4.34 kg)",
-        "inertia": "Lee 2010, diag(0.0820, 0.0845, 0.1377) kg m² (the paper prints 0.13377)",
-        "arm_length": "Lee 2010, d = 0.315 m",
-        "torque_coefficient": "UIUC Propeller Data Site, APC 10x4.7 SF static: C_T = 0.1155, "
-                              "C_P = 0.0474 at 4319 RPM, Q/T = C_P D/(2π C_T) = 0.0166 m "
-                              "(Lee 2010's 8.004e-4 m is LEE_TORQUE_COEFFICIENT)",
-        "max_rotor_thrust": "our choice, 25 N (thrust/weight 2.35); the paper gives none",
-        "rotor_radius": "our choice, a 10-inch propeller (0.127 m), the class whose C_T, C_P "
-                        "set torque_coefficient",
-        "configuration": "Lee 2010, plus (rotors on the body axes)",
-        "gravity": "the paper, 9.81 m/s²",
-        "drag_linear": "our estimate: rotor-induced drag of four 10-inch rotors at hover, "
-                       "0.3 N s/m horizontal, 0.4 vertical",
-        "drag_quadratic": "our estimate: ½ ρ C_d A with ρ = 1.2 kg/m³, C_d ≈ 1, A ≈ 0.1 m² "
-                          "frontal (0.06 N s²/m²), 0.17 m² from above (0.1)",
-        "motor_time_constant": "our estimate for 10-inch brushless motors, 40 ms, of the thrust "
-                               "(v1's lag) or of the rotor speed (speed motors): between PX4 "
-                               "x500's 12.5 ms up / 25 ms down and PX4 SIH's SIH_T_TAU 50 ms",
-        "thrust_coefficient": "UIUC Propeller Data Site, APC 10x4.7 SF static C_T = 0.1155: "
-                              "k_F = C_T ρ D⁴/(2π)² = 1.49e-5 N/(rad/s)² at ρ = 1.225 kg/m³ "
-                              "(hover at 845 rad/s, 8,070 RPM)",
-        "max_body_rate": "±2000 °/s, the full-scale range of the MPU-6000 / ICM-20602 "
-                         "gyroscopes autopilots fly with (InvenSense datasheets)",
-        "rotor_drag_coefficient": "PX4 x500 (2 kg, ~11-inch rotors), PX4-gazebo-models "
-                                  "model.sdf rotorDragCoefficient 8.06428e-5 N/(rad/s · m/s) "
-                                  "(Martin & Salaün 2010's model): 3.3 N on four rotors at "
-                                  "hover in 12 m/s, where drag_linear gave 3.6 N",
-        "inflow_coefficient": "Padfield 2007 §4.2 heave damping, ∂C_T/∂μ_z = -2aσλ₀/(16λ₀ + aσ) "
-                              "at hover (a = 5.73, σ ≈ 0.1 our estimate): 4.0e-4, thrust falls "
-                              "3.2 % per m/s of climb",
-        "rotor_height": "assumed as PX4 x500's hubs, 0.06 m above the centre of mass "
-                        "(x500_base/model.sdf); Lee 2010 gives none",
-    },
-    "crazyflie": {
-        "mass": "Bitcraze Crazyflie 2.x, 27 g",
-        "inertia": "Förster 2015 (System identification of the Crazyflie 2.0), "
-                   "diag(1.4e-5, 1.4e-5, 2.17e-5) kg m², as in gym-pybullet-drones",
-        "arm_length": "Bitcraze, 46 mm from centre to motor",
-        "torque_coefficient": "gym-pybullet-drones cf2x.urdf, k_M/k_F = 7.94e-12 / 3.16e-10 m",
-        "max_rotor_thrust": "gym-pybullet-drones cf2x, thrust/weight 2.25",
-        "rotor_radius": "Bitcraze 45 mm propellers, 23.1 mm",
-        "configuration": "Bitcraze, X",
-        "gravity": "standard gravity, 9.81 m/s²",
-        "drag_linear": "Förster 2015 rotor drag K = diag(10.2506, 10.2506, 7.4064)e-7 kg/rad "
-                       "times Σω = 6788 rad/s at hover (as rotorpy 3's k_d, k_z)",
-        "drag_quadratic": "zero: rotorpy 3 sets the Crazyflie's parasitic drag c_D to zero",
-        "thrust_coefficient": "gym-pybullet-drones cf2x.urdf, k_F = 3.16e-10 N/RPM² "
-                              "= 2.88e-8 N/(rad/s)²",
-        "motor_time_constant": "our estimate, 15 ms for the thrust (rotorpy's tau_m = 72 ms "
-                               "is for the rotor speed)",
-        "max_body_rate": "±2000 °/s, the full-scale range of the Crazyflie 2.x's BMI088 "
-                         "gyroscope (Bosch datasheet)",
-        "rotor_drag_coefficient": "Förster 2015 K_xy = 10.2506e-7 kg/rad, rotorpy 3's k_d",
-        "inflow_coefficient": "rotorpy 3's k_z = 7.553e-7 kg/rad (crazyflie_params.py)",
-        "rotor_height": "rotorpy 3: hubs in the centre of mass's plane",
-    },
-}
 
 
 def get_vehicle(vehicle: str | VehicleParams) -> VehicleParams:

@@ -9,7 +9,9 @@ through here, so "paper-II" means one thing everywhere.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -27,6 +29,7 @@ from quad_dob_env.feasibility import BENCHMARK_MARGIN, check_reference
 from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.scenario import Scenario
 from quad_dob_env.trajectories import (
+    Harmonic,
     Hover,
     PaperHelix,
     TakeoffHoverLanding,
@@ -225,6 +228,42 @@ def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRA
                     "motor lag, physical rotors")
 
 
+# Neural-Fly's wind-tunnel experiment (O'Connell et al., Science Robotics 2022, and the
+# README of aerorobotics/neural-fly): a vertical figure-8 along the wind, x = 1.25 sin t,
+# z = 2.15 + 0.75 sin 2t (their logs' centre height), 6.28 s a lap, heading fixed, in a
+# steady wind along -x.
+FIGURE8_WINDS = (0.0, 4.2, 8.5, 12.1)  # [m/s], the fan array's 0, 35, 70 and 100 % duty
+FIGURE8_HEIGHT = 2.15
+# The tunnel's turbulence: no figure is published for Caltech's fan-array tunnel; fan arrays
+# are more turbulent than closed tunnels (Dougherty 2022, as cited by Stefan-Zavala et al.
+# 2024). Our assumption: 5 % of the mean wind (σ_u / U), MIL-F-8785C Dryden spectra.
+FIGURE8_TURBULENCE_INTENSITY = 0.05
+
+
+def _figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fly",
+                  turbulence_intensity: float = FIGURE8_TURBULENCE_INTENSITY) -> Scenario:
+    speed = as_finite(wind_speed, "wind_speed", 0.0)
+    intensity = as_finite(turbulence_intensity, "turbulence_intensity", 0.0)
+    figure8 = Harmonic(offset=(0.0, 0.0, FIGURE8_HEIGHT),
+                       terms=[(0, 1.25, 1.0, 0.0), (2, 0.75, 2.0, 0.0)])
+    start = figure8.evaluate(0.0)
+    disturbance: Disturbance = Constant(wind=(-speed, 0.0, 0.0))
+    if speed > 0 and intensity > 0:  # the mean wind and the turbulence it carries past
+        # σ_u = 0.1 W20 / (0.177 + 0.000823 h)^0.4 at h = 10 ft (Dryden's floor): W20 for σ_u
+        sigma_u_per_w20 = 0.1 / (0.177 + 0.000823 * 10.0) ** 0.4
+        disturbance = Dryden(wind_speed_6m=intensity * speed / sigma_u_per_w20,
+                             altitude=FIGURE8_HEIGHT, direction=math.pi, mean_wind_speed=speed)
+    return Scenario(
+        name=f"figure8-wind-{speed:g}", vehicle=get_vehicle(vehicle), trajectory=figure8,
+        duration=30.0, disturbance=disturbance, drag=True, motor_lag=True, floor_height=0.0,
+        initial_position=tuple(start.position[0]), initial_velocity=tuple(start.velocity[0]),
+        sensing="mocap",
+        description=f"Neural-Fly's wind-tunnel figure-8: x = 1.25 sin t, z = "
+                    f"{FIGURE8_HEIGHT:g} + 0.75 sin 2t, heading fixed, {speed:g} m/s of wind "
+                    f"along -x with {100 * intensity:g} % turbulence; mocap sensing; drag, "
+                    "motor lag, physical rotors")
+
+
 SCENARIOS: dict[str, Callable[..., Scenario]] = {
     "paper-none": lambda **kw: _paper("none", **kw),
     "paper-I": lambda **kw: _paper("I", **kw),
@@ -241,6 +280,8 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
     # held out of training: another kind, another pool
     "random-lemniscates": lambda **kw: _random_tracks(
         kinds=("lemniscate",), pool_seed=1, count=32, name="random-lemniscates", **kw),
+    **{f"figure8-wind-{speed:g}": functools.partial(_figure8_wind, wind_speed=speed)
+       for speed in FIGURE8_WINDS},
 }
 _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "paper-none": ("vehicle", "torque_reading"), "paper-I": ("vehicle", "torque_reading"),
@@ -253,6 +294,8 @@ _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "gusty-hover": tuple(inspect.signature(_gusty_hover).parameters),
     "takeoff-landing-wind": tuple(inspect.signature(_takeoff_landing_wind).parameters),
     "random-tracks": ("vehicle", "wind_scale"), "random-lemniscates": ("vehicle", "wind_scale"),
+    **{f"figure8-wind-{speed:g}": ("vehicle", "turbulence_intensity")
+       for speed in FIGURE8_WINDS},
 }
 
 

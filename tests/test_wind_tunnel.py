@@ -1,0 +1,89 @@
+"""Neural-Fly's wind-tunnel experiment (Benchmark v2, part 3): the vehicle preset and the
+four figure-8 scenarios, each held to the numbers their sources give, written out here."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from gymnasium.utils import seeding
+
+from quad_dob_env.envs import QuadrotorBatch
+from quad_dob_env.params import VEHICLES, VehicleParams
+from quad_dob_env.scenarios import make_scenario
+
+NF = VEHICLES["neural-fly"]
+WINDS = ("0", "4.2", "8.5", "12.1")
+
+
+def test_the_wide_x_puts_each_rotor_at_its_two_spacings():
+    """[f, Mx, My, Mz] = A T with the rotors at (±0.195, ±0.2855) m in the X's order (front
+    right, front left, back left, back right) and spins (-1, 1, -1, 1): Mx = y T, My = -x T."""
+    x, y = 0.39 / 2, (0.85 - 11 * 0.0254) / 2
+    hubs = np.array([[x, -y], [x, y], [-x, y], [-x, -y]])
+    spin = np.array([-1.0, 1.0, -1.0, 1.0])
+    expected = np.vstack([np.ones(4), hubs[:, 1], -hubs[:, 0], spin * 0.016])
+    np.testing.assert_allclose(NF.allocation_matrix, expected, rtol=0, atol=1e-15)
+    # roll has the wider arm: more authority than pitch
+    limit = NF.moment_limit("rotors")
+    assert limit[0] == pytest.approx(2 * y * NF.max_rotor_thrust)
+    assert limit[1] == pytest.approx(2 * x * NF.max_rotor_thrust)
+    with pytest.raises(ValueError, match="arm_width"):
+        VehicleParams(name="bad", mass=1.0, inertia=((0.01, 0, 0), (0, 0.01, 0), (0, 0, 0.02)),
+                      arm_length=0.2, torque_coefficient=0.01, max_rotor_thrust=5.0,
+                      rotor_radius=0.1, configuration="wide-x")
+
+
+def test_the_vehicle_is_neural_flys_where_it_is_published():
+    assert NF.mass == 2.53
+    assert 4 * NF.max_rotor_thrust / (NF.mass * NF.gravity) == pytest.approx(2.2)
+    assert NF.rotor_radius == pytest.approx(0.1397)
+    # the 15.7 N measured at 12.1 m/s: rotor drag at hover (v1's linear term) plus the body's
+    u = 12.1
+    assert NF.drag_linear[0] * u + NF.drag_quadratic[0] * u * u == pytest.approx(15.7)
+    hover_speed = math.sqrt(NF.hover_thrust / 4 / NF.thrust_coefficient)
+    assert NF.drag_linear[0] == pytest.approx(4 * NF.rotor_drag_coefficient * hover_speed)
+    assert NF.drag_linear[2] == pytest.approx(4 * NF.inflow_coefficient * hover_speed)
+    # a rigid body's inertia, roll the largest of the two tilts (the wider arm)
+    j = np.diag(NF.inertia_matrix)
+    assert j[0] > j[1] and j[0] + j[1] >= j[2]
+
+
+@pytest.mark.parametrize("wind", WINDS)
+def test_the_figure_eight_is_neural_flys(wind):
+    """x = 1.25 sin t, y = 0, z = 2.15 + 0.75 sin 2t, heading fixed along +x; 30 s; mocap;
+    started on the reference; flyable (refused otherwise)."""
+    scenario = make_scenario(f"figure8-wind-{wind}")
+    assert scenario.vehicle is NF and scenario.duration == 30.0
+    assert scenario.sensing is not None and scenario.sensing.pose.kind == "mocap"
+    times = np.linspace(0.0, 30.0, 301)
+    reference = scenario.trajectory.evaluate(times)
+    expected = np.stack([1.25 * np.sin(times), np.zeros_like(times),
+                         2.15 + 0.75 * np.sin(2 * times)], axis=1)
+    np.testing.assert_allclose(reference.position, expected, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(reference.velocity[:, 0], 1.25 * np.cos(times), atol=1e-12)
+    np.testing.assert_allclose(reference.heading, np.tile([1.0, 0, 0], (301, 1)), atol=1e-15)
+    np.testing.assert_allclose(scenario.initial_velocity, (1.25, 0.0, 1.5), atol=1e-12)
+    assert scenario.feasibility.feasible
+
+
+@pytest.mark.parametrize("wind", WINDS)
+def test_the_tunnel_blows_its_speed_along_minus_x_with_five_percent_turbulence(wind):
+    """The mean over 64 vehicles x 3000 steps is the tunnel's speed along -x; the along-wind
+    standard deviation is 5 % of it (none in still air)."""
+    speed = float(wind)
+    scenario = make_scenario(f"figure8-wind-{wind}", sensing="ideal")
+    core = QuadrotorBatch(scenario, 64)
+    core.reset(np.arange(64), [seeding.np_random(s)[0] for s in range(64)])
+    samples = []
+    for _ in range(300):
+        core.step(np.zeros((64, 4)))
+        samples.append(core.wind_velocity.copy())
+    winds = np.concatenate(samples)
+    np.testing.assert_allclose(winds[:, 0].mean(), -speed, atol=0.02 * max(speed, 1.0))
+    assert np.abs(winds[:, 1:].mean(axis=0)).max() < 0.02 * max(speed, 1.0)
+    if speed == 0.0:
+        assert np.all(winds == 0.0)
+    else:
+        assert winds[:, 0].std() == pytest.approx(0.05 * speed, rel=0.2)
