@@ -17,7 +17,8 @@ type), never ``quad_dob_training``.
 ``make_controller(name, vehicle)`` builds one by the name the CLI, evaluation and the
 residual wrapper use: ``geometric``, ``geometric-ndob`` (the paper's observer gains),
 ``geometric-ndob:tuned`` (tuned observer rates, the paper's gains: the recommended base),
-``geometric-ndob:gains-tuned`` (its gains tuned too), ``pid``, ``smc``.
+``geometric-ndob:gains-tuned`` (its gains tuned too), ``geometric-integral`` (integral
+action on position instead of an observer), ``pid``, ``smc``.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from quad_dob_baselines.base import Controller
-from quad_dob_baselines.geometric import GeometricController
+from quad_dob_baselines.geometric import GeometricController, GeometricIntegralController
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_baselines.pid import CascadedPID
 from quad_dob_baselines.smc import SlidingModeController
@@ -73,6 +74,7 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     "geometric-ndob:gains-tuned": lambda vehicle, **options: _named(
         _geometric_ndob(vehicle, "tuned", **{**TUNED_GEOMETRIC_GAINS, **options}),
         "geometric-ndob:gains-tuned"),
+    "geometric-integral": lambda vehicle, **options: GeometricIntegralController(**options),
     "pid": lambda vehicle, **options: CascadedPID(**options),
     "smc": lambda vehicle, **options: SlidingModeController(**options),
 }
@@ -92,6 +94,7 @@ __all__ = [
     "CascadedPID",
     "Controller",
     "GeometricController",
+    "GeometricIntegralController",
     "NonlinearDisturbanceObserver",
     "SlidingModeController",
     "make_controller",

@@ -86,10 +86,7 @@ class GeometricController(Controller):
         n = len(state.position)
         correction = (np.zeros((n, 3)) if acceleration_correction is None
                       else np.ascontiguousarray(acceleration_correction, dtype=float))
-        if self.observer is not None:
-            force_estimate, torque_estimate = self.observer.estimate(state)
-        else:
-            force_estimate = torque_estimate = np.zeros((n, 3))
+        force_estimate, torque_estimate = self._estimates(state)
         thrust, moment = np.empty(n), np.empty((n, 3))
         self.diagnostics = {
             "desired_force": np.empty((n, 3)),
@@ -111,6 +108,13 @@ class GeometricController(Controller):
                        *(self.diagnostics[key] for key in _DIAGNOSTICS),
                        min_batch=4 * PARALLEL_MIN_BATCH)  # ~1/4 of a physics step's work
         return thrust, moment
+
+    def _estimates(self, state: VehicleState) -> tuple[NDArray, NDArray]:
+        """The force and torque ``compute`` subtracts: the observer's, or none."""
+        if self.observer is not None:
+            return self.observer.estimate(state)
+        n = len(state.position)
+        return np.zeros((n, 3)), np.zeros((n, 3))
 
     def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
         if self.observer is not None:
@@ -140,3 +144,59 @@ class GeometricController(Controller):
             info["Ks"] = self.observer.translational_gain
             info["Km"] = self.observer.rotational_gain.tolist()
         return info
+
+
+# Integral action's hand-set start (part 3 tunes it): ki = 8 m [N/(m s)], inside Routh's
+# bound kv kx / m² = 89.6 /s³ for the paper's kx, kv; the integral's force at most 0.3 mg.
+INTEGRAL_GAINS = {"ki_per_mass": 8.0, "integral_limit_per_weight": 0.3}
+
+
+class GeometricIntegralController(GeometricController):
+    """Lee 2010 with integral action on the position error, in place of an observer:
+    ``F = -kx ex - kv ev - ki ∫ex dt + m g e3 + m ẍd``, the integral advanced by forward
+    Euler at the control rate and clamped so that ``ki |∫ex|`` stays within
+    ``integral_limit_per_weight · m g`` per axis (anti-windup). The counterpart of
+    Neural-Fly's "nonlinear baseline with integral action". The integral's force enters the
+    geometric law where an observer's estimate would (``force_estimate``), so the law is
+    the one ``kernels.geometric_law`` writes."""
+
+    name = "geometric-integral"
+
+    def __init__(self, ki_per_mass: float = INTEGRAL_GAINS["ki_per_mass"],
+                 integral_limit_per_weight: float = INTEGRAL_GAINS["integral_limit_per_weight"],
+                 **gains: ArrayLike) -> None:
+        super().__init__(**gains)
+        self.name = "geometric-integral"
+        self.ki_per_mass = as_finite(ki_per_mass, "GeometricIntegralController.ki_per_mass",
+                                     0.0, strictly=True)
+        self.integral_limit_per_weight = as_finite(
+            integral_limit_per_weight, "GeometricIntegralController.integral_limit_per_weight",
+            0.0, strictly=True)
+        self.integral = np.zeros((0, 3))
+
+    def reset(self, num_vehicles: int, vehicle: VehicleParams, dt: float,
+              indices: NDArray[np.intp] | None = None, actuation: str = "rotors") -> None:
+        super().reset(num_vehicles, vehicle, dt, indices, actuation)
+        if indices is None:
+            self.integral = np.zeros((num_vehicles, 3))
+        else:
+            self.integral[indices] = 0.0
+
+    def compute(self, time: NDArray, state: VehicleState, reference: Reference,
+                acceleration_correction: NDArray | None = None) -> tuple[NDArray, NDArray]:
+        vehicle = self.vehicle
+        ki = self.ki_per_mass * vehicle.mass
+        limit = self.integral_limit_per_weight * vehicle.hover_thrust / ki
+        # ∫ex dt by forward Euler, clamped: ki |∫ex| <= limit_per_weight m g
+        self.integral = np.clip(self.integral + (state.position - reference.position)
+                                * self.dt, -limit, limit)
+        self._integral_force = ki * self.integral
+        return super().compute(time, state, reference, acceleration_correction)
+
+    def _estimates(self, state: VehicleState) -> tuple[NDArray, NDArray]:
+        return self._integral_force, np.zeros_like(self._integral_force)
+
+    def describe(self) -> dict[str, Any]:
+        return {**super().describe(), "ki_per_mass": self.ki_per_mass,
+                "integral_limit_per_weight": self.integral_limit_per_weight}
+

@@ -21,6 +21,6 @@ def fused_pass_for(controller: Any) -> Callable[[Any], FusedResidualStep] | None
     observer); None for any other, which then runs as separate stages. In that pass the
     controller's ``diagnostics`` and the observer's estimates are overwritten in place
     every step: copy what you keep."""
-    if not isinstance(controller, GeometricController):
+    if type(controller) is not GeometricController:  # a subclass may change the law
         return None
     return lambda residual: FusedResidualStep(controller, residual)

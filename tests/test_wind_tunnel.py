@@ -87,3 +87,53 @@ def test_the_tunnel_blows_its_speed_along_minus_x_with_five_percent_turbulence(w
         assert np.all(winds == 0.0)
     else:
         assert winds[:, 0].std() == pytest.approx(0.05 * speed, rel=0.2)
+
+
+# --- geometric-integral: Neural-Fly's "nonlinear baseline with integral action" -----------
+
+def test_integral_action_removes_a_constant_force_the_plain_law_leaves():
+    """Hovering against a constant force d, the geometric law settles off its point (by
+    more than d / kx, kx = 16 m: its Ωd is predicted by a model that knows no d, which
+    leaves the tilt short); with integral action the offset goes (ki = 8 m: well inside
+    Routh's bound) and the integral's force is d."""
+    from quad_dob_baselines import make_controller
+    from quad_dob_env.disturbances import Constant
+    from quad_dob_training.rollout import fly
+
+    force = np.array([1.5, -1.0, 0.8])  # [N]
+    scenario = make_scenario("hover-calm", disturbance=Constant(force=force),
+                             initial_position_noise=0.0, initial_attitude_noise=0.0,
+                             duration=15.0)
+    paper = VEHICLES["paper"]
+    plain = fly(make_controller("geometric"), scenario, seed=1)[0]
+    offset = plain.position[-1] - plain.reference_position[-1]
+    assert np.linalg.norm(offset) > max(np.linalg.norm(force) / (16.0 * paper.mass), 0.02)
+    integral = fly(make_controller("geometric-integral"), scenario, seed=1)[0]
+    assert np.abs(integral.position[-1] - integral.reference_position[-1]).max() < 5e-4
+    # what the law subtracted at the end: ki m ∫e_x dt = the force it learnt
+    np.testing.assert_allclose(-integral.force_estimate[-1], -force, rtol=0.02, atol=0.02)
+
+
+def test_the_integral_is_the_clamped_euler_sum_of_the_errors_it_was_given():
+    from quad_dob_baselines import make_controller
+
+    controller = make_controller("geometric-integral", ki_per_mass=8.0,
+                                 integral_limit_per_weight=0.02)
+    paper = VEHICLES["paper"]
+    controller.reset(3, paper, 0.01)
+    rng = np.random.default_rng(4)
+    expected = np.zeros((3, 3))
+    limit = 0.02 * paper.hover_thrust / (8.0 * paper.mass)
+    for _ in range(40):
+        core = QuadrotorBatch(make_scenario("hover-calm"), 3)
+        core.reset(np.arange(3), [seeding.np_random(s)[0] for s in range(3)])
+        state = core.measurement
+        state.position[:] += rng.normal(0.0, 0.2, (3, 3))
+        reference = core.reference
+        controller.compute(core.time, state, reference)
+        expected = np.clip(expected + (state.position - reference.position) * 0.01, -limit,
+                           limit)
+        np.testing.assert_allclose(controller.integral, expected, rtol=0, atol=1e-15)
+    assert np.abs(controller.integral).max() == pytest.approx(limit)  # the clamp acted
+    np.testing.assert_allclose(controller.diagnostics["force_estimate"],
+                               8.0 * paper.mass * expected, rtol=1e-15)
