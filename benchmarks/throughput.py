@@ -25,8 +25,8 @@ from gymnasium.utils import seeding
 
 import quad_dob_env  # noqa: F401  (registers the ids)
 from quad_dob_composition import ResidualVectorEnv
+from quad_dob_env.benchmark import V2_INNER_RATE
 from quad_dob_env.envs import QuadrotorBatch, QuadrotorVectorEnv
-from quad_dob_env.scenario import V2_INNER_RATE
 from quad_dob_env.scenarios import make_scenario
 
 CALM, WINDY = "paper-none", "dryden-helix-gusts"

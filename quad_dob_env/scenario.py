@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from quad_dob_env.benchmark import BENCHMARKS, LOOP_FIELDS, loop_fields
 from quad_dob_env.disturbances import Disturbance, GroundEffect
 from quad_dob_env.feasibility import Feasibility, check_reference, refusal
 from quad_dob_env.memory import check_memory
@@ -28,12 +29,6 @@ from quad_dob_env.variation import Randomization, SensorNoise
 # 0.1 ms to 0.1 s, at most a million steps per episode (its reference is tabulated), and
 # at most 100 physics substeps per control step.
 MIN_DT, MAX_DT, MAX_STEPS, MAX_SUBSTEPS = 1e-4, 0.1, 1_000_000, 100
-# Benchmark v2's inner loop [Hz]: PX4's attitude loop rate (IMU_INTEG_RATE, 200 Hz by
-# default; its rate loop runs at IMU_GYRO_RATEMAX, 400 Hz), over the 100 Hz position loop
-# of dt = 0.01 s. There the full v2 loop with the base at N = 1024 keeps 0.38-0.43 of v1's
-# throughput, above the third asked for; at 400 Hz 0.28-0.32 (README, "Speed of the
-# vehicle loop"). Part 3's benchmark="v2" flies it.
-V2_INNER_RATE = 200.0
 # Bytes per row of the tables a scenario's flight builds (measured with tracemalloc, and
 # rounded up): the core's reference table (8 fields x 3 float64) for each member, held
 # twice while a grown table is concatenated; the feasibility check's arrays (448 B a row,
@@ -76,7 +71,9 @@ class Scenario:
     dt: float = 0.01
     substeps: int = 1
     actuation: str = "rotors"
-    drag: bool = False  # the vehicle's drag acts on the air-relative velocity (needed for wind)
+    # the vehicle's drag acts on the air-relative velocity (needed for wind); None: as
+    # ``benchmark`` says (v1: no, v2: yes)
+    drag: bool | None = None
     motor_lag: bool = False  # actuators follow commands with the vehicle's motor time constant
     # What every policy reads (``quad_dob_env.sensing``): a preset name (``ideal``, ``mocap``,
     # ``gnss-imu``), a SensorSuite, a SensorNoise, a dict of either's fields, or None
@@ -89,23 +86,28 @@ class Scenario:
     # the rotors' time constant is the vehicle's times this (needs motor_lag or speed_motors)
     motor_time_constant_scale: float = 1.0
     # Benchmark v2's vehicle loop, one switch per factor (``quad_dob_env.dynamics.rotors``),
-    # each off giving v1's flight bit for bit:
+    # each off giving v1's flight bit for bit; None: as ``benchmark`` says (v1: off, v2: on;
+    # quad_dob_env.benchmark):
     # [Hz] the attitude loop's rate, a multiple of the control rate 1/dt: the controllers'
     # attitude laws (and thrust_rates' rate loop) run at it on the inner-rate estimate, the
-    # physics in one interval per tick; None: one monolithic controller at 1/dt
+    # physics in one interval per tick; 0 (None under v1): one controller at 1/dt
     inner_rate: float | None = None
     # motors on rotor speed (first-order in ω, thrust and yaw torque ∝ ω², with the
     # vehicle's motor time constant), replacing motor_lag's lag of the thrust
-    speed_motors: bool = False
+    speed_motors: bool | None = None
     # per-episode thrust coefficient and battery sag within the flight, seeded
-    thrust_uncertainty: bool = False
+    thrust_uncertainty: bool | None = None
     # rotor drag and its moment, thrust with axial inflow; they replace drag_linear
-    rotor_aerodynamics: bool = False
+    rotor_aerodynamics: bool | None = None
+    # "v1" or "v2": the loop every field above left None takes (quad_dob_env.benchmark)
+    benchmark: str = "v1"
     randomization: Randomization | None = None
     description: str = field(default="", compare=False)
     # A reference that needs more than the actuators give is refused unless this is set.
     allow_infeasible: bool = field(default=False, compare=False)
     feasibility: Feasibility = field(init=False, compare=False, repr=False)
+    # the loop fields (``quad_dob_env.benchmark.LOOP_FIELDS``) as given, before the benchmark
+    loop_given: dict = field(init=False, compare=False, repr=False, default=None)
 
     def __post_init__(self) -> None:
         if not isinstance(self.vehicle, VehicleParams):
@@ -137,6 +139,7 @@ class Scenario:
                     if key not in fields_:
                         raise unknown_name_error(f"{kind.__name__} field", key, fields_)
                 object.__setattr__(self, name, kind(**value))
+        self._resolve_benchmark()
         sensing = resolve_sensing(self.sensing)
         if self.sensors is not None:
             if sensing is not None and sensing != self.sensors:
@@ -202,6 +205,19 @@ class Scenario:
                     if family else self.name)
             raise ValueError(refusal(name, self.vehicle, self.actuation, feasibility))
         object.__setattr__(self, "feasibility", feasibility)
+
+    def _resolve_benchmark(self) -> None:
+        """The loop fields left None, as ``benchmark`` sets them."""
+        if self.benchmark not in BENCHMARKS:
+            raise unknown_name_error("benchmark", self.benchmark, BENCHMARKS)
+        given = {key: getattr(self, key) for key in LOOP_FIELDS}
+        object.__setattr__(self, "loop_given", dict(given))
+        if given["sensing"] is None:
+            given["sensing"] = self.sensors  # SensorNoise is sensing too
+        dt = as_finite(self.dt, "Scenario.dt", MIN_DT) if self.benchmark == "v2" else 0.01
+        for key, value in loop_fields(self.benchmark, given, dt, self.actuation,
+                                      self.name).items():
+            object.__setattr__(self, key, value)
 
     def _check_rotor_factors(self) -> None:
         for name in ("speed_motors", "thrust_uncertainty", "rotor_aerodynamics"):
@@ -281,4 +297,6 @@ class Scenario:
             changes = {**changes, "sensors": None}
         elif "sensors" in changes and "sensing" not in changes:
             changes = {**changes, "sensing": None}
-        return dataclasses.replace(self, **changes)
+        # the loop fields as they were given (None: the benchmark's), so a change of
+        # benchmark resolves them again
+        return dataclasses.replace(self, **{**self.loop_given, **changes})
