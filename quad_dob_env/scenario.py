@@ -101,6 +101,9 @@ class Scenario:
     rotor_aerodynamics: bool | None = None
     # "v1" or "v2": the loop every field above left None takes (quad_dob_env.benchmark)
     benchmark: str = "v1"
+    # [s] the "settled" scores (RMS errors) skip the start before this: the initial
+    # transient (Neural-Fly's wind-tunnel figures skip their first 5 s, a warm-up lap)
+    settle_time: float = 2.0
     randomization: Randomization | None = None
     description: str = field(default="", compare=False)
     # A reference that needs more than the actuators give is refused unless this is set.
@@ -190,6 +193,9 @@ class Scenario:
         object.__setattr__(self, "initial_rotation",
                            tuple(tuple(row) for row in project_to_so3(rotation).tolist()))
         object.__setattr__(self, "duration", duration)
+        # (a flight shorter than it is scored on its last sample)
+        object.__setattr__(self, "settle_time",
+                           as_finite(self.settle_time, "Scenario.settle_time", 0.0))
         family = isinstance(self.trajectory, TrajectoryFamily)
         members = self.trajectory.members if family else (self.trajectory,)
         self._check_rotor_factors()

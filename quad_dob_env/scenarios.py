@@ -257,11 +257,11 @@ def _figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-f
         name=f"figure8-wind-{speed:g}", vehicle=get_vehicle(vehicle), trajectory=figure8,
         duration=30.0, disturbance=disturbance, drag=True, motor_lag=True, floor_height=0.0,
         initial_position=tuple(start.position[0]), initial_velocity=tuple(start.velocity[0]),
-        sensing="mocap",
+        sensing="mocap", settle_time=5.0,
         description=f"Neural-Fly's wind-tunnel figure-8: x = 1.25 sin t, z = "
                     f"{FIGURE8_HEIGHT:g} + 0.75 sin 2t, heading fixed, {speed:g} m/s of wind "
-                    f"along -x with {100 * intensity:g} % turbulence; mocap sensing; drag, "
-                    "motor lag, physical rotors")
+                    f"along -x with {100 * intensity:g} % turbulence; mocap sensing; scored "
+                    "after 5 s, as Neural-Fly; drag, motor lag, physical rotors")
 
 
 SCENARIOS: dict[str, Callable[..., Scenario]] = {

@@ -174,7 +174,7 @@ def test_the_records_cost_no_more_than_they_are_sized_at():
     recorder = FlightRecorder(n, vehicle)
     for _ in range(steps):
         recorder.add(state, ended, str, **kept)
-    flights = recorder.flights(["hover-calm"] * n, "pid", 0.01)
+    flights = recorder.flights([make_scenario("hover-calm")] * n, "pid", 0.01)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert len(flights) == n

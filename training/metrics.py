@@ -10,8 +10,6 @@ from numpy.typing import NDArray
 
 from quad_dob_training.rollout import Flight
 
-SETTLED_AFTER = 2.0  # [s] the "t >= 2 s" columns skip the initial transient
-
 
 def error_euler_angles(rotation: NDArray, desired_rotation: NDArray) -> NDArray:
     """Roll, pitch, yaw (ZYX) of the error rotation ``Rdᵀ R``, (T, 3) in radians: what the
@@ -49,13 +47,14 @@ def _rms(values: NDArray, axis: int = 0) -> NDArray:
 
 def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
     """RMS position error (norm and per axis), RMS attitude errors (geodesic, tilt, heading;
-    roll, pitch, yaw for the paper's table), the same after t >= 2 s, final errors, peak
+    roll, pitch, yaw for the paper's table), the same after the scenario's settle time (2 s
+    unless it says otherwise), final errors, peak
     thrust against the limit, and how the flight ended."""
     position_error = flight.position - flight.reference_position
     norm = np.linalg.norm(position_error, axis=1)
     angles = error_euler_angles(flight.rotation, flight.desired_rotation)
     attitude = attitude_errors(flight.rotation, flight.desired_rotation)
-    settled = flight.time >= SETTLED_AFTER
+    settled = flight.time >= flight.settle_time
     if not settled.any():
         settled = np.zeros_like(settled)
         settled[-1] = True
@@ -95,7 +94,7 @@ def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
 
 
 def _estimator_errors(flight: Flight, settled: NDArray[np.bool_]) -> dict[str, float]:
-    """RMS error of what the controller read against the truth, after t >= 2 s: position
+    """RMS error of what the controller read against the truth, once settled: position
     [m], velocity [m/s], attitude (geodesic angle) [rad]; zero with ideal sensing."""
     if flight.estimated_position is None:
         return {}

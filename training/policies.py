@@ -169,7 +169,7 @@ def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Fli
                 torque_estimate=estimates[1], estimated_position=measured.position,
                 estimated_velocity=measured.velocity, estimated_rotation=measured.rotation):
             break
-    return recorder.flights([scenario.name] * n, policy.name, scenario.dt)
+    return recorder.flights([scenario] * n, policy.name, scenario.dt)
 
 
 def _diagnostics(core, residual, zeros: NDArray) -> tuple[NDArray, tuple[NDArray, NDArray]]:

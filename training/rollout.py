@@ -54,6 +54,7 @@ class Flight:
     estimated_velocity: NDArray | None = None
     estimated_rotation: NDArray | None = None
     extra: dict = field(default_factory=dict)
+    settle_time: float = 2.0  # [s] the scenario's: the settled scores skip t < this
 
 
 # what FlightRecorder keeps each step, field by field: values per vehicle and step
@@ -114,11 +115,12 @@ class FlightRecorder:
                 self.reasons[i] = reason(i)
         return bool(self.flying.any())
 
-    def flights(self, scenarios: Sequence[str], controller: str, dt: float) -> list[Flight]:
-        return [Flight(scenario=scenario, controller=controller, dt=dt,
+    def flights(self, scenarios: Sequence[Scenario], controller: str, dt: float
+                ) -> list[Flight]:
+        return [Flight(scenario=scenario.name, controller=controller, dt=dt,
                        thrust_limit=self.vehicle.max_total_thrust,
                        **{key: np.array(values) for key, values in row.items()},
-                       termination_reason=reason)
+                       termination_reason=reason, settle_time=scenario.settle_time)
                 for scenario, row, reason in zip(scenarios, self.rows, self.reasons,
                                                  strict=True)]
 
@@ -205,4 +207,4 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
                 estimated_position=measured.position, estimated_velocity=measured.velocity,
                 estimated_rotation=measured.rotation):
             break
-    return recorder.flights([s.name for s in scenarios], controller.name, dt)
+    return recorder.flights(scenarios, controller.name, dt)
