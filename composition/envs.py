@@ -6,6 +6,7 @@ from typing import Any
 
 from quad_dob_composition.attitude_loop import AttitudeLoop
 from quad_dob_composition.bases import fused_pass_for, make_base
+from quad_dob_env.benchmark import scenario_options_for
 from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
 from quad_dob_env.envs.core import QuadrotorBatch
 from quad_dob_env.envs.residual import DEFAULT_BASE_CONTROLLER, ResidualCommand
@@ -35,16 +36,17 @@ class ResidualVectorEnv(QuadrotorVectorEnv):
     def __init__(self, num_envs: int, scenario: Any = "paper-none",
                  scenario_options: dict[str, Any] | None = None,
                  base_controller: Any = DEFAULT_BASE_CONTROLLER, compiled: bool = True,
-                 **kwargs: Any) -> None:
+                 benchmark: str | None = None, **kwargs: Any) -> None:
         if base_controller is None:  # the plain vector env would read None as "direct"
             raise ValueError("ResidualVectorEnv needs a base_controller (a controller name "
                              "such as 'geometric-ndob:tuned', or a controller); for direct "
                              "control use a direct id or QuadrotorVectorEnv")
-        vehicle = make_scenario(scenario, **(scenario_options or {})).vehicle
+        vehicle = make_scenario(scenario, **scenario_options_for(scenario_options,
+                                                                 benchmark)).vehicle
         base = make_base(base_controller, vehicle)
         super().__init__(num_envs, scenario, scenario_options, base_controller=base,
                          fused_pass=fused_pass_for(base) if compiled else None,
-                         attitude_loop=AttitudeLoop.install, **kwargs)
+                         attitude_loop=AttitudeLoop.install, benchmark=benchmark, **kwargs)
 
 
 def make_vector_env(num_envs: int, scenario: Any = "paper-none",

@@ -45,11 +45,19 @@ ENV_IDS = {
     # generalists: every vehicle a reference of a seeded pool, wind and physics randomised
     "QuadDOB/TracksResidual-v1": "random-tracks",
 }
+# Benchmark v2's loop (``benchmark="v2"``: quad_dob_env.benchmark) on the same scenarios; the
+# paper's wrench-actuated helix (Track-v1's) has no v2 counterpart yet
+ENV_IDS_V2 = {
+    "QuadDOB/Hover-v2": "hover-calm",
+    "QuadDOB/HoverResidual-v2": "gusty-hover",
+    "QuadDOB/TrackResidual-v2": "dryden-helix-gusts",
+    "QuadDOB/TracksResidual-v2": "random-tracks",
+}
 
 
 
 def _register() -> None:
-    for env_id, scenario in ENV_IDS.items():
+    for env_id, scenario in {**ENV_IDS, **ENV_IDS_V2}.items():
         if env_id in gym.registry:
             continue
         residual = "Residual" in env_id
@@ -65,13 +73,15 @@ def _register() -> None:
                      # make it longer; each env ends its episodes at its scenario's end
                      # and its spec reports that length (envs.limits)
                      kwargs={"scenario": scenario,
-                             **({"base_controller": DEFAULT_BASE_CONTROLLER} if residual else {})})
+                             **({"base_controller": DEFAULT_BASE_CONTROLLER} if residual else {}),
+                             **({"benchmark": "v2"} if env_id in ENV_IDS_V2 else {})})
 
 
 _register()
 
 __all__ = [
     "ENV_IDS",
+    "ENV_IDS_V2",
     "SENSING_PRESETS",
     "VEHICLES",
     "Measurement",

@@ -56,3 +56,11 @@ def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str
     if isinstance(resolved["inner_rate"], (int, float)) and resolved["inner_rate"] == 0:
         resolved["inner_rate"] = None
     return resolved
+
+
+def scenario_options_for(options: dict[str, Any] | None, benchmark: str | None
+                         ) -> dict[str, Any]:
+    """``options`` for ``make_scenario`` with ``benchmark`` beneath them (what an env's
+    ``benchmark=`` keyword, the ``-v2`` ids', adds: an option given wins)."""
+    return {**({} if benchmark is None else {"benchmark": benchmark}), **(options or {})}
+

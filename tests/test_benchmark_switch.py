@@ -71,3 +71,29 @@ def test_the_papers_wrench_scenarios_are_v1_only_and_names_are_checked():
         make_scenario("paper-II", benchmark="v2")
     with pytest.raises(ValueError, match="unknown benchmark 'v3'; valid: v1, v2"):
         make_scenario("hover-calm", benchmark="v3")
+
+
+def test_the_v2_ids_fly_benchmark_v2_and_the_v1_ids_stay_v1():
+    import gymnasium as gym
+
+    import quad_dob_env
+
+    assert set(quad_dob_env.ENV_IDS_V2) == {"QuadDOB/Hover-v2", "QuadDOB/HoverResidual-v2",
+                                            "QuadDOB/TrackResidual-v2",
+                                            "QuadDOB/TracksResidual-v2"}
+    for v2_id in ("QuadDOB/Hover-v2", "QuadDOB/TrackResidual-v2"):
+        v1_id = v2_id.replace("-v2", "-v1")
+        v2 = gym.make(v2_id).unwrapped.core.scenario
+        v1 = gym.make(v1_id).unwrapped.core.scenario
+        assert v2.name == v1.name and v2.benchmark == "v2" and v1.benchmark == "v1"
+        assert v2.speed_motors and v2.inner_rate == V2_INNER_RATE and not v1.speed_motors
+    # an option given with the id wins over the benchmark's, and the vector face agrees
+    off = gym.make("QuadDOB/Hover-v2", scenario_options={"speed_motors": False})
+    assert off.unwrapped.core.scenario.benchmark == "v2"
+    assert not off.unwrapped.core.scenario.speed_motors
+    vector = gym.make_vec("QuadDOB/TrackResidual-v2", num_envs=2,
+                          vectorization_mode="vector_entry_point")
+    assert vector.unwrapped.core.scenario.benchmark == "v2"
+    vector.reset(seed=0)
+    observation, *_ = vector.step(np.zeros((2, 4), np.float32))
+    assert np.all(np.isfinite(observation))

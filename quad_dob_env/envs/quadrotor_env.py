@@ -8,6 +8,7 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from quad_dob_env.benchmark import scenario_options_for
 from quad_dob_env.envs.actions import INVALID_ACTION_MODES, screen_actions
 from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
@@ -126,9 +127,16 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     ``max_position_error``, ``max_tilt``, ``max_body_rate``, ``reward_position_scale``,
     ``reward_effort_weight``, ``render_mode`` (``rgb_array``: ``render()`` returns a frame,
     headless; ``human``: a window at the control rate), ``invalid_actions`` (``raise`` or
-    ``terminate``).
+    ``terminate``), ``benchmark`` (``"v1"`` or ``"v2"``, beneath ``scenario_options``:
+    ``quad_dob_env.benchmark``; the ``-v2`` ids set ``"v2"``).
 
     ## Version history
+    - v2 (2026-12): the ids ``QuadDOB/Hover-v2``, ``HoverResidual-v2``, ``TrackResidual-v2``
+      and ``TracksResidual-v2`` fly the v1 ids' scenarios under ``benchmark="v2"``: ``mocap``
+      sensing, the 200 Hz inner loop, speed motors, thrust uncertainty, rotor aerodynamics.
+      Their controllers' gains are still v1's (part 3 of Benchmark v2 retunes them). The
+      v1 ids stay registered and unchanged (Gymnasium now warns that a newer version
+      exists when one is made); ``Track-v1``'s wrench-actuated paper helix has no v2 yet.
     - v1, sensing (2026-12, no id bumped: the defaults fly as before, bit for bit): the
       scenario options ``sensing``, ``extra_latency`` and ``motor_time_constant_scale``;
       ``info["wind"]`` and ``info["estimate"]``. ``sensors=`` (``SensorNoise``) now feeds
@@ -166,14 +174,15 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
                  max_position_error: float = 5.0, max_tilt: float = np.pi / 2,
                  max_body_rate: float = 35.0, reward_position_scale: float = 0.25,
                  reward_effort_weight: float = 0.01, render_mode: str | None = None,
-                 invalid_actions: str = "raise") -> None:
+                 invalid_actions: str = "raise", benchmark: str | None = None) -> None:
         if invalid_actions not in INVALID_ACTION_MODES:
             raise unknown_name_error("invalid_actions", invalid_actions, INVALID_ACTION_MODES)
         self.invalid_actions = invalid_actions
         self.render_mode = check_render_mode(render_mode)
         self._renderer: FlightRenderer | None = None
         self._window: HumanWindow | None = None
-        self.scenario = make_scenario(scenario, **(scenario_options or {}))
+        self.scenario = make_scenario(scenario, **scenario_options_for(scenario_options,
+                                                                       benchmark))
         self.core = QuadrotorBatch(
             self.scenario, 1, action_mode, rotation_representation,
             EpisodeLimits(max_position_error, max_tilt, max_body_rate),

@@ -12,6 +12,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
+from quad_dob_env.benchmark import scenario_options_for
 from quad_dob_env.envs.actions import INVALID_ACTION_MODES, screen_actions
 from quad_dob_env.envs.core import (
     TERMINATION_REASONS,
@@ -84,7 +85,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
-                 attitude_loop: Any = None) -> None:
+                 attitude_loop: Any = None, benchmark: str | None = None) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -92,7 +93,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
             raise unknown_name_error("invalid_actions", invalid_actions, INVALID_ACTION_MODES)
         self.invalid_actions = invalid_actions
         self.render_mode = render_mode
-        self.scenario = make_scenario(scenario, **(scenario_options or {}))
+        self.scenario = make_scenario(scenario, **scenario_options_for(scenario_options,
+                                                                       benchmark))
         if reward_effort_weight is None:
             reward_effort_weight = 0.01 if base_controller is None else 0.0
         self.core = QuadrotorBatch(
