@@ -8,6 +8,7 @@ def test_list_names_ids_and_scenarios(capsys):
     assert main(["list"]) == 0
     out = capsys.readouterr().out
     assert "QuadDOB/Track-v1" in out and "ground-effect-landing" in out
+    assert "QuadDOB/TrackResidual-v2" in out and "benchmark v2" in out
     # every scenario's feasibility margins, the controllers and the wind presets
     assert out.count("margins thrust") == out.count("actuation; margins") >= 11
     assert "rotors +22%" in out  # the wind helix: its tightest axis
