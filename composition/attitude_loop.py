@@ -29,24 +29,14 @@ from numpy.typing import NDArray
 from quad_dob_baselines.inner import PID, InnerLaw, inner_applied, inner_command
 from quad_dob_env.dynamics import (
     actuate_vehicle,
+    actuator_wrench,
     all_finite,
     load_vehicle,
-    store_applied,
     vehicle_physics,
 )
 from quad_dob_env.envs.kernels import finish_vehicle_step
 from quad_dob_env.envs.ticks import battery_scale_at, fly_tick, inner_estimate, tick_factors
 from quad_dob_env.threads import run_over_batch
-
-
-@njit(cache=True, inline="always")
-def _wrench_moment(matrix, output):
-    return (matrix[1, 0] * output[0] + matrix[1, 1] * output[1] + matrix[1, 2] * output[2]
-            + matrix[1, 3] * output[3],
-            matrix[2, 0] * output[0] + matrix[2, 1] * output[1] + matrix[2, 2] * output[2]
-            + matrix[2, 3] * output[3],
-            matrix[3, 0] * output[0] + matrix[3, 1] * output[1] + matrix[3, 2] * output[2]
-            + matrix[3, 3] * output[3])
 
 
 @njit(cache=True, nogil=True)
@@ -62,7 +52,7 @@ def attitude_loop_kernel(start, stop, addition, law, actions, action_map, actuat
     a residual's thrust and moment. Called as ``kernels.step_kernel`` is, with
     ``*StepArguments`` after ``actions`` (its ``law`` field, the ground effect's, arrives as
     ``law_table``); ``actions`` only enter the reward's effort term."""
-    to_wrench, to_rotors, time_constant, actuator_state = actuator
+    to_wrench, _, time_constant, actuator_state = actuator
     mass, gravity, inertia, inertia_inverse, drag = physics
     ticks, limit = inner[0], inner[4]
     mixer_code, mixer, max_rotor, max_total, mixer_limit = actuation
@@ -105,21 +95,17 @@ def attitude_loop_kernel(start, stop, addition, law, actions, action_map, actuat
             if law[0] == PID:
                 mixed, _ = actuate_vehicle(own_thrust, own_moment, mixer_code, mixer,
                                            max_rotor, max_total, mixer_limit)
-                mixed_moment = _wrench_moment(to_wrench, mixed)
+                mixed_moment = actuator_wrench(mixed, mixed, 0.0, to_wrench)[1]
             inner_applied(i, seen_rate, rate_after, own_moment, mixed_moment,
-                          _wrench_moment(to_wrench, mean), law)
+                          actuator_wrench(mean, mean, 0.0, to_wrench)[1], law)
             seen_rotation, seen_rate = rotation_after, rate_after
-        mean = (total[0] / ticks, total[1] / ticks, total[2] / ticks, total[3] / ticks)
-        saturated[i] = any_saturated
-        store_applied(i, mean, to_wrench, to_rotors, applied_thrust, applied_moment,
-                      rotor_thrusts)
-        for k in range(4):
-            actuator_state[i, k] = end[k]
-        finish_vehicle_step(i, x, v, R, w, diverged, end, actions, actuator, rotors,
-                            rotor_state, position, velocity, rotation, angular_velocity,
-                            step_count, reference_row, tables, own, reference, vehicle,
-                            law_table, limits, reward_weights, rotation_mode, obs, reward,
-                            code, disturbance_force, disturbance_torque, wind_velocity)
+        finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated, actions,
+                            actuator, rotors, rotor_state, position, velocity, rotation,
+                            angular_velocity, step_count, reference_row, tables, own,
+                            reference, vehicle, law_table, limits, reward_weights,
+                            rotation_mode, obs, reward, code, applied_thrust, applied_moment,
+                            rotor_thrusts, saturated, disturbance_force, disturbance_torque,
+                            wind_velocity)
 
 
 class AttitudeLoop:

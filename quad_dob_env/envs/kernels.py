@@ -212,16 +212,21 @@ class StartArguments(NamedTuple):
 
 
 @njit(cache=True)
-def finish_vehicle_step(i, x, v, R, w, diverged, end, actions, actuator, rotors, rotor_state,
-                        position, velocity, rotation, angular_velocity, step_count,
-                        reference_row, tables, own, reference, vehicle, law, limits,
-                        reward_weights, rotation_mode, obs, reward, code, disturbance_force,
-                        disturbance_torque, wind_velocity):
-    """After vehicle i's step: its state stored (the last finite one), the clock, the
-    observation, termination and reward, and the true disturbance now (external force and
-    torque, the ground effect's extra lift, the aerodynamic drag, and with the rotors' own
-    model what it makes beyond the nominal one)."""
-    to_wrench = actuator[0]
+def finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated, actions,
+                        actuator, rotors, rotor_state, position, velocity, rotation,
+                        angular_velocity, step_count, reference_row, tables, own, reference,
+                        vehicle, law, limits, reward_weights, rotation_mode, obs, reward, code,
+                        applied_thrust, applied_moment, rotor_thrusts, saturated,
+                        disturbance_force, disturbance_torque, wind_velocity):
+    """After vehicle i's step of ``ticks`` ticks: what was applied (the ticks' mean output),
+    the end output, the last finite state, clock, observation, termination, reward, and the
+    true disturbance (external, extra lift, drag, the rotors' wrench beyond the nominal)."""
+    to_wrench, to_rotors, _, actuator_state = actuator
+    mean = (total[0] / ticks, total[1] / ticks, total[2] / ticks, total[3] / ticks)
+    saturated[i] = any_saturated
+    store_applied(i, mean, to_wrench, to_rotors, applied_thrust, applied_moment, rotor_thrusts)
+    for k in range(4):
+        actuator_state[i, k] = end[k]
     force_table, torque_table, wind_table = tables
     force_own, torque_own, wind_own = own
     position_scale, effort_weight = reward_weights
@@ -281,7 +286,7 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, rotors, r
     With an inner loop (``inner[0]`` ticks per step) the ``thrust_rates`` rate law runs at
     every tick on the inner estimate; other actions are held over the step."""
     rotor_mode, centre, scale_up, scale_down, allocation = action_map
-    to_wrench, to_rotors, time_constant, actuator_state = actuator
+    _, _, time_constant, actuator_state = actuator
     mass, gravity, inertia, inertia_inverse, drag = physics
     ticks, rates = inner[0], inner[1]
     tick_dt = dt / ticks
@@ -315,17 +320,12 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, rotors, r
                 diverged = True
                 break
             x, v, R, w = xn, vn, Rn, wn
-        mean = (total[0] / ticks, total[1] / ticks, total[2] / ticks, total[3] / ticks)
-        saturated[i] = any_saturated
-        store_applied(i, mean, to_wrench, to_rotors, applied_thrust, applied_moment,
-                      rotor_thrusts)
-        for k in range(4):
-            actuator_state[i, k] = end[k]
-        finish_vehicle_step(i, x, v, R, w, diverged, end, actions, actuator, rotors,
-                            rotor_state, position, velocity, rotation, angular_velocity,
-                            step_count, reference_row, tables, own, reference, vehicle, law,
-                            limits, reward_weights, rotation_mode, obs, reward, code,
-                            disturbance_force, disturbance_torque, wind_velocity)
+        finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated, actions,
+                            actuator, rotors, rotor_state, position, velocity, rotation,
+                            angular_velocity, step_count, reference_row, tables, own,
+                            reference, vehicle, law, limits, reward_weights, rotation_mode,
+                            obs, reward, code, applied_thrust, applied_moment, rotor_thrusts,
+                            saturated, disturbance_force, disturbance_torque, wind_velocity)
 
 
 @njit(cache=True)
