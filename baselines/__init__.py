@@ -14,7 +14,10 @@ type), never ``quad_dob_training``.
 - ``inner``: their attitude laws, compiled per vehicle, for an inner loop that runs them
   at its own rate (``InnerLaw``, what ``Controller.inner_law`` hands it).
 
-``make_controller(name, vehicle)`` builds one by the name the CLI, evaluation and the
+- ``gain_sets``: what each name's gains are per benchmark and vehicle (v2's tuned with a
+  latency and motor margin).
+
+``make_controller(name, vehicle, benchmark)`` builds one by the name the CLI, evaluation and the
 residual wrapper use: ``geometric``, ``geometric-ndob`` (the paper's observer gains),
 ``geometric-ndob:tuned`` (tuned observer rates, the paper's gains: the recommended base),
 ``geometric-ndob:gains-tuned`` (its gains tuned too), ``geometric-integral`` (integral
@@ -26,6 +29,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from quad_dob_baselines.base import Controller
+from quad_dob_baselines.gain_sets import GAIN_SETS, MARGIN_LOSSES, GainSet, gain_set
 from quad_dob_baselines.geometric import GeometricController, GeometricIntegralController
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_baselines.pid import CascadedPID
@@ -46,13 +50,17 @@ TUNED_GEOMETRIC_GAINS = {"kx_per_mass": 31.36, "kv_per_mass": 5.6, "kR": 17.62,
                          "kOmega": 1.778}
 
 
+OBSERVER_RATE_OPTIONS = ("translational_rate", "rotational_rate")
+
+
 def _geometric_ndob(vehicle: VehicleParams, gains: str = "paper", **options: object
                     ) -> Controller:
-    if gains == "paper":
+    rates = {key: options.pop(key) for key in OBSERVER_RATE_OPTIONS if key in options}
+    if gains == "paper" and not rates:
         observer = NonlinearDisturbanceObserver()
-    elif gains == "tuned":
-        observer = NonlinearDisturbanceObserver.from_rates(vehicle=vehicle,
-                                                           **TUNED_OBSERVER_RATES)
+    elif gains in ("paper", "tuned"):
+        observer = NonlinearDisturbanceObserver.from_rates(
+            vehicle=vehicle, **{**TUNED_OBSERVER_RATES, **rates})
     else:
         raise unknown_name_error("observer gains preset", gains, ["paper", "tuned"])
     controller = GeometricController(observer=observer, **options)
@@ -81,21 +89,31 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
 
 
 def make_controller(name: str, vehicle: VehicleParams | str = "paper",
-                    **options: object) -> Controller:
-    """The named controller for ``vehicle``; ``options`` are its gains."""
+                    benchmark: str = "v1", **options: object) -> Controller:
+    """The named controller for ``vehicle`` with the gains its name means in ``benchmark``
+    (``gain_sets``: v1's are the modules' defaults); ``options`` override them."""
     if name not in CONTROLLERS:
         raise unknown_name_error("controller", name, CONTROLLERS)
-    return CONTROLLERS[name](get_vehicle(vehicle), **options)
+    params = get_vehicle(vehicle)
+    chosen = gain_set(name, benchmark, params.name)
+    controller = CONTROLLERS[name](params, **{**chosen.options, **options})
+    controller.gain_set = chosen
+    return controller
 
 
 __all__ = [
     "CONTROLLERS",
+    "GAIN_SETS",
+    "MARGIN_LOSSES",
     "TUNED_GEOMETRIC_GAINS",
+    "TUNED_OBSERVER_RATES",
     "CascadedPID",
     "Controller",
+    "GainSet",
     "GeometricController",
     "GeometricIntegralController",
     "NonlinearDisturbanceObserver",
     "SlidingModeController",
+    "gain_set",
     "make_controller",
 ]

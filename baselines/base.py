@@ -50,6 +50,8 @@ class Controller:
     has_inner_law = False
     # [s] the inner loop's period this controller flies with (``use_inner_loop``), or None
     inner_period: float | None = None
+    # the ``gain_sets.GainSet`` make_controller built it with (None: built directly)
+    gain_set: Any = None
 
     def __init__(self) -> None:
         self.vehicle: VehicleParams | None = None

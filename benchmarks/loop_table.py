@@ -9,9 +9,7 @@ lost under each variant.
 
 from __future__ import annotations
 
-import argparse
-import csv
-from pathlib import Path
+from variants import variant_rows
 
 # folder name -> column title; the first is the reference every factor is read against
 VARIANTS = {
@@ -25,11 +23,7 @@ VARIANTS = {
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("folder", type=Path)
-    folder = parser.parse_args().folder
-    rows = {name: list(csv.DictReader(open(folder / name / "evaluation.csv")))
-            for name in VARIANTS if (folder / name / "evaluation.csv").exists()}
+    rows = variant_rows(__doc__.splitlines()[0], VARIANTS)
     reference = rows["v1"]
     scenarios = list(dict.fromkeys(row["scenario"] for row in reference))
     for scenario in scenarios:

@@ -10,10 +10,11 @@ from quad_dob_composition.fused import FusedResidualStep
 from quad_dob_env.params import VehicleParams
 
 
-def make_base(base: Any, vehicle: VehicleParams) -> Any:
-    """The controller ``base`` names (``quad_dob_baselines.make_controller``), or ``base``
-    itself when it is already a controller object."""
-    return make_controller(base, vehicle) if isinstance(base, str) else base
+def make_base(base: Any, vehicle: VehicleParams, benchmark: str = "v1") -> Any:
+    """The controller ``base`` names, with the gains its name means in ``benchmark`` on
+    ``vehicle`` (``quad_dob_baselines.make_controller``), or ``base`` itself when it is
+    already a controller object."""
+    return make_controller(base, vehicle, benchmark) if isinstance(base, str) else base
 
 
 def fused_pass_for(controller: Any) -> Callable[[Any], FusedResidualStep] | None:

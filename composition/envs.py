@@ -23,7 +23,8 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
     (a name or a controller), the env's own effort term off."""
     env_kwargs.setdefault("reward_effort_weight", 0.0)
     env = QuadrotorEnv(**env_kwargs)
-    base = make_base(base_controller, env.unwrapped.core.vehicle)
+    core = env.unwrapped.core
+    base = make_base(base_controller, core.vehicle, core.scenario.benchmark)
     return ResidualActionWrapper(env, base, thrust_scale, moment_scale, residual_effort_weight,
                                  authority_gate, residual_mode, acceleration_scale,
                                  vertical_floor, attitude_loop=AttitudeLoop.install)
@@ -41,9 +42,8 @@ class ResidualVectorEnv(QuadrotorVectorEnv):
             raise ValueError("ResidualVectorEnv needs a base_controller (a controller name "
                              "such as 'geometric-ndob:tuned', or a controller); for direct "
                              "control use a direct id or QuadrotorVectorEnv")
-        vehicle = make_scenario(scenario, **scenario_options_for(scenario_options,
-                                                                 benchmark)).vehicle
-        base = make_base(base_controller, vehicle)
+        flown = make_scenario(scenario, **scenario_options_for(scenario_options, benchmark))
+        base = make_base(base_controller, flown.vehicle, flown.benchmark)
         super().__init__(num_envs, scenario, scenario_options, base_controller=base,
                          fused_pass=fused_pass_for(base) if compiled else None,
                          attitude_loop=AttitudeLoop.install, benchmark=benchmark, **kwargs)
@@ -60,6 +60,6 @@ def make_vector_env(num_envs: int, scenario: Any = "paper-none",
 def residual_command(core: QuadrotorBatch, base_controller: Any = DEFAULT_BASE_CONTROLLER,
                      compiled: bool = True, **options: Any) -> ResidualCommand:
     """A ``ResidualCommand`` for ``core`` with ``base_controller`` by name (or object)."""
-    base = make_base(base_controller, core.vehicle)
+    base = make_base(base_controller, core.vehicle, core.scenario.benchmark)
     return ResidualCommand(core, base, fused_pass=fused_pass_for(base) if compiled else None,
                            attitude_loop=AttitudeLoop.install, **options)

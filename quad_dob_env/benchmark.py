@@ -53,6 +53,10 @@ def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str
                 "drag": v2}
     resolved = {key: defaults[key] if given[key] is None else given[key]
                 for key in LOOP_FIELDS}
+    if given["rotor_aerodynamics"] is None and given["drag"] is not None:
+        # drag switched off by hand takes the rotors' aerodynamics (which act through the
+        # air-relative velocity it turns on) with it
+        resolved["rotor_aerodynamics"] = resolved["rotor_aerodynamics"] and bool(given["drag"])
     if isinstance(resolved["inner_rate"], (int, float)) and resolved["inner_rate"] == 0:
         resolved["inner_rate"] = None
     return resolved

@@ -68,10 +68,12 @@ class VehicleParams:
     # Largest body rate the vehicle measures: the gyroscope's full-scale range.
     max_body_rate: float = math.radians(2000.0)  # [rad/s]
     # Rotor aerodynamics (quad_dob_env.dynamics.rotors, where a scenario turns them on):
-    # rotor drag D = -k_d ω u_inplane per rotor, thrust T = k_F ω² - k_z ω u_axial, and the
+    # rotor drag D = -k_d ω u_inplane per rotor, thrust T = k_F ω² (1 + a_μ μ² + a_λ λ²)
+    # - k_z ω u_axial (μ, λ: in-plane and axial airspeed over the tip speed ωR), and the
     # rotor hubs' height above the centre of mass, where the drag acts.
     rotor_drag_coefficient: float = 0.0  # k_d [N/(rad/s · m/s)]
     inflow_coefficient: float = 0.0  # k_z [N/(rad/s · m/s)]
+    inflow_quadratic: tuple[float, float] = (0.0, 0.0)  # (a_μ, a_λ), dimensionless
     rotor_height: float = 0.0  # [m]
     _matrices: dict = field(default=None, init=False, repr=False, compare=False, hash=False)
 
@@ -86,6 +88,11 @@ class VehicleParams:
                 raise ValueError(f"VehicleParams.{name} must be three finite numbers >= 0, "
                                  f"got {getattr(self, name)!r}")
             object.__setattr__(self, name, tuple(float(v) for v in values))
+        quadratic = np.asarray(self.inflow_quadratic, dtype=float)
+        if quadratic.shape != (2,) or not np.all(np.isfinite(quadratic)):
+            raise ValueError(f"VehicleParams.inflow_quadratic must be two finite numbers "
+                             f"(a_μ, a_λ), got {self.inflow_quadratic!r}")
+        object.__setattr__(self, "inflow_quadratic", tuple(float(v) for v in quadratic))
         for name in ("motor_time_constant", "rotor_drag_coefficient", "inflow_coefficient"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
@@ -219,9 +226,23 @@ LEE_TORQUE_COEFFICIENT = 8.004e-4
 # the centre of mass (x500_base/model.sdf), which the paper vehicle is assumed to share.
 X500_ROTOR_DRAG_COEFFICIENT = 8.06428e-5
 X500_ROTOR_HEIGHT = 0.06
-# The blade-element solidity and lift slope of a two-bladed 10-inch propeller: our estimate
-# (mean chord ~2 cm: σ = 2c/(πR) ≈ 0.1) and thin-aerofoil 2π times 0.91 (Leishman 2006).
-APC_10X47_SOLIDITY, BLADE_LIFT_SLOPE = 0.1, 5.73
+# Thrust of a propeller in oblique flow, Gill & D'Andrea 2019 ("Computationally Efficient
+# Force and Moment Models for Propellers in UAV Forward Flight Applications", Drones 3(4) 77,
+# §5 eq. 95 and Appendix A): C_T = C_s + k1 λ + k2 μ² + k3 λ², fitted to their wind-tunnel
+# runs of an APC 10x4.7 SF at incidences 0-90° (λ = axial, μ = in-plane airspeed over ωR;
+# C_T = T / (½ρπR²(ωR)²)). The fit's coefficients (C_s, k1, k2, k3), as their Appendix A
+# prints them (copied in enac-drones/dronesim, database/propeller_database.py):
+APC_10X47_OBLIQUE_FIT = (0.032, -0.065, 0.17, -0.41)
+
+
+def oblique_flow_thrust(thrust_coefficient: float, radius: float,
+                        fit: tuple[float, float, float, float] = APC_10X47_OBLIQUE_FIT
+                        ) -> tuple[float, tuple[float, float]]:
+    """A rotor's ``inflow_coefficient`` k_z and ``inflow_quadratic`` (k2/C_s, k3/C_s) from an
+    oblique-flow fit, applied as ratios to its own static k_F: T = k_F ω² (1 + k1/C_s λ
+    + k2/C_s μ² + k3/C_s λ²), so k_F ω² k1/C_s λ = -k_z ω u_z with k_z = -k_F k1/(C_s R)."""
+    static, k1, k2, k3 = fit
+    return -thrust_coefficient * k1 / (static * radius), (k2 / static, k3 / static)
 
 
 # PX4's x500 model (PX4-gazebo-models models/x500/model.sdf, ~11-inch rotors): thrust per
@@ -257,19 +278,6 @@ def _body_drag_coefficient(force: float, airspeed: float, mass: float,
     return (force - 4 * rotor_drag * hover_speed * airspeed) / airspeed**2
 
 
-def heave_damping_coefficient(thrust: float, thrust_coefficient: float, radius: float,
-                              solidity: float, lift_slope: float, density: float = 1.225
-                              ) -> float:
-    """k_z [N/(rad/s · m/s)] of a rotor at ``thrust``: the fall of thrust with axial inflow at
-    fixed speed, ``∂C_T/∂μ_z = -2 a σ λ₀ / (16 λ₀ + a σ)`` (Padfield, Helicopter Flight
-    Dynamics, 2007, §4.2 heave damping), λ₀ = v_h / (ωR), v_h = sqrt(T / (2ρA)); then
-    ``∂T/∂V = ρ A ω R ∂C_T/∂μ_z`` = k_z ω."""
-    area = math.pi * radius * radius
-    speed = math.sqrt(thrust / thrust_coefficient)
-    inflow_ratio = math.sqrt(thrust / (2 * density * area)) / (speed * radius)
-    slope = 2 * lift_slope * solidity * inflow_ratio / (16 * inflow_ratio + lift_slope * solidity)
-    return density * area * radius * slope
-
 # Neural-Fly's measured aerodynamic force in 12.1 m/s of wind, about -15.7 N along the wind
 # at the start of custom_figure8_baseline_100wind.csv (aerorobotics/neural-fly's data, near
 # hover): a physical measurement, not the tracking errors its figure-8 scenarios are checked
@@ -279,9 +287,9 @@ NEURAL_FLY_BODY_DRAG = _body_drag_coefficient(15.7, 12.1, NEURAL_FLY_MASS,
                                               X500_ROTOR_DRAG_COEFFICIENT)
 
 NEURAL_FLY_HOVER_SPEED = math.sqrt(NEURAL_FLY_MASS * 9.81 / 4 / X500_THRUST_COEFFICIENT)
-NEURAL_FLY_INFLOW = heave_damping_coefficient(NEURAL_FLY_MASS * 9.81 / 4, X500_THRUST_COEFFICIENT,
-                                              11 * 0.0254 / 2, APC_10X47_SOLIDITY,
-                                              BLADE_LIFT_SLOPE)
+NEURAL_FLY_INFLOW, NEURAL_FLY_INFLOW_QUADRATIC = oblique_flow_thrust(X500_THRUST_COEFFICIENT,
+                                                                  11 * 0.0254 / 2)
+PAPER_INFLOW, PAPER_INFLOW_QUADRATIC = oblique_flow_thrust(APC_10X47_THRUST_COEFFICIENT, 0.127)
 
 VEHICLES: dict[str, VehicleParams] = {
     "paper": VehicleParams(
@@ -291,9 +299,7 @@ VEHICLES: dict[str, VehicleParams] = {
         drag_linear=(0.3, 0.3, 0.4), drag_quadratic=(0.06, 0.06, 0.1), motor_time_constant=0.04,
         thrust_coefficient=APC_10X47_THRUST_COEFFICIENT,
         rotor_drag_coefficient=X500_ROTOR_DRAG_COEFFICIENT,
-        inflow_coefficient=heave_damping_coefficient(
-            4.34 * 9.81 / 4, APC_10X47_THRUST_COEFFICIENT, 0.127, APC_10X47_SOLIDITY,
-            BLADE_LIFT_SLOPE),
+        inflow_coefficient=PAPER_INFLOW, inflow_quadratic=PAPER_INFLOW_QUADRATIC,
         rotor_height=X500_ROTOR_HEIGHT,
     ),
     "crazyflie": VehicleParams(
@@ -323,7 +329,8 @@ VEHICLES: dict[str, VehicleParams] = {
             X500_ROTOR_DRAG_COEFFICIENT, X500_ROTOR_DRAG_COEFFICIENT, NEURAL_FLY_INFLOW)),
         drag_quadratic=(NEURAL_FLY_BODY_DRAG,) * 2 + (NEURAL_FLY_BODY_DRAG * 0.1 / 0.06,),
         rotor_drag_coefficient=X500_ROTOR_DRAG_COEFFICIENT,
-        inflow_coefficient=NEURAL_FLY_INFLOW, rotor_height=X500_ROTOR_HEIGHT,
+        inflow_coefficient=NEURAL_FLY_INFLOW, inflow_quadratic=NEURAL_FLY_INFLOW_QUADRATIC,
+        rotor_height=X500_ROTOR_HEIGHT,
     ),
 }
 

@@ -33,9 +33,12 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
                                   "model.sdf rotorDragCoefficient 8.06428e-5 N/(rad/s · m/s) "
                                   "(Martin & Salaün 2010's model): 3.3 N on four rotors at "
                                   "hover in 12 m/s, where drag_linear gave 3.6 N",
-        "inflow_coefficient": "Padfield 2007 §4.2 heave damping, ∂C_T/∂μ_z = -2aσλ₀/(16λ₀ + aσ) "
-                              "at hover (a = 5.73, σ ≈ 0.1 our estimate): 4.0e-4, thrust falls "
-                              "3.2 % per m/s of climb",
+        "inflow_coefficient": "Gill & D'Andrea 2019 (Drones 3(4) 77), Appendix A, the APC "
+                              "10x4.7 SF's oblique-flow fit: k_z = -k_F k1/(C_s R), k1/C_s = "
+                              "-2.03 (thrust falls 1.9 % per m/s of climb at hover)",
+        "inflow_quadratic": "the same fit's k2/C_s = 5.31 (thrust gained with in-plane "
+                            "flow μ²) and k3/C_s = -12.8 (lost with axial inflow λ², from "
+                            "above only, where it was measured)",
         "rotor_height": "assumed as PX4 x500's hubs, 0.06 m above the centre of mass "
                         "(x500_base/model.sdf); Lee 2010 gives none",
         "arm_width": "unused (a plus)",
@@ -61,6 +64,8 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
                          "gyroscope (Bosch datasheet)",
         "rotor_drag_coefficient": "Förster 2015 K_xy = 10.2506e-7 kg/rad, rotorpy 3's k_d",
         "inflow_coefficient": "rotorpy 3's k_z = 7.553e-7 kg/rad (crazyflie_params.py)",
+        "inflow_quadratic": "zero: no oblique-flow data for a 45 mm rotor; rotorpy 3 keeps "
+                            "the linear law alone",
         "rotor_height": "rotorpy 3: hubs in the centre of mass's plane",
         "arm_width": "unused (an X)",
     },
@@ -89,8 +94,10 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
                          "BMI055 gyroscopes",
         "rotor_drag_coefficient": "PX4 x500 rotorDragCoefficient 8.06428e-5 (same rotor "
                                   "class)",
-        "inflow_coefficient": "Padfield 2007 §4.2 heave damping at hover for an 11-inch "
-                              "rotor (σ ≈ 0.1 our estimate)",
+        "inflow_coefficient": "Gill & D'Andrea 2019's APC 10x4.7 SF oblique-flow fit (the "
+                              "nearest propeller they measured; Neural-Fly names no model), as "
+                              "ratios to this rotor's k_F and R",
+        "inflow_quadratic": "the same fit's k2/C_s, k3/C_s",
         "rotor_height": "assumed as PX4 x500's, 0.06 m",
     },
 }

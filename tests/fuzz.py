@@ -201,6 +201,14 @@ def _vehicle_loop_options(d: _Draw, scenario: str, options: dict[str, Any]) -> N
     if defaults is None:
         return  # a bad scenario name: its own refusal comes first
     rotors = options.get("actuation", defaults[0]) == "rotors"
+    if d.chance(0.06):  # Benchmark v2's whole loop, refused where the vehicle has no rotors
+        if d.bad_chance(0.2):
+            options["benchmark"] = d.pick(["v3", "V2", 2, None])
+            d.invalid.append("benchmark")
+        else:
+            options["benchmark"] = d.pick(["v1", "v2"])
+            if options["benchmark"] == "v2" and not rotors:
+                d.invalid.append("benchmark")
     for key in ("speed_motors", "thrust_uncertainty", "rotor_aerodynamics"):
         if d.chance(0.06):
             options[key] = True
@@ -208,6 +216,21 @@ def _vehicle_loop_options(d: _Draw, scenario: str, options: dict[str, Any]) -> N
                 d.invalid.append(key)
             elif key == "rotor_aerodynamics" and not options.get("drag", defaults[1]):
                 d.invalid.append(key)
+
+
+def _v2_id(rng: np.random.Generator, config: dict[str, Any], scenario: str,
+           options: dict[str, Any]) -> None:
+    """Now and then the drawn id's ``-v2`` counterpart (Benchmark v2's loop beneath the
+    options), from a stream of its own so no other draw moves; refused where the flown
+    scenario has no rotors and the options leave the benchmark to the id."""
+    v2 = config["env_id"].replace("-v1", "-v2")
+    if v2 == config["env_id"] or v2 not in quad_dob_env.ENV_IDS_V2 or rng.random() > 0.1:
+        return
+    config["env_id"] = v2
+    defaults = _actuation_and_drag(scenario)
+    if defaults is not None and "benchmark" not in options and options.get(
+            "actuation", defaults[0]) != "rotors" and "benchmark" not in config["invalid"]:
+        config["invalid"].append("benchmark")
 
 
 @functools.cache
@@ -441,6 +464,7 @@ def draw_config(seed: int, index: int) -> dict[str, Any]:
                   wrappers=_wrappers(d, mode),
                   invalid=d.invalid, huge=d.huge, upstream_invalid=upstream_invalid,
                   memory_hungry=False)
+    _v2_id(np.random.default_rng([seed, index, 2]), config, scenario or default, options)
     if d.chance(0.03):
         hungry = dict(d.pick(MEMORY_HUNGRY))
         config["env_id"] = hungry.pop("env_id") or config["env_id"]

@@ -77,19 +77,20 @@ def test_scenario_options_are_parsed_by_the_cli_before_they_reach_the_library(ca
         err = _error(["evaluate", "--policies", "geometric", "--json",
                       "--scenario-option", bad], capsys)
         assert message in err
-    err = _error(["evaluate", "--policies", "geometric", "--json", "--scenarios", "paper-none",
-                  "--seeds", "1", "--scenario-option", "duration=lots"], capsys)
+    err = _error(["evaluate", "--benchmark", "v1", "--policies", "geometric", "--json",
+                  "--scenarios", "paper-none", "--seeds", "1", "--scenario-option",
+                  "duration=lots"], capsys)
     assert "quad-dob: error: Scenario.duration must be a number, got str 'lots'" in err
 
 
 def test_a_scenario_option_changes_every_flight(capsys):
     import json
 
-    assert main(["evaluate", "--policies", "geometric", "--baseline", "", "--json",
-                 "--scenarios", "paper-none", "--seeds", "1",
+    assert main(["evaluate", "--benchmark", "v1", "--policies", "geometric", "--baseline", "",
+                 "--json", "--scenarios", "paper-none", "--seeds", "1",
                  "--scenario-option", "duration=3.0"]) == 0
     plain = json.loads(capsys.readouterr().out)[0]
-    assert main(["evaluate", "--policies", "geometric", "--baseline", "", "--json",
-                 "--scenarios", "paper-none", "--seeds", "1"]) == 0
+    assert main(["evaluate", "--benchmark", "v1", "--policies", "geometric", "--baseline", "",
+                 "--json", "--scenarios", "paper-none", "--seeds", "1"]) == 0
     longer = json.loads(capsys.readouterr().out)[0]
     assert plain["rms_position_settled_mean"] != longer["rms_position_settled_mean"]

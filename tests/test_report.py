@@ -52,8 +52,9 @@ def test_the_console_check_catches_errors(chromium, tmp_path):
 
 def test_evaluation_report_opens_without_console_errors_and_shows_plots(chromium, tmp_path):
     out = tmp_path / "evaluation"
-    assert cli.main(["evaluate", "--policies", "geometric,geometric-ndob:tuned",
-                     "--scenarios", "paper-II", "--seeds", "1", "--out", str(out)]) == 0
+    assert cli.main(["evaluate", "--benchmark", "v1", "--policies",
+                     "geometric,geometric-ndob:tuned", "--scenarios", "paper-II", "--seeds",
+                     "1", "--out", str(out)]) == 0
     report = out / "report.html"
     text = report.read_text()
     # self-contained: the JavaScript is inlined, nothing is fetched from the network

@@ -3,12 +3,15 @@
 import re
 
 from quad_dob_training import cli
-from quad_dob_training.evaluate import SUITE
+from quad_dob_training.evaluate import SUITES
+
+SUITE = SUITES["v1"]
 
 
 def test_the_suite_flies_every_family_and_writes_a_leaderboard_with_intervals(tmp_path):
-    assert cli.main(["evaluate", "--suite", "--policies", "geometric-ndob:tuned,geometric",
-                     "--seeds", "9001-9003", "--out", str(tmp_path)]) == 0
+    assert cli.main(["evaluate", "--benchmark", "v1", "--suite", "--policies",
+                     "geometric-ndob:tuned,geometric", "--seeds", "9001-9003", "--out",
+                     str(tmp_path)]) == 0
     board = (tmp_path / "leaderboard.md").read_text()
     for family, scenarios in SUITE.items():
         for scenario in scenarios:
@@ -39,7 +42,7 @@ def test_a_generalist_trained_a_few_thousand_steps_round_trips_through_the_suite
     model, saved = load_model(tmp_path / "run" / "model.zip")
     assert saved["env_kwargs"]["residual_mode"] == "acceleration"
     assert len(saved["observation_normalization"]["mean"]) == model.observation_space.shape[0]
-    assert cli.main(["evaluate", "--suite", "--policies",
+    assert cli.main(["evaluate", "--benchmark", "v1", "--suite", "--policies",
                      f"geometric-ndob:tuned,residual:{tmp_path / 'run' / 'model.zip'}",
                      "--seeds", "9001-9002", "--out", str(tmp_path / "suite")]) == 0
     board = (tmp_path / "suite" / "leaderboard.md").read_text()

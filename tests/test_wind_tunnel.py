@@ -153,3 +153,22 @@ def test_the_wind_tunnel_is_scored_after_five_seconds_as_neural_fly_scores_it():
     expected = np.sqrt(np.mean(error[flight.time >= 5.0] ** 2))
     assert (flight.time >= 5.0).sum() == 100
     assert flight_metrics(flight)["rms_position_settled"] == pytest.approx(expected, rel=1e-12)
+
+
+def test_the_side_by_side_table_divides_by_the_published_figures():
+    from quad_dob_training.wind_tunnel import NEURAL_FLY_RMS, side_by_side
+
+    # NF-C's published errors times 1.5 at every speed but the last, 2.5x there, one lost
+    factors = (1.5, 1.5, 1.5, 2.5)
+    rows = [{"scenario": f"figure8-wind-{speed}", "policy": "geometric-ndob:tuned",
+             "rms_position_settled_mean": factor * real, "crashes": int(speed == "12.1")}
+            for speed, factor, real in zip(("0", "4.2", "8.5", "12.1"), factors,
+                                           NEURAL_FLY_RMS["NF-C"], strict=True)]
+    table = side_by_side(rows).splitlines()
+    simulated = next(line for line in table if line.startswith("| geometric-ndob:tuned"))
+    assert "78.0" in simulated and "305.0 (1 lost)" in simulated
+    assert simulated.endswith("| no | yes |")  # 2.5x at 12.1 m/s is outside 2x
+    ratios = next(line for line in table if line.startswith("| ratio"))
+    assert ratios.split("|")[1:5] == [" ratio sim / real ", " 1.50 ", " 1.50 ", " 1.50 "]
+    assert "2.50" in ratios
+    assert not any(line.startswith("| geometric-integral") for line in table)  # not flown

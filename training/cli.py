@@ -67,18 +67,23 @@ def _evaluate(args: argparse.Namespace) -> int:
 
     if not args.json:
         _writable_folder(args.out, "--out")
+    options = _key_values(args.scenario_option or [], "--scenario-option")
+    if options.setdefault("benchmark", args.benchmark) != args.benchmark:
+        raise ValueError(f"--benchmark {args.benchmark} and --scenario-option "
+                         f"benchmark={options['benchmark']} disagree: give one")
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
                          args.json, args.baseline, args.suite, trust_pickle=args.trust_pickle,
-                         scenario_options=_key_values(args.scenario_option or [],
-                                                      "--scenario-option"),
-                         delay_grid=args.delay_margins)
+                         scenario_options=options, delay_grid=args.delay_margins)
 
 
 def _tune(args: argparse.Namespace) -> int:
+    from quad_dob_env.params import get_vehicle
     from quad_dob_training.tune import main as tune_main
 
+    get_vehicle(args.vehicle)  # an unknown name fails here, naming the presets
     _writable_folder(args.out, "--out")
-    return tune_main(_names(args.controllers), args.out)
+    return tune_main(None if args.controllers is None else _names(args.controllers), args.out,
+                     args.benchmark, args.vehicle)
 
 
 def _replay(args: argparse.Namespace) -> int:
@@ -99,6 +104,14 @@ def _sweep(args: argparse.Namespace) -> int:
         _writable_folder(args.out, "--out")
     run_sweep(args.config, args.out, args.ray_address, args.workers)
     return 0
+
+
+def _benchmark_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--benchmark", default="v2", choices=["v1", "v2"],
+                        help="the loop every scenario is flown in: v2, the vehicle's own "
+                        "(mocap sensing, inner loop, motors, thrust uncertainty, rotor "
+                        "aerodynamics; the gains tuned for it), or v1, the ideal loop, to "
+                        "reproduce v1's tables (default: %(default)s)")
 
 
 def _names(text: str) -> list[str]:
@@ -279,9 +292,11 @@ def build_parser() -> argparse.ArgumentParser:
                           "seeds with 95 %% bootstrap intervals; '' for none (default: the "
                           "recommended base, geometric-ndob:tuned)")
     evaluate.add_argument("--suite", action="store_true",
-                          help="every v1 scenario family (wind, calm, forces) instead of "
-                          "--scenarios, and leaderboard.md: means with 95 %% intervals and "
-                          "paired differences to the baseline")
+                          help="every scenario family of the benchmark (wind, calm, forces, "
+                          "references; v2 adds the wind tunnel) instead of --scenarios, and "
+                          "leaderboard.md: means with 95 %% intervals and paired differences "
+                          "to the baseline")
+    _benchmark_option(evaluate)
     evaluate.add_argument("--scenario-option", action="append", metavar="KEY=VALUE",
                           help="an option for every scenario flown (make_scenario's keywords: "
                           "dt=0.005, duration=20, wind_scale=1.5, motor_lag=true, ...); "
@@ -297,10 +312,16 @@ def build_parser() -> argparse.ArgumentParser:
     tune = commands.add_parser(
         "tune", help="choose the baselines' gains and the observer rates on tuning seeds "
         "(100-109), by the procedure in training/tune.py")
-    tune.add_argument("--controllers", default="geometric-ndob,pid,smc",
-                      help="comma-separated: pid, smc, geometric-ndob (its observer rates), "
-                      "geometric-ndob:tuned (the geometric gains; the winner is "
-                      "geometric-ndob:gains-tuned) (default: %(default)s)")
+    tune.add_argument("--controllers", default=None,
+                      help="comma-separated: pid, smc, geometric-integral, geometric-ndob:tuned "
+                      "(the geometric gains; in v2 with the observer's rates), and in v1 "
+                      "geometric-ndob (the observer's rates alone) (default: v2's "
+                      "geometric-ndob:tuned,pid,smc,geometric-integral; v1's "
+                      "geometric-ndob,pid,smc)")
+    _benchmark_option(tune)
+    tune.add_argument("--vehicle", default="paper",
+                      help="the vehicle the tuning scenarios are flown with (v2; v1 tunes "
+                      "on the paper vehicle) (default: %(default)s)")
     tune.add_argument("--out", type=Path, default=Path("results/tuning"))
     tune.set_defaults(handler=_tune)
     replay = commands.add_parser(

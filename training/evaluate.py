@@ -42,14 +42,26 @@ ESTIMATOR_SCORES = ("rms_estimate_position_settled", "rms_estimate_velocity_sett
                     "rms_estimate_attitude_settled")
 # the paired difference to the baseline is reported for these
 COMPARED = ("rms_position_settled", "rms_attitude_settled", "rms_moment")
-# --suite: every v1 scenario family, by what it asks of a policy
-SUITE = {
-    "wind": ("dryden-helix", "dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind"),
-    "calm": ("paper-none", "hover-calm", "ground-effect-landing"),
-    "forces": ("paper-I", "paper-II", "paper-IIA", "hover-step-force"),
-    # random references in randomised wind: the training pool (on unseen seeds), and a
-    # kind held out of training
-    "references": ("random-tracks", "random-lemniscates"),
+# --suite: every scenario family of the benchmark, by what it asks of a policy. v2 cannot
+# fly the wrench-actuated paper-* scenarios: its force family has their rotor-actuated
+# counterpart, and it adds Neural-Fly's wind-tunnel figure-8s, flown on their vehicle.
+SUITES = {
+    "v1": {
+        "wind": ("dryden-helix", "dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind"),
+        "calm": ("paper-none", "hover-calm", "ground-effect-landing"),
+        "forces": ("paper-I", "paper-II", "paper-IIA", "hover-step-force"),
+        # random references in randomised wind: the training pool (on unseen seeds), and a
+        # kind held out of training
+        "references": ("random-tracks", "random-lemniscates"),
+    },
+    "v2": {
+        "wind": ("dryden-helix", "dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind"),
+        "calm": ("hover-calm", "ground-effect-landing"),
+        "forces": ("helix-force-torque", "hover-step-force"),
+        "references": ("random-tracks", "random-lemniscates"),
+        "wind-tunnel": ("figure8-wind-0", "figure8-wind-4.2", "figure8-wind-8.5",
+                        "figure8-wind-12.1"),
+    },
 }
 # the leaderboard's cells: mean [95 % CI]
 LEADERBOARD = (("rms_position_settled", "RMS ‖e_x‖ [m]"), ("rms_tilt_settled", "tilt [rad]"),
@@ -204,14 +216,17 @@ def _one_flight(row: dict) -> bool:
     return row.get("distinct_flights") == 1 and row["flights"] > 1
 
 
-def leaderboard(rows: list[dict]) -> str:
+def leaderboard(rows: list[dict], benchmark: str = "v2") -> str:
     """The suite's leaderboard: per family and scenario, each policy's mean and 95 %
     bootstrap interval of every score, and its paired difference to the baseline; then, per
     policy, the scenarios where it is better or worse than the baseline (interval excluding
     zero)."""
     baseline = rows[0].get("baseline") if rows else ""
-    family_of = {name: family for family, names in SUITE.items() for name in names}
-    header = ["family", "scenario", "policy", *(label for _, label in LEADERBOARD)]
+    family_of = {name: family for family, names in SUITES[benchmark].items()
+                 for name in names}
+    margins = any("delay_margin_text" in row for row in rows)
+    header = ["family", "scenario", "policy", *(label for _, label in LEADERBOARD),
+              "distinct flights", *(["delay margin"] if margins else [])]
     if baseline:
         header.append(f"Δ RMS ‖e_x‖ vs {baseline} [m] (95 % CI)")
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
@@ -220,6 +235,9 @@ def leaderboard(rows: list[dict]) -> str:
         for key, _ in LEADERBOARD:
             cells.append(f"{row[f'{key}_mean']:.4f} [{row[f'{key}_low']:.4f}, "
                          f"{row[f'{key}_high']:.4f}]")
+        cells.append(f"{row.get('distinct_flights', '')} of {row['flights']}")
+        if margins:
+            cells.append(row.get("delay_margin_text", ""))
         if baseline:
             cells.append(_difference_cell(row, baseline))
         lines.append("| " + " | ".join(cells) + " |")
@@ -286,13 +304,18 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
          trust_pickle: bool = False, scenario_options: dict[str, object] | None = None,
          delay_grid: Sequence[float] | None = None) -> int:
     """``baseline`` None: the recommended base; "": no comparison. ``suite``: every
-    scenario of ``SUITE`` instead of ``scenarios``, and ``leaderboard.md``.
+    scenario of the benchmark's suite (``SUITES``, by ``scenario_options["benchmark"]``,
+    v2 when not given) instead of ``scenarios``, and ``leaderboard.md``.
     ``trust_pickle`` (``--trust-pickle``): model files may be unpickled.
     ``scenario_options`` (``--scenario-option KEY=VALUE``): passed to every scenario.
     ``delay_grid`` (``--delay-grid``): the latencies each delay margin is searched on."""
     baseline = DEFAULT_BASE_CONTROLLER if baseline is None else baseline
+    benchmark = str((scenario_options or {}).get("benchmark", "v2"))
     if suite:
-        scenarios = [name for names in SUITE.values() for name in names]
+        if benchmark not in SUITES:
+            raise ValueError(f"--suite: no suite for benchmark {benchmark!r}; there are "
+                             + ", ".join(SUITES))
+        scenarios = [name for names in SUITES[benchmark].values() for name in names]
     seed_list = parse_seeds(seeds)
     first_flights: dict = {}
     rows = evaluate(policies, scenarios, seed_list, first_flights, baseline or None,
@@ -312,8 +335,9 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
     write_report(out / "report.html", f"quad-dob evaluate (figures: seed {seed_list[0]})",
                  rows, [*columns, ("crash_rate", "crash rate")], first_flights)
     if suite:
-        (out / "leaderboard.md").write_text(leaderboard(rows) + "\n")
-        print(leaderboard(rows))
+        board = leaderboard(rows, benchmark)
+        (out / "leaderboard.md").write_text(board + "\n")
+        print(board)
         print(f"\nwrote {out / 'leaderboard.md'}, evaluation.md, evaluation.csv, "
               "evaluation.png, report.html")
         return 0

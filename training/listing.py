@@ -6,7 +6,7 @@ from __future__ import annotations
 def main() -> int:
     """Print the ids, scenarios, wind presets, controllers, vehicles and sensing presets."""
     import quad_dob_env
-    from quad_dob_baselines import CONTROLLERS
+    from quad_dob_baselines import CONTROLLERS, GAIN_SETS
     from quad_dob_env.params import VEHICLE_SOURCES
     from quad_dob_env.scenarios import WIND_PRESETS, make_scenario
 
@@ -26,6 +26,11 @@ def main() -> int:
     for name, (mean, w20) in WIND_PRESETS.items():
         print(f"  {name:<10} {mean:g} m/s mean, W20 = {w20:.2f} m/s")
     print("Controllers:", ", ".join(CONTROLLERS))
+    print("  gains: v1's are the modules' defaults; v2's, tuned in v2's loop with the margin "
+          "(quad-dob tune), per vehicle (others fly the paper vehicle's):")
+    for (name, benchmark, vehicle), options in GAIN_SETS.items():
+        gains = ", ".join(f"{key} {value:.4g}" for key, value in options.items())
+        print(f"    {name:<27} {benchmark} {vehicle:<11} {gains}")
     print("Policies: any controller, residual (the shipped policy), residual:PATH, ppo:PATH")
     print("Vehicles (every number and its source):")
     for name, sources in VEHICLE_SOURCES.items():
@@ -50,7 +55,8 @@ def _list_vehicle_loop() -> None:
           f"0-30 °C, ISA), battery sag (1 - r t)², r ~ U{SAG_RATE_RANGE} /s (LiPo 4.05->3.5 "
           "V a cell over 10-15 min, PX4 BAT_V_*)")
     print("  rotor_aerodynamics=true  rotor drag -k_d ω u_inplane at the hubs and its moment, "
-          "thrust - k_z ω u_axial; replaces drag_linear (vehicle fields above)")
+          "thrust k_F ω² (1 + a_μ μ² + a_λ λ²) - k_z ω u_axial (Gill & D'Andrea 2019's "
+          "oblique-flow fit); replaces drag_linear (vehicle fields above)")
 
 
 def _list_sensing() -> None:

@@ -1,32 +1,43 @@
 """``quad-dob tune``: every baseline's gains by one documented procedure, on tuning seeds.
 
-The procedure, the same for each controller:
+The procedure, the same for each controller (v1's as it was; v2's differences after):
 
-- **Seeds and scenarios.** ``TUNING_SEEDS`` (100-109) on ``TUNING_SCENARIOS``: the v1
-  scenarios with physical rotors and wind, and two variants made for tuning
-  (``TUNING_VARIANTS``): a hover with a step of force *and torque* (no wind scenario
+- **Seeds and scenarios.** ``TUNING_SEEDS`` (100-109) on ``TUNING_SCENARIOS[benchmark]``:
+  the v1 scenarios with physical rotors and wind, and two variants made for tuning
+  (``tuning_scenario``): a hover with a step of force *and torque* (no wind scenario
   applies a torque, so without it the observer's rotational rate could not be told apart)
-  and the paper's helix from a perturbed start. Evaluation uses seeds 9001-9020 and the
-  unperturbed paper scenarios, never looked at here.
+  and a helix from a perturbed start. Evaluation uses seeds 9001-9020 and the unperturbed
+  scenarios, never looked at here.
 - **Objective.** The mean over the scenarios of the mean over seeds of the RMS position
   error after t = 2 s; a flight that ends early counts as ``LOST_FLIGHT`` (1 m), so a gain
   that loses vehicles never wins.
-- **Search.** Coordinate descent from the hand-set gains in ``START``: each gain in turn tries its
-  default times ``FACTORS`` with the others held, and keeps the best; two passes over all
-  gains. The observer rates of geometric + NDOB are a grid (``OBSERVER_RATES``) instead,
-  since there are only two and they interact; among rates within ``TIE_TOLERANCE`` (2 %) of
-  the best objective the slowest wins, since a faster observer amplifies what the benchmark
-  does not model (sensor noise, delay) and buys almost nothing here.
+- **Search.** Coordinate descent from the hand-set gains in ``START``: each gain in turn
+  tries its value times ``FACTORS`` with the others held, and keeps the best; two passes
+  over all gains. In v1 the observer rates of geometric + NDOB are a grid
+  (``OBSERVER_RATES``) instead; among rates within ``TIE_TOLERANCE`` (2 %) of the best
+  objective the slowest wins. The geometric controller's own gains (kx, kv, kR, kΩ) go
+  through the descent from Lee 2010's, with the observer at its tuned rates (``--controllers
+  geometric-ndob:tuned``); the v1 winner is ``geometric-ndob:gains-tuned``, beside the
+  recommended base, which keeps the paper's gains.
 
-The geometric controller's own gains (kx, kv, kR, kΩ) go through the same descent from
-Lee 2010's, with the observer at its tuned rates (``quad-dob tune --controllers
-geometric-ndob:tuned``); the winner is ``geometric-ndob:gains-tuned``, a baseline beside
-the recommended base, which keeps the paper's gains.
+Benchmark v2 (``--benchmark v2 --vehicle NAME``, the default):
 
-The winners are what ``baselines`` ships as defaults (``PID_GAINS``, ``SMC_GAINS``,
-``TUNED_OBSERVER_RATES``, ``TUNED_GEOMETRIC_GAINS``); ``quad-dob tune`` prints the search
-so it can be checked and rerun. The SMC's switching gain is not searched: it follows from
-its disturbance bound.
+- **A margin.** A set is admissible only if it keeps every tuning flight with ``MARGIN``
+  (10 ms of extra latency and motors 1.5x slower, at once). Candidates are compared first
+  by the flights they lose under it, then by the objective; up to ``EXTRA_PASSES`` more
+  passes while the best still loses some. A set left short is shipped with its count
+  (``quad_dob_baselines.gain_sets.MARGIN_LOSSES``).
+- **Scenarios** in v2's loop on the vehicle tuned for; the wrench-actuated paper helix's
+  place is taken by the rotor-actuated ``helix-force-torque``.
+- **The observer's rates are two more coordinates** of the geometric gains' descent (no
+  rates at the paper's gains are admissible), so the v2 ``geometric-ndob:tuned`` and
+  ``:gains-tuned`` are one set; ``geometric-integral`` is searched too. The start's
+  absolute attitude gains are scaled to the vehicle's inertia (``start_gains``).
+
+v1's winners are the modules' defaults (``PID_GAINS``, ``SMC_GAINS``,
+``TUNED_OBSERVER_RATES``, ``TUNED_GEOMETRIC_GAINS``), v2's are ``GAIN_SETS``;
+``quad-dob tune`` prints the search so it can be checked and rerun. The SMC's switching
+gain is not searched: it follows from its disturbance bound.
 """
 
 from __future__ import annotations
@@ -41,38 +52,41 @@ from typing import Any
 import numpy as np
 
 from quad_dob_baselines import (
+    TUNED_OBSERVER_RATES,
     GeometricController,
     NonlinearDisturbanceObserver,
     make_controller,
 )
 from quad_dob_baselines.base import Controller
-from quad_dob_baselines.geometric import PAPER_GAINS
+from quad_dob_baselines.geometric import INTEGRAL_GAINS, PAPER_GAINS
 from quad_dob_baselines.pid import PID_GAINS
 from quad_dob_baselines.smc import SMC_GAINS
 from quad_dob_env.disturbances import Constant
 from quad_dob_env.params import get_vehicle
+from quad_dob_env.scenario import Scenario
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy
 
 TUNING_SEEDS = tuple(range(100, 110))
-TUNING_SCENARIOS = ("dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind",
-                    "hover-step-wrench", "paper-helix-perturbed")
-# Tuning-only variants: hover-step-force's push plus a body torque for 3 <= t < 6 s; the
-# paper's helix (wrench actuation, heading turning at π rad/s, started 0.6 m off the
-# reference) from a start perturbed by ±0.1 m and ±0.1 rad, so gains that only suit the
-# wind scenarios do not win.
-TUNING_VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {
-    "hover-step-wrench": ("hover-step-force", {"disturbance": Constant(
-        force=(0.2 * get_vehicle("paper").hover_thrust, 0.0, 0.0),
-        torque=(0.3, 0.3, 0.1)).during(3.0, 6.0)}),
-    "paper-helix-perturbed": ("paper-none", {"initial_position_noise": 0.1,
-                                             "initial_attitude_noise": 0.1}),
+# Per benchmark. v2 cannot fly the wrench-actuated paper helix: its perturbed start is
+# flown on the rotor-actuated helix-force-torque instead (the same path, the paper's force
+# and torque), and every v2 scenario is flown on the vehicle being tuned for.
+TUNING_SCENARIOS = {
+    "v1": ("dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind", "hover-step-wrench",
+           "paper-helix-perturbed"),
+    "v2": ("dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind", "hover-step-wrench",
+           "helix-force-torque-perturbed"),
 }
+PERTURBED_START = {"initial_position_noise": 0.1, "initial_attitude_noise": 0.1}
+# Benchmark v2's margin: a gain set is admissible only if every tuning flight is kept with
+# both at once, 10 ms of latency on every reading and motors 1.5x slower.
+MARGIN = {"extra_latency": 0.01, "motor_time_constant_scale": 1.5}
 TIE_TOLERANCE = 0.02
 LOST_FLIGHT = 1.0  # [m] what a flight that ended early scores
 FACTORS = (0.5, 0.7, 1.4, 2.0)
 PASSES = 2
+EXTRA_PASSES = 2  # v2: more passes while no admissible set is found (v1's never lose any)
 # The grid stops at 40 /s: a discrete observer's bandwidth is kept under a tenth of the
 # sampling rate (2π 100 Hz / 10 = 63 rad/s), beyond which the sensor noise and delay that
 # the benchmark does not model would dominate. Noise-free, faster always scores a little
@@ -82,15 +96,21 @@ OBSERVER_RATES = {"translational_rate": (1.0, 2.0, 5.0, 10.0, 20.0, 40.0),
 SEARCHED = {
     # the geometric controller's own gains, with the observer at its tuned rates
     "geometric-ndob:tuned": ("kx_per_mass", "kv_per_mass", "kR", "kOmega"),
+    "geometric-integral": ("kx_per_mass", "kv_per_mass", "kR", "kOmega", "ki_per_mass"),
     "pid": ("position_kp", "position_kd", "position_ki", "attitude_kp", "rate_kp", "rate_ki",
             "rate_kd"),
     "smc": ("position_lambda", "position_boundary", "attitude_lambda", "attitude_eta",
             "attitude_boundary"),
 }
+# In v2 the observer's rates join the geometric gains' descent: at the paper's gains no
+# rates keep the margin's flights, so the two cannot be chosen apart.
+SEARCHED_V2 = {"geometric-ndob:tuned": (*SEARCHED["geometric-ndob:tuned"],
+                                        "translational_rate", "rotational_rate")}
 # Where the descent starts: the hand-set gains the baselines shipped with before tuning, so
 # a rerun reproduces the shipped defaults (PID_GAINS, SMC_GAINS) rather than starting there.
 START = {
     "geometric-ndob:tuned": dict(PAPER_GAINS),  # Lee 2010's, which the paper flies
+    "geometric-integral": {**PAPER_GAINS, **INTEGRAL_GAINS},
     "pid": {**PID_GAINS, "position_kp": 16.0, "position_kd": 6.0, "position_ki": 6.0,
             "attitude_kp": 10.0, "rate_kp": 25.0, "rate_ki": 20.0, "rate_kd": 0.3},
     "smc": {**SMC_GAINS, "position_lambda": 2.8, "position_boundary": 0.35,
@@ -98,59 +118,144 @@ START = {
 }
 
 
-def score(build: Callable[[], Controller], scenarios: tuple[str, ...] = TUNING_SCENARIOS,
-          seeds: tuple[int, ...] = TUNING_SEEDS) -> dict[str, float]:
-    """Per scenario, the mean settled RMS position error over ``seeds`` (lost flights count
-    as ``LOST_FLIGHT``), and their mean as ``objective``."""
-    result = {}
-    for name in scenarios:
-        base, options = TUNING_VARIANTS.get(name, (name, {}))
-        flights = fly_policy(Policy("candidate", build()), make_scenario(base, **options),
-                             list(seeds))
-        values = [LOST_FLIGHT if m["crashed"] else m["rms_position_settled"]
-                  for m in map(flight_metrics, flights)]
-        result[name] = float(np.mean(values))
+# v2's descent of the geometric + NDOB starts from v1's tuned rates too
+START_V2 = {"geometric-ndob:tuned": dict(TUNED_OBSERVER_RATES)}
+
+
+def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
+                ) -> dict[str, float]:
+    """Where the descent starts for ``vehicle``: ``START`` (with ``START_V2`` in v2), its
+    absolute attitude gains (the geometric kR, kΩ, in N m per rad and rad/s) scaled by the
+    vehicle's inertia over the paper vehicle's (trace over trace), so every controller
+    starts at the same bandwidths on any vehicle (the other gains are per mass or inertia
+    already)."""
+    gains = {**START[controller], **(START_V2.get(controller, {}) if benchmark != "v1" else {})}
+    scale = (np.trace(get_vehicle(vehicle).inertia_matrix)
+             / np.trace(get_vehicle("paper").inertia_matrix))
+    for name in ("kR", "kOmega"):
+        if name in gains and scale != 1.0:
+            gains[name] = round(float(gains[name] * scale), 6)
+    return gains
+
+
+def tuning_scenario(name: str, benchmark: str = "v1", vehicle: str = "paper",
+                    **options: Any) -> Scenario:
+    """The tuning scenario ``name`` under ``benchmark`` on ``vehicle``, with ``options``.
+    Two are variants made for tuning: ``hover-step-wrench``, hover-step-force's push (a
+    fifth of the weight) plus a body torque for 3 <= t < 6 s (no wind scenario applies a
+    torque, so without it the observer's rotational rate could not be told apart), and
+    ``*-perturbed``, a helix started ±0.1 m and ±0.1 rad off, so gains that only suit the
+    wind scenarios do not win."""
+    if benchmark == "v1":  # v1's tuning flew the paper vehicle in v1's own loop
+        flown: dict[str, Any] = {}
+    else:
+        flown = {"benchmark": benchmark, "vehicle": vehicle}
+    if name == "hover-step-wrench":
+        weight = get_vehicle(vehicle).hover_thrust
+        return make_scenario("hover-step-force", **flown, disturbance=Constant(
+            force=(0.2 * weight, 0.0, 0.0), torque=(0.3, 0.3, 0.1)).during(3.0, 6.0),
+            **options)
+    if name == "paper-helix-perturbed":
+        return make_scenario("paper-none", **flown, **PERTURBED_START, **options)
+    if name == "helix-force-torque-perturbed":
+        return make_scenario("helix-force-torque", **flown, **PERTURBED_START, **options)
+    return make_scenario(name, **flown, **options)
+
+
+def score(build: Callable[[], Controller], benchmark: str = "v1", vehicle: str = "paper",
+          seeds: tuple[int, ...] = TUNING_SEEDS, **options: Any) -> dict[str, float]:
+    """Per tuning scenario of ``benchmark`` on ``vehicle``, the mean settled RMS position
+    error over ``seeds`` (lost flights count as ``LOST_FLIGHT``), their mean as
+    ``objective``, and ``lost``, how many flights ended early; ``options`` go to every
+    scenario (``MARGIN`` for the admissibility check)."""
+    result: dict[str, float] = {}
+    lost = 0
+    for name in TUNING_SCENARIOS[benchmark]:
+        flights = fly_policy(Policy("candidate", build()),
+                             tuning_scenario(name, benchmark, vehicle, **options), list(seeds))
+        metrics = list(map(flight_metrics, flights))
+        lost += sum(bool(m["crashed"]) for m in metrics)
+        result[name] = float(np.mean([LOST_FLIGHT if m["crashed"] else m["rms_position_settled"]
+                                      for m in metrics]))
     result["objective"] = float(np.mean(list(result.values())))
+    result["lost"] = lost
     return result
 
 
 def coordinate_descent(controller: str, log: Callable[[str], None] = print,
-                       **score_options: Any) -> tuple[dict[str, float], list[dict]]:
-    """The gains of ``controller`` ("pid", "smc", or "geometric-ndob:tuned" for the geometric
-    controller's own gains) that minimise the objective."""
-    gains = dict(START[controller])
-    history = []
+                       benchmark: str = "v1", vehicle: str = "paper",
+                       seeds: tuple[int, ...] = TUNING_SEEDS
+                       ) -> tuple[dict[str, float], list[dict]]:
+    """The gains of ``controller`` ("pid", "smc", "geometric-integral", or
+    "geometric-ndob:tuned": in v1 the geometric controller's own gains, in v2 those and the
+    observer's rates) by coordinate descent. In v1 a candidate wins on the objective; in v2
+    first on how many tuning flights it loses under ``MARGIN`` (none: admissible), then
+    on the objective, so the descent walks to admissible sets before it sharpens them."""
+    searched = SEARCHED_V2.get(controller, SEARCHED[controller]) if benchmark != "v1" else \
+        SEARCHED[controller]
+    gains = start_gains(controller, benchmark, vehicle)
+    history: list[dict] = []
 
-    def trial(candidate: dict[str, float]) -> float:
-        scores = score(lambda: make_controller(controller, "paper", **candidate),
-                       **score_options)
-        history.append({"gains": dict(candidate), **scores})
-        return scores["objective"]
+    def trial(candidate: dict[str, float], to_beat: tuple[int, float] | None
+              ) -> tuple[int, float] | None:
+        """The candidate's (flights lost under the margin, objective); None when it loses
+        more under the margin than ``to_beat`` (its objective is then not flown)."""
+        build = lambda: make_controller(controller, vehicle, benchmark, **candidate)  # noqa: E731
+        lost = 0
+        record: dict[str, Any] = {"gains": dict(candidate)}
+        if benchmark != "v1":
+            margin = score(build, benchmark, vehicle, seeds, **MARGIN)
+            lost = int(margin["lost"])
+            record.update(margin_lost=lost, margin_objective=margin["objective"])
+            if to_beat is not None and lost > to_beat[0]:
+                history.append(record)
+                return None
+        record.update(score(build, benchmark, vehicle, seeds))
+        history.append(record)
+        return lost, record["objective"]
 
-    best = trial(gains)
-    log(f"{controller}: the hand-set start scores {best:.4f} m")
-    for sweep in range(PASSES):
-        for name in SEARCHED[controller]:
+    best = trial(gains, None)
+    assert best is not None
+    log(f"{controller}: the hand-set start scores {best[1]:.4f} m"
+        + (f", losing {best[0]} flights under the margin" if benchmark != "v1" else ""))
+    sweep = 0
+    # two passes; in v2, up to EXTRA_PASSES more while the best still loses margin flights
+    while sweep < PASSES or (best[0] and sweep < PASSES + EXTRA_PASSES):
+        for name in searched:
             start = gains[name]
             for factor in FACTORS:
                 candidate = {**gains, name: round(start * factor, 6)}
-                value = trial(candidate)
-                if value < best:
+                value = trial(candidate, best)
+                if value is not None and value < best:
                     best, gains = value, candidate
-            log(f"  pass {sweep + 1}, {name}: {gains[name]:.4g} (objective {best:.4f} m)")
+            log(f"  pass {sweep + 1}, {name}: {gains[name]:.4g} (objective {best[1]:.4f} m"
+                + (f", {best[0]} lost under the margin)" if benchmark != "v1" else ")"))
+        sweep += 1
+    if best[0]:
+        log(f"{controller}: no admissible set found; the best loses {best[0]} flights under "
+            f"the margin")
     return gains, history
 
 
+def admissible(build: Callable[[], Controller], benchmark: str = "v2",
+               vehicle: str = "paper", seeds: tuple[int, ...] = TUNING_SEEDS) -> bool:
+    """Whether the controller ``build`` makes keeps every tuning flight of ``benchmark`` on
+    ``vehicle`` under ``MARGIN`` (v2's admissibility; v1's procedure has no margin)."""
+    return score(build, benchmark, vehicle, seeds, **MARGIN)["lost"] == 0
+
+
 def observer_grid(log: Callable[[str], None] = print,
-                  **score_options: Any) -> tuple[dict[str, float], list[dict]]:
-    """The NDOB decay rates (translational, rotational) that minimise the objective."""
+                  seeds: tuple[int, ...] = TUNING_SEEDS) -> tuple[dict[str, float], list[dict]]:
+    """v1's NDOB decay rates (translational, rotational) at the paper's gains: the slowest
+    within ``TIE_TOLERANCE`` of the best objective. (In v2 the rates are two more
+    coordinates of the geometric controller's descent.)"""
     vehicle = get_vehicle("paper")
     history = []
     for translational, rotational in itertools.product(*OBSERVER_RATES.values()):
         rates = {"translational_rate": translational, "rotational_rate": rotational}
         scores = score(lambda rates=rates: GeometricController(
             observer=NonlinearDisturbanceObserver.from_rates(vehicle=vehicle, **rates)),
-            **score_options)
+            seeds=seeds)
         history.append({"gains": rates, **scores})
         log(f"  rates {translational:g} / {rotational:g} /s: {scores['objective']:.4f} m")
     best = min(trial["objective"] for trial in history)
@@ -162,21 +267,39 @@ def observer_grid(log: Callable[[str], None] = print,
     return chosen["gains"], history
 
 
-def main(controllers: list[str], out: Path) -> int:
+DEFAULT_CONTROLLERS = {"v1": ("geometric-ndob", "pid", "smc"),
+                       "v2": ("geometric-ndob:tuned", "pid", "smc", "geometric-integral")}
+
+
+def main(controllers: list[str] | None, out: Path, benchmark: str = "v2",
+         vehicle: str = "paper") -> int:
+    """Tune ``controllers`` (None: ``DEFAULT_CONTROLLERS``) for ``benchmark`` on
+    ``vehicle``; writes ``tuning.json`` with every trial and prints each winner."""
     start = time.perf_counter()
+    if benchmark == "v1" and vehicle != "paper":
+        raise ValueError(f"v1's gains are tuned on the paper vehicle, got --vehicle {vehicle}")
+    chosen = list(controllers or DEFAULT_CONTROLLERS[benchmark])
+    allowed = [*(["geometric-ndob"] if benchmark == "v1" else []), *SEARCHED]
+    for controller in chosen:
+        if controller not in allowed:
+            raise ValueError(f"quad-dob tune --benchmark {benchmark} tunes "
+                             f"{', '.join(allowed)}, got {controller!r}"
+                             + ("; in v2 the observer's rates are tuned with the geometric "
+                                "gains: geometric-ndob:tuned" if controller == "geometric-ndob"
+                                else ""))
     out.mkdir(parents=True, exist_ok=True)
-    report: dict[str, Any] = {"seeds": list(TUNING_SEEDS), "scenarios": list(TUNING_SCENARIOS)}
-    for controller in controllers:
+    report: dict[str, Any] = {"benchmark": benchmark, "vehicle": vehicle,
+                              "seeds": list(TUNING_SEEDS),
+                              "scenarios": list(TUNING_SCENARIOS[benchmark]),
+                              "margin": MARGIN if benchmark != "v1" else None}
+    for controller in chosen:
         if controller == "geometric-ndob":
             winner, history = observer_grid()
-        elif controller in SEARCHED:
-            winner, history = coordinate_descent(controller)
         else:
-            raise ValueError(f"quad-dob tune tunes pid, smc, geometric-ndob (its observer "
-                             f"rates) and geometric-ndob:tuned (the controller's gains, the "
-                             f"observer at its tuned rates), got {controller!r}")
+            winner, history = coordinate_descent(controller, benchmark=benchmark,
+                                                 vehicle=vehicle)
         report[controller] = {"winner": winner, "history": history}
         print(f"{controller}: {json.dumps(winner)}")
-    (out / "tuning.json").write_text(json.dumps(report, indent=1) + "\n")
+        (out / "tuning.json").write_text(json.dumps(report, indent=1) + "\n")
     print(f"wrote {out / 'tuning.json'} in {time.perf_counter() - start:.0f} s")
     return 0

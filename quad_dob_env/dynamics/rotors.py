@@ -16,10 +16,13 @@ actuator (rotor thrusts or the wrench, lagged directly) and nothing here runs.
 - **Rotor aerodynamics** (``aerodynamics``), per rotor at its hub's air-relative velocity
   ``u = Rᵀ(v - w) + Ω × p`` (body frame): rotor drag ("H-force", blade flapping and induced
   drag) ``D = -k_d ω (u_x, u_y, 0)``, acting at the hub, so it makes a moment ``p × D``
-  about the centre of mass, and the change of thrust with axial inflow
-  ``T = k_F ω² - k_z ω u_z`` (blade-element momentum theory linearised about hover; the
-  rotor's yaw torque stays ``c_τ k_F ω²``, its change with inflow left out). These
-  replace the linear body drag (``drag_linear``), which stood for the rotors' induced drag.
+  about the centre of mass, and the change of thrust with the airflow through and across
+  the disc, ``T = k_F ω² (1 + a_μ μ² + a_λ max(λ, 0)²) - k_z ω u_z`` with
+  ``λ = u_z/(ωR)``, ``μ = |u_xy|/(ωR)``: Gill & D'Andrea 2019's oblique-flow fit
+  (``VehicleParams.inflow_quadratic``; k_z is its linear term), each ratio held at
+  ``FIT_LIMIT``, the fit's range, and λ's square only for inflow from above, where it was
+  measured. The rotor's yaw torque stays ``c_τ k_F ω²``, its change with inflow left out.
+  These replace the linear body drag (``drag_linear``), which stood for the rotors' drag.
 
 What the controllers are told was applied (``AppliedCommand``) is what the nominal model
 gives for the rotors' speeds, ``k_F ω²`` through the allocation matrix: an autopilot's best
@@ -51,6 +54,9 @@ class RotorModel(NamedTuple):
     inflow_coefficient: float = 0.0  # k_z [N/(rad/s · m/s)]
     positions: NDArray = np.zeros((4, 3))  # hubs in the body frame [m]
     spin: NDArray = np.zeros(4)  # the allocation's yaw signs times c_τ [m]
+    radius: float = 1.0  # R [m]
+    edgewise_ratio: float = 0.0  # a_μ
+    axial_ratio: float = 0.0  # a_λ
 
     @property
     def active(self) -> bool:
@@ -66,11 +72,18 @@ class RotorModel(NamedTuple):
         return cls(bool(speed_motors), bool(thrust_uncertainty), bool(aerodynamics),
                    float(vehicle.thrust_coefficient), float(vehicle.rotor_drag_coefficient),
                    float(vehicle.inflow_coefficient), np.ascontiguousarray(positions),
-                   np.ascontiguousarray(allocation[3]))
+                   np.ascontiguousarray(allocation[3]), float(vehicle.rotor_radius),
+                   *map(float, vehicle.inflow_quadratic))
 
     def kernel_arguments(self) -> tuple:
         return (self.active, self.speed_motors, self.aerodynamics, self.thrust_coefficient,
-                self.drag_coefficient, self.inflow_coefficient, self.positions, self.spin)
+                self.drag_coefficient, self.inflow_coefficient, self.positions, self.spin,
+                self.radius, self.edgewise_ratio, self.axial_ratio)
+
+
+# The largest advance ratios (λ, μ) the thrust law uses: where Gill & D'Andrea's data and
+# their models stop (μ, λ < 0.3); beyond it the ratio is held.
+FIT_LIMIT = 0.3
 
 
 @njit(cache=True, inline="always")
@@ -117,7 +130,7 @@ def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
     """The rotors' true force (body frame) and moment about the centre of mass at rotor
     ``speeds``, for a vehicle at velocity ``v``, attitude ``rotation`` (row-major 9-tuple),
     body rates ``omega`` in air moving at ``wind``. Returns ((Fx, Fy, Fz), (Mx, My, Mz))."""
-    _, _, aerodynamics, k_f, k_d, k_z, positions, spin = rotors
+    _, _, aerodynamics, k_f, k_d, k_z, positions, spin, radius, a_mu, a_lambda = rotors
     r = rotation
     a = (v[0] - wind[0], v[1] - wind[1], v[2] - wind[2])
     body = (r[0] * a[0] + r[3] * a[1] + r[6] * a[2], r[1] * a[0] + r[4] * a[1] + r[7] * a[2],
@@ -134,7 +147,13 @@ def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
             ux = body[0] + omega[1] * pz - omega[2] * py
             uy = body[1] + omega[2] * px - omega[0] * pz
             uz = body[2] + omega[0] * py - omega[1] * px
-            thrust = max(thrust - k_z * w * uz, 0.0)  # T = k_F ω² - k_z ω u_z
+            tip = w * radius
+            if tip > 0.0:  # Gill & D'Andrea 2019 eq. 95, as ratios to the static thrust
+                lam = min(uz / tip, FIT_LIMIT)
+                mu = min(math.sqrt(ux * ux + uy * uy) / tip, FIT_LIMIT)
+                climb = max(lam, 0.0)
+                thrust = max(thrust + k_f * w * w * (a_mu * mu * mu + a_lambda * climb * climb)
+                             - k_z * w * lam * tip, 0.0)  # ... - k_z ω u_z
             dx, dy = -k_d * w * ux, -k_d * w * uy  # D = -k_d ω (u_x, u_y, 0)
         fx += dx
         fy += dy
