@@ -56,9 +56,12 @@ OBSERVER_RATE_OPTIONS = ("translational_rate", "rotational_rate")
 def _geometric_ndob(vehicle: VehicleParams, gains: str = "paper", **options: object
                     ) -> Controller:
     rates = {key: options.pop(key) for key in OBSERVER_RATE_OPTIONS if key in options}
-    if gains == "paper" and not rates:
+    if gains == "paper" and rates:
+        raise ValueError(f"geometric-ndob flies the paper's observer gains; observer rates "
+                         f"({', '.join(rates)}) go to geometric-ndob:tuned")
+    if gains == "paper":
         observer = NonlinearDisturbanceObserver()
-    elif gains in ("paper", "tuned"):
+    elif gains == "tuned":
         observer = NonlinearDisturbanceObserver.from_rates(
             vehicle=vehicle, **{**TUNED_OBSERVER_RATES, **rates})
     else:
@@ -95,7 +98,7 @@ def make_controller(name: str, vehicle: VehicleParams | str = "paper",
     if name not in CONTROLLERS:
         raise unknown_name_error("controller", name, CONTROLLERS)
     params = get_vehicle(vehicle)
-    chosen = gain_set(name, benchmark, params.name)
+    chosen = gain_set(name, benchmark, params)
     controller = CONTROLLERS[name](params, **{**chosen.options, **options})
     controller.gain_set = chosen
     return controller

@@ -10,25 +10,30 @@ slower motor at once (``tune.MARGIN``). Where the search found no admissible set
 shipped is the search's best and the comment beside it says how many flights it loses.
 
 ``GAIN_SETS[(name, benchmark, vehicle)]`` holds a set's options, as ``make_controller``
-takes them. A vehicle without its own v2 set flies the paper vehicle's v2 set: the gains
-are per unit mass and inertia, so they carry over to a vehicle of similar dynamics, but
-they were not tuned on it (``gain_set`` says which set was used).
+takes them, looked up by the vehicle's name. A vehicle without its own v2 set flies the
+paper vehicle's, its absolute gains (the geometric kR, kΩ and the SMC's disturbance bound)
+scaled by the vehicle's inertia and mass, the rest being per unit mass or inertia already;
+such a set was not tuned on that vehicle (``gain_set`` says which set was used, and
+``quad-dob evaluate`` records it per row).
 """
 
 from __future__ import annotations
 
 from typing import NamedTuple
 
+import numpy as np
+
 from quad_dob_env.benchmark import BENCHMARKS
+from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.validation import unknown_name_error
 
 # Benchmark v2's sets: `quad-dob tune --benchmark v2 --vehicle VEHICLE` (training/tune.py,
 # 2026-12-02, seeds 100-109; the README's "Benchmark v2" section has each search's figures).
 # The geometric + NDOB's rates are tuned with its gains in v2, so its two names are one set.
-_PAPER_NDOB = {"kx_per_mass": 11.2, "kv_per_mass": 3.92, "kR": 6.167, "kOmega": 1.27,
-               "translational_rate": 160.0, "rotational_rate": 20.0}
-_NEURAL_FLY_NDOB = {"kx_per_mass": 31.36, "kv_per_mass": 5.6, "kR": 4.037629,
-                    "kOmega": 0.582042, "translational_rate": 640.0, "rotational_rate": 80.0}
+_PAPER_NDOB = {"kx_per_mass": 8.0, "kv_per_mass": 3.92, "kR": 6.167, "kOmega": 1.27,
+               "translational_rate": 40.0, "rotational_rate": 9.8}
+_NEURAL_FLY_NDOB = {"kx_per_mass": 22.4, "kv_per_mass": 5.6, "kR": 4.037629,
+                    "kOmega": 0.582042, "translational_rate": 40.0, "rotational_rate": 9.8}
 # (controller name, benchmark, vehicle name) -> the options make_controller passes on
 GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
     ("geometric-ndob:tuned", "v2", "paper"): _PAPER_NDOB,
@@ -75,21 +80,41 @@ MARGIN_LOSSES: dict[tuple[str, str, str], int] = {
 FALLBACK_VEHICLE = "paper"
 
 
+# the options that are absolute rather than per unit mass or inertia, and what a fallback
+# set scales them by: the attitude gains [N m/rad, N m s/rad] by the inertia's trace, the
+# SMC's disturbance bound [N] by the mass
+INERTIA_SCALED = ("kR", "kOmega")
+MASS_SCALED = ("disturbance_bound",)
+
+
 class GainSet(NamedTuple):
-    """The options a name means (``options``) and where they come from: the benchmark and
-    vehicle they were tuned for (``vehicle`` is ``FALLBACK_VEHICLE`` when the flown vehicle
-    has none of its own; ``tuned_for`` None: the module defaults, v1's)."""
+    """The options a name means (``options``) and where they come from: ``tuned_for`` the
+    (benchmark, vehicle) they were tuned for, the vehicle being ``FALLBACK_VEHICLE`` when
+    the flown one has none of its own (its absolute gains then scaled to the flown
+    vehicle, ``scaled`` True); None: the module defaults (v1's, and a v2 name no search
+    tuned, such as ``geometric``)."""
 
     options: dict[str, float]
     tuned_for: tuple[str, str] | None
+    scaled: bool = False
 
 
-def gain_set(name: str, benchmark: str, vehicle: str) -> GainSet:
-    """The gain set ``name`` means in ``benchmark`` on ``vehicle`` (module docstring)."""
+def gain_set(name: str, benchmark: str, vehicle: VehicleParams | str) -> GainSet:
+    """The gain set ``name`` means in ``benchmark`` on ``vehicle`` (module docstring), looked
+    up by the vehicle's name."""
     if benchmark not in BENCHMARKS:
         raise unknown_name_error("benchmark", benchmark, BENCHMARKS)
-    for flown_on in (vehicle, FALLBACK_VEHICLE):
-        options = GAIN_SETS.get((name, benchmark, flown_on))
-        if options is not None:
-            return GainSet(dict(options), (benchmark, flown_on))
-    return GainSet({}, None)
+    params = get_vehicle(vehicle)
+    options = GAIN_SETS.get((name, benchmark, params.name))
+    if options is not None:
+        return GainSet(dict(options), (benchmark, params.name))
+    options = GAIN_SETS.get((name, benchmark, FALLBACK_VEHICLE))
+    if options is None:
+        return GainSet({}, None)
+    fallback = get_vehicle(FALLBACK_VEHICLE)
+    inertia = np.trace(params.inertia_matrix) / np.trace(fallback.inertia_matrix)
+    mass = params.mass / fallback.mass
+    scaled = {key: float(value * (inertia if key in INERTIA_SCALED else
+                                  mass if key in MASS_SCALED else 1.0))
+              for key, value in options.items()}
+    return GainSet(scaled, (benchmark, FALLBACK_VEHICLE), True)

@@ -32,18 +32,21 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
 
 class ResidualVectorEnv(QuadrotorVectorEnv):
     """``QuadrotorVectorEnv`` in residual mode with ``base_controller`` by name (or object);
-    the geometric base runs in one compiled pass per step unless ``compiled=False``."""
+    the geometric base runs in one compiled pass per step unless ``compiled=False``. A named
+    base flies the gains its name means in the scenario's benchmark, or in
+    ``base_benchmark`` where given (a residual model's training benchmark)."""
 
     def __init__(self, num_envs: int, scenario: Any = "paper-none",
                  scenario_options: dict[str, Any] | None = None,
                  base_controller: Any = DEFAULT_BASE_CONTROLLER, compiled: bool = True,
-                 benchmark: str | None = None, **kwargs: Any) -> None:
+                 benchmark: str | None = None, base_benchmark: str | None = None,
+                 **kwargs: Any) -> None:
         if base_controller is None:  # the plain vector env would read None as "direct"
             raise ValueError("ResidualVectorEnv needs a base_controller (a controller name "
                              "such as 'geometric-ndob:tuned', or a controller); for direct "
                              "control use a direct id or QuadrotorVectorEnv")
         flown = make_scenario(scenario, **scenario_options_for(scenario_options, benchmark))
-        base = make_base(base_controller, flown.vehicle, flown.benchmark)
+        base = make_base(base_controller, flown.vehicle, base_benchmark or flown.benchmark)
         super().__init__(num_envs, scenario, scenario_options, base_controller=base,
                          fused_pass=fused_pass_for(base) if compiled else None,
                          attitude_loop=AttitudeLoop.install, benchmark=benchmark, **kwargs)

@@ -83,6 +83,16 @@ def test_scenario_options_are_parsed_by_the_cli_before_they_reach_the_library(ca
     assert "quad-dob: error: Scenario.duration must be a number, got str 'lots'" in err
 
 
+def test_the_benchmark_given_as_a_scenario_option_alone_is_taken(capsys):
+    import json
+
+    assert main(["evaluate", "--policies", "geometric", "--baseline", "", "--json",
+                 "--scenarios", "paper-none", "--seeds", "1", "--scenario-option",
+                 "benchmark=v1", "--scenario-option", "duration=1.0"]) == 0
+    row = json.loads(capsys.readouterr().out)[0]
+    assert row["scenario"] == "paper-none" and row["gains"] == "defaults"
+
+
 def test_a_scenario_option_changes_every_flight(capsys):
     import json
 

@@ -66,7 +66,7 @@ def _gill_ratio(axial, inplane, tip):
     """T / T_static at fixed ω for airspeed ``axial`` through the disc (> 0: from above)
     and ``inplane`` across it, tip speed ``tip``; λ, μ held at 0.3 and λ's square only for
     λ > 0, as the env's law says."""
-    lam = min(axial / tip, 0.3)
+    lam = max(min(axial / tip, 0.3), -0.3)
     mu = min(inplane / tip, 0.3)
     fit = GILL_FIT
     return (fit["C_s"] + fit["k1"] * lam + fit["k2"] * mu**2
@@ -243,11 +243,20 @@ def test_thrust_in_oblique_flow_follows_gill_and_dandreas_fit():
     assert _call_wrench(np.full(4, w), np.zeros(3), np.eye(3), np.zeros(3),
                         np.zeros(3))[0][2] == pytest.approx(hover, rel=1e-12)
     for climb, side in [(-3.0, 0.0), (-1.0, 0.0), (1.0, 0.0), (3.0, 0.0), (0.0, 5.0),
-                        (0.0, 12.0), (2.0, 8.0), (6.0, 10.0), (0.0, 60.0), (40.0, 0.0)]:
+                        (0.0, 12.0), (2.0, 8.0), (6.0, 10.0), (0.0, 60.0), (40.0, 0.0),
+                        (-40.0, 0.0)]:
         thrust = _call_wrench(np.full(4, w), [side, 0.0, climb], np.eye(3), np.zeros(3),
                               np.zeros(3))[0][2]
         assert thrust == pytest.approx(max(hover * _gill_ratio(climb, side, tip), 0.0),
                                        rel=1e-9, abs=1e-12), (climb, side)
+    # a rotor spinning slowly in a fast descent gains at most 0.3 |k1|/C_s of its thrust
+    slow = 50.0
+    descending = _call_wrench(np.full(4, slow), [0.0, 0.0, -5.0], np.eye(3), np.zeros(3),
+                              np.zeros(3))[0][2]
+    assert descending == pytest.approx(4 * K_F * slow**2 * (1 - 0.3 * fit["k1"] / fit["C_s"]),
+                                       rel=1e-9)
+    assert _call_wrench(np.zeros(4), [3.0, 0.0, -5.0], np.eye(3), np.zeros(3),
+                        np.zeros(3))[0][2] == 0.0  # no thrust from a stopped rotor
     assert _call_wrench(np.full(4, w), [0.0, 0.0, 1.0], np.eye(3), np.zeros(3),
                         np.zeros(3))[0][2] < hover  # climbing
     assert _call_wrench(np.full(4, w), [8.0, 0.0, 0.0], np.eye(3), np.zeros(3),

@@ -68,9 +68,10 @@ def _evaluate(args: argparse.Namespace) -> int:
     if not args.json:
         _writable_folder(args.out, "--out")
     options = _key_values(args.scenario_option or [], "--scenario-option")
-    if options.setdefault("benchmark", args.benchmark) != args.benchmark:
+    if args.benchmark is not None and options.get("benchmark", args.benchmark) != args.benchmark:
         raise ValueError(f"--benchmark {args.benchmark} and --scenario-option "
                          f"benchmark={options['benchmark']} disagree: give one")
+    options.setdefault("benchmark", args.benchmark or "v2")
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
                          args.json, args.baseline, args.suite, trust_pickle=args.trust_pickle,
                          scenario_options=options, delay_grid=args.delay_margins)
@@ -83,7 +84,7 @@ def _tune(args: argparse.Namespace) -> int:
     get_vehicle(args.vehicle)  # an unknown name fails here, naming the presets
     _writable_folder(args.out, "--out")
     return tune_main(None if args.controllers is None else _names(args.controllers), args.out,
-                     args.benchmark, args.vehicle)
+                     args.benchmark or "v2", args.vehicle)
 
 
 def _replay(args: argparse.Namespace) -> int:
@@ -107,11 +108,11 @@ def _sweep(args: argparse.Namespace) -> int:
 
 
 def _benchmark_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--benchmark", default="v2", choices=["v1", "v2"],
+    parser.add_argument("--benchmark", default=None, choices=["v1", "v2"],
                         help="the loop every scenario is flown in: v2, the vehicle's own "
                         "(mocap sensing, inner loop, motors, thrust uncertainty, rotor "
                         "aerodynamics; the gains tuned for it), or v1, the ideal loop, to "
-                        "reproduce v1's tables (default: %(default)s)")
+                        "reproduce v1's tables (default: v2)")
 
 
 def _names(text: str) -> list[str]:

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from quad_dob_baselines import gain_set
 from quad_dob_env import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.margins import check_grid, delay_margin
@@ -127,6 +128,7 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
         for spec, policy in zip(specs, built, strict=False):
             row = _row(scenario_name, policy.name, seeds, metrics[spec], baseline, reference)
             row["distinct_flights"] = distinct[spec]
+            row["gains"] = _gains_used(policy, scenario)
             if delay_grid is not None:
                 margin = delay_margin(policy, scenario_name, seeds, scenario_options,
                                       check_grid(delay_grid), flown=flights_of[spec])
@@ -134,6 +136,19 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
                 row["delay_margin_text"] = margin.describe()
             rows.append(row)
     return rows
+
+
+def _gains_used(policy, scenario) -> str:
+    """Which gain set the policy's controller (or a residual's base) flew: "v2/paper",
+    "v2/paper, scaled" (another vehicle flying the paper vehicle's set), "defaults" (the
+    modules' own, v1's), or "" (no controller, or one given as an object)."""
+    if not isinstance(policy.base, str):
+        return ""
+    chosen = gain_set(policy.base, policy.base_benchmark or scenario.benchmark,
+                      scenario.vehicle)
+    if chosen.tuned_for is None:
+        return "defaults"
+    return "/".join(chosen.tuned_for) + (", scaled" if chosen.scaled else "")
 
 
 def distinct_flights(flights: list) -> int:
@@ -305,12 +320,13 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
          delay_grid: Sequence[float] | None = None) -> int:
     """``baseline`` None: the recommended base; "": no comparison. ``suite``: every
     scenario of the benchmark's suite (``SUITES``, by ``scenario_options["benchmark"]``,
-    v2 when not given) instead of ``scenarios``, and ``leaderboard.md``.
+    v1, the library's default, when not given; the CLI gives v2) instead of ``scenarios``,
+    and ``leaderboard.md``.
     ``trust_pickle`` (``--trust-pickle``): model files may be unpickled.
     ``scenario_options`` (``--scenario-option KEY=VALUE``): passed to every scenario.
     ``delay_grid`` (``--delay-grid``): the latencies each delay margin is searched on."""
     baseline = DEFAULT_BASE_CONTROLLER if baseline is None else baseline
-    benchmark = str((scenario_options or {}).get("benchmark", "v2"))
+    benchmark = str((scenario_options or {}).get("benchmark", "v1"))  # the library's
     if suite:
         if benchmark not in SUITES:
             raise ValueError(f"--suite: no suite for benchmark {benchmark!r}; there are "

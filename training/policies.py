@@ -66,6 +66,9 @@ class Policy:
     base: Any
     model: Any = None
     config: dict | None = None
+    # the benchmark whose gains a residual model's base was trained with (None: the
+    # scenario's own, for a controller flown alone)
+    base_benchmark: str | None = None
 
     def act(self, observations: NDArray[np.float32]) -> NDArray:
         """Deterministic actions for (N, obs) observations, normalised as in training."""
@@ -85,6 +88,8 @@ class Policy:
         options = dict(self.config.get("env_kwargs", {}))
         options.pop("scenario", None)
         options["base_controller"] = self.base
+        if self.base is not None and self.base_benchmark is not None:
+            options["base_benchmark"] = self.base_benchmark
         return options
 
 
@@ -98,7 +103,8 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
     if kind == "residual" and not path:
         model, config = load_model(SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256,
                                    expected_config_sha256=SHIPPED_RESIDUAL_CONFIG_SHA256)
-        return Policy("residual", config["base_controller"], model, config)
+        return Policy("residual", config["base_controller"], model, config,
+                      trained_benchmark(config))
     if kind in ("ppo", "residual") and path:
         model, config = load_model(path, trust_pickle=trust_pickle)
         mode = config.get("mode")
@@ -106,9 +112,20 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
             raise ValueError(f"{spec!r}: the model at {path} was trained in mode {mode!r}, "
                              "not 'residual'")
         base = config.get("base_controller") if mode == "residual" else None
-        return Policy(f"{kind}:{_short_name(Path(path))}", base, model, config)
+        return Policy(f"{kind}:{_short_name(Path(path))}", base, model, config,
+                      trained_benchmark(config) if base is not None else None)
     raise unknown_name_error("policy", spec, [*CONTROLLERS, "ppo:PATH", "residual",
                                               "residual:PATH"])
+
+
+def trained_benchmark(config: dict) -> str:
+    """The benchmark a model was trained in, from its config's env options (a ``-v2`` id's
+    ``benchmark``, or its scenario options'); v1 when neither says, as for every model
+    saved before Benchmark v2. A residual's base flies that benchmark's gains wherever the
+    model is evaluated: the base it learnt to correct."""
+    env_kwargs = config.get("env_kwargs", {})
+    options = env_kwargs.get("scenario_options") or {}
+    return str(options.get("benchmark", env_kwargs.get("benchmark") or "v1"))
 
 
 def _short_name(path: Path) -> str:

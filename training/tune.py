@@ -225,8 +225,11 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
             start = gains[name]
             for factor in FACTORS:
                 candidate = {**gains, name: round(start * factor, 6)}
+                if name in OBSERVER_RATES and candidate[name] > max(OBSERVER_RATES[name]):
+                    continue  # v1's cap: a tenth of the sampling rate
                 value = trial(candidate, best)
-                if value is not None and value < best:
+                if value is not None and _wins(value, best, name in OBSERVER_RATES,
+                                               candidate[name] < gains[name]):
                     best, gains = value, candidate
             log(f"  pass {sweep + 1}, {name}: {gains[name]:.4g} (objective {best[1]:.4f} m"
                 + (f", {best[0]} lost under the margin)" if benchmark != "v1" else ")"))
@@ -237,11 +240,17 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
     return gains, history
 
 
-def admissible(build: Callable[[], Controller], benchmark: str = "v2",
-               vehicle: str = "paper", seeds: tuple[int, ...] = TUNING_SEEDS) -> bool:
-    """Whether the controller ``build`` makes keeps every tuning flight of ``benchmark`` on
-    ``vehicle`` under ``MARGIN`` (v2's admissibility; v1's procedure has no margin)."""
-    return score(build, benchmark, vehicle, seeds, **MARGIN)["lost"] == 0
+def _wins(value: tuple[int, float], best: tuple[int, float], is_rate: bool,
+          slower: bool) -> bool:
+    """Whether a candidate's (lost under the margin, objective) beats the best so far. An
+    observer rate follows v1's tie rule: a slower one wins within ``TIE_TOLERANCE`` of the
+    best objective, a faster one only beyond it (a faster observer amplifies noise and
+    delay for little)."""
+    if value[0] != best[0] or not is_rate:
+        return value < best
+    if slower:
+        return value[1] <= best[1] * (1 + TIE_TOLERANCE)
+    return value[1] < best[1] * (1 - TIE_TOLERANCE)
 
 
 def observer_grid(log: Callable[[str], None] = print,

@@ -19,10 +19,13 @@ actuator (rotor thrusts or the wrench, lagged directly) and nothing here runs.
   about the centre of mass, and the change of thrust with the airflow through and across
   the disc, ``T = k_F ω² (1 + a_μ μ² + a_λ max(λ, 0)²) - k_z ω u_z`` with
   ``λ = u_z/(ωR)``, ``μ = |u_xy|/(ωR)``: Gill & D'Andrea 2019's oblique-flow fit
-  (``VehicleParams.inflow_quadratic``; k_z is its linear term), each ratio held at
-  ``FIT_LIMIT``, the fit's range, and λ's square only for inflow from above, where it was
-  measured. The rotor's yaw torque stays ``c_τ k_F ω²``, its change with inflow left out.
-  These replace the linear body drag (``drag_linear``), which stood for the rotors' drag.
+  (``VehicleParams.inflow_quadratic``; k_z is its linear term), each ratio held within
+  ±``FIT_LIMIT``, the fit's range (a rotor spinning slowly in a descent gains at most
+  0.3·|k1|/C_s of its static thrust), and λ's square only for inflow from above, where it
+  was measured. The linear law of a vehicle without the fit (the Crazyflie's, rotorpy's)
+  is held the same way. The rotor's yaw torque stays ``c_τ k_F ω²``, its change with
+  inflow left out. These replace the linear body drag (``drag_linear``), which stood for
+  the rotors' drag.
 
 What the controllers are told was applied (``AppliedCommand``) is what the nominal model
 gives for the rotors' speeds, ``k_F ω²`` through the allocation matrix: an autopilot's best
@@ -149,7 +152,7 @@ def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
             uz = body[2] + omega[0] * py - omega[1] * px
             tip = w * radius
             if tip > 0.0:  # Gill & D'Andrea 2019 eq. 95, as ratios to the static thrust
-                lam = min(uz / tip, FIT_LIMIT)
+                lam = max(min(uz / tip, FIT_LIMIT), -FIT_LIMIT)
                 mu = min(math.sqrt(ux * ux + uy * uy) / tip, FIT_LIMIT)
                 climb = max(lam, 0.0)
                 thrust = max(thrust + k_f * w * w * (a_mu * mu * mu + a_lambda * climb * climb)
