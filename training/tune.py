@@ -126,9 +126,10 @@ def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
                 ) -> dict[str, float]:
     """Where the descent starts for ``vehicle``: ``START`` (with ``START_V2`` in v2), its
     absolute attitude gains (the geometric kR, kΩ, in N m per rad and rad/s) scaled by the
-    vehicle's inertia over the paper vehicle's (trace over trace), so every controller
-    starts at the same bandwidths on any vehicle (the other gains are per mass or inertia
-    already)."""
+    vehicle's inertia over the paper vehicle's (trace over trace), so the geometric laws
+    start at the same attitude bandwidths on any vehicle. The other gains are per mass or
+    inertia already, but for the SMC's disturbance bound (33 N, not searched), which the
+    start keeps as v1 set it."""
     gains = {**START[controller], **(START_V2.get(controller, {}) if benchmark != "v1" else {})}
     scale = (np.trace(get_vehicle(vehicle).inertia_matrix)
              / np.trace(get_vehicle("paper").inertia_matrix))
