@@ -111,10 +111,16 @@ def gain_set(name: str, benchmark: str, vehicle: VehicleParams | str) -> GainSet
     options = GAIN_SETS.get((name, benchmark, FALLBACK_VEHICLE))
     if options is None:
         return GainSet({}, None)
-    fallback = get_vehicle(FALLBACK_VEHICLE)
-    inertia = np.trace(params.inertia_matrix) / np.trace(fallback.inertia_matrix)
-    mass = params.mass / fallback.mass
-    scaled = {key: float(value * (inertia if key in INERTIA_SCALED else
-                                  mass if key in MASS_SCALED else 1.0))
-              for key, value in options.items()}
-    return GainSet(scaled, (benchmark, FALLBACK_VEHICLE), True)
+    return GainSet(scaled_to(options, params), (benchmark, FALLBACK_VEHICLE), True)
+
+
+def scaled_to(options: dict[str, float], vehicle: VehicleParams | str,
+              keys: tuple[str, ...] = INERTIA_SCALED + MASS_SCALED) -> dict[str, float]:
+    """``options`` of the paper vehicle's for ``vehicle``: those of ``keys`` that are
+    absolute scaled by its inertia (trace over trace) or mass over the paper vehicle's."""
+    params, paper = get_vehicle(vehicle), get_vehicle(FALLBACK_VEHICLE)
+    inertia = np.trace(params.inertia_matrix) / np.trace(paper.inertia_matrix)
+    mass = params.mass / paper.mass
+    return {key: float(value * (1.0 if key not in keys else
+                                inertia if key in INERTIA_SCALED else mass))
+            for key, value in options.items()}

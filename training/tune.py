@@ -58,6 +58,7 @@ from quad_dob_baselines import (
     make_controller,
 )
 from quad_dob_baselines.base import Controller
+from quad_dob_baselines.gain_sets import INERTIA_SCALED, scaled_to
 from quad_dob_baselines.geometric import INTEGRAL_GAINS, PAPER_GAINS
 from quad_dob_baselines.pid import PID_GAINS
 from quad_dob_baselines.smc import SMC_GAINS
@@ -131,12 +132,9 @@ def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
     inertia already, but for the SMC's disturbance bound (33 N, not searched), which the
     start keeps as v1 set it."""
     gains = {**START[controller], **(START_V2.get(controller, {}) if benchmark != "v1" else {})}
-    scale = (np.trace(get_vehicle(vehicle).inertia_matrix)
-             / np.trace(get_vehicle("paper").inertia_matrix))
-    for name in ("kR", "kOmega"):
-        if name in gains and scale != 1.0:
-            gains[name] = round(float(gains[name] * scale), 6)
-    return gains
+    scaled = scaled_to(gains, vehicle, INERTIA_SCALED)
+    return {key: round(value, 6) if value != gains[key] else gains[key]
+            for key, value in scaled.items()}
 
 
 def tuning_scenario(name: str, benchmark: str = "v1", vehicle: str = "paper",
