@@ -11,6 +11,9 @@ type), never ``quad_dob_training``.
 - ``geometric``: Lee–Leok–McClamroch 2010 on SE(3); with an observer, geometric + NDOB.
 - ``observer``: the nonlinear disturbance observer (Chen 2000 form).
 - ``pid``: cascaded PID; ``smc``: sliding-mode control.
+- ``indi``: incremental nonlinear dynamic inversion on the geometric law (acceleration
+  feedback from the IMU and the rotor-speed telemetry); ``l1``: L1 adaptive augmentation
+  of the geometric law; ``filters``: the low-pass filters they run.
 - ``inner``: their attitude laws, compiled per vehicle, for an inner loop that runs them
   at its own rate (``InnerLaw``, what ``Controller.inner_law`` hands it).
 
@@ -21,7 +24,7 @@ type), never ``quad_dob_training``.
 residual wrapper use: ``geometric``, ``geometric-ndob`` (the paper's observer gains),
 ``geometric-ndob:tuned`` (tuned observer rates, the paper's gains: the recommended base),
 ``geometric-ndob:gains-tuned`` (its gains tuned too), ``geometric-integral`` (integral
-action on position instead of an observer), ``pid``, ``smc``.
+action on position instead of an observer), ``indi``, ``l1``, ``pid``, ``smc``.
 """
 
 from __future__ import annotations
@@ -31,6 +34,8 @@ from collections.abc import Callable
 from quad_dob_baselines.base import Controller
 from quad_dob_baselines.gain_sets import GAIN_SETS, MARGIN_LOSSES, GainSet, gain_set
 from quad_dob_baselines.geometric import GeometricController, GeometricIntegralController
+from quad_dob_baselines.indi import IncrementalNDI
+from quad_dob_baselines.l1 import L1AdaptiveController
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_baselines.pid import CascadedPID
 from quad_dob_baselines.smc import SlidingModeController
@@ -86,6 +91,8 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
         _geometric_ndob(vehicle, "tuned", **{**TUNED_GEOMETRIC_GAINS, **options}),
         "geometric-ndob:gains-tuned"),
     "geometric-integral": lambda vehicle, **options: GeometricIntegralController(**options),
+    "indi": lambda vehicle, **options: IncrementalNDI(**options),
+    "l1": lambda vehicle, **options: L1AdaptiveController(**options),
     "pid": lambda vehicle, **options: CascadedPID(**options),
     "smc": lambda vehicle, **options: SlidingModeController(**options),
 }
@@ -115,6 +122,8 @@ __all__ = [
     "GainSet",
     "GeometricController",
     "GeometricIntegralController",
+    "IncrementalNDI",
+    "L1AdaptiveController",
     "NonlinearDisturbanceObserver",
     "SlidingModeController",
     "gain_set",

@@ -34,6 +34,9 @@ _PAPER_NDOB = {"kx_per_mass": 8.0, "kv_per_mass": 3.92, "kR": 6.167, "kOmega": 1
                "translational_rate": 40.0, "rotational_rate": 9.8}
 _NEURAL_FLY_NDOB = {"kx_per_mass": 22.4, "kv_per_mass": 5.6, "kR": 4.037629,
                     "kOmega": 0.582042, "translational_rate": 40.0, "rotational_rate": 9.8}
+# INDI and L1 (issue 27): the geometric gains, their estimators' filters and L1's predictor
+# rates; L1's second torque stage is not searched (L1Quad's 15 rad/s).
+_L1_FIXED = {"torque_second_cutoff": 15.0}
 # (controller name, benchmark, vehicle name) -> the options make_controller passes on
 GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
     ("geometric-ndob:tuned", "v2", "paper"): _PAPER_NDOB,
@@ -50,6 +53,18 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
     ("geometric-integral", "v2", "paper"): {"kx_per_mass": 16.0, "kv_per_mass": 5.6,
                                             "kR": 8.81, "kOmega": 2.54, "ki_per_mass": 8.0,
                                             "integral_limit_per_weight": 0.3},
+    ("indi", "v2", "paper"): {"kx_per_mass": 8.0, "kv_per_mass": 5.488, "kR": 8.81,
+                              "kOmega": 2.54, "filter_bandwidth": 50.0},
+    ("l1", "v2", "paper"): {"kx_per_mass": 8.0, "kv_per_mass": 3.92, "kR": 8.81,
+                            "kOmega": 2.54, "force_cutoff": 30.0, "torque_cutoff": 1.75,
+                            "predictor_rate": 1.25, "rotational_predictor_rate": 2.5,
+                            **_L1_FIXED},
+    ("indi", "v2", "neural-fly"): {"kx_per_mass": 8.0, "kv_per_mass": 7.84, "kR": 4.037629,
+                                   "kOmega": 0.407429, "filter_bandwidth": 50.0},
+    ("l1", "v2", "neural-fly"): {"kx_per_mass": 8.0, "kv_per_mass": 7.84, "kR": 4.037629,
+                                 "kOmega": 0.407429, "force_cutoff": 30.0,
+                                 "torque_cutoff": 4.9, "predictor_rate": 1.25,
+                                 "rotational_predictor_rate": 2.5, **_L1_FIXED},
     # loses 1 of the 50 tuning flights under the margin (dryden-helix-gusts, seed 104)
     ("geometric-ndob:tuned", "v2", "neural-fly"): _NEURAL_FLY_NDOB,
     ("geometric-ndob:gains-tuned", "v2", "neural-fly"): _NEURAL_FLY_NDOB,

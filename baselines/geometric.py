@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_baselines.base import Controller
-from quad_dob_baselines.inner import LEE, InnerLaw, inner_law
+from quad_dob_baselines.inner import LEE, InnerLaw, held_torque_estimate, inner_law
 from quad_dob_baselines.kernels import geometric_batch
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_env.dynamics import VehicleState
@@ -129,13 +129,17 @@ class GeometricController(Controller):
 
     def inner_law(self) -> InnerLaw:
         """Lee's attitude law (kR, kΩ) with the rotational observer at the inner rate."""
-        observer = None
-        if self.observer is not None:
-            km, alpha = self.observer.inner_gains
-            observer = (km, alpha, self.observer.torque_state[0])
         return inner_law(LEE, np.stack([self.gains["kR"], self.gains["kOmega"]]),
                          self.vehicle.inertia_matrix, self.diagnostics,
-                         len(self.diagnostics["desired_force"]), observer)
+                         len(self.diagnostics["desired_force"]), self._inner_observer())
+
+    def _inner_observer(self) -> tuple | None:
+        """What ``inner_law`` gets as its ``observer``: the rotational observer's gains at
+        the inner rate and zΩ, or None."""
+        if self.observer is None:
+            return None
+        km, alpha = self.observer.inner_gains
+        return km, alpha, self.observer.torque_state[0]
 
     def describe(self) -> dict[str, Any]:
         info: dict[str, Any] = {"name": self.name,
@@ -144,6 +148,60 @@ class GeometricController(Controller):
             info["Ks"] = self.observer.translational_gain
             info["Km"] = self.observer.rotational_gain.tolist()
         return info
+
+
+class EstimatingGeometricController(GeometricController):
+    """Lee's law with disturbance estimates a subclass forms once per control step in
+    ``_advance(rows)`` (INDI's measured ones, L1's adaptive ones), into ``_force`` and
+    ``_torque`` (N, 3); ``force_estimate`` and ``torque_estimate`` are copies of them for
+    callers, and an inner loop holds the torque estimate over the step's ticks.
+
+    A vehicle's estimate advances once per flown step: at the first ``compute`` after an
+    ``applied`` (or after its reset), so computing again before the next step (a residual
+    env's restart of other vehicles, its guarded second command) returns the estimate it
+    holds. ``applied`` keeps the step's applied thrust and moment in ``_wrench`` (N, 4)."""
+
+    def __init__(self, own: tuple[str, ...] = (), **gains: ArrayLike) -> None:
+        unknown = sorted(set(gains) - set(PAPER_GAINS))
+        if unknown:
+            raise ValueError(f"unknown {self.name} gain {unknown[0]!r}; valid: "
+                             + ", ".join([*PAPER_GAINS, *own]))
+        super().__init__(**gains)
+
+    def reset(self, num_vehicles: int, vehicle: VehicleParams, dt: float,
+              indices: NDArray[np.intp] | None = None, actuation: str = "rotors") -> None:
+        super().reset(num_vehicles, vehicle, dt, indices, actuation)
+        if indices is None:
+            n = int(num_vehicles)
+            self._wrench = np.zeros((n, 4))
+            self._force, self._torque = np.zeros((n, 3)), np.zeros((n, 3))
+            self.force_estimate, self.torque_estimate = np.zeros((n, 3)), np.zeros((n, 3))
+            self._fresh = np.ones(n, dtype=np.bool_)
+            self._stepped = np.zeros(n, dtype=np.bool_)
+        else:
+            self._fresh[indices] = True
+            self._wrench[indices] = 0.0  # nothing applied yet in the new episode
+
+    def _estimates(self, state: VehicleState) -> tuple[NDArray, NDArray]:
+        rows = self._fresh | self._stepped
+        if rows.any():
+            self._advance(state, rows)
+        self._stepped[:] = False
+        # new arrays each step, as the observer's: a caller may keep the last ones
+        self.force_estimate, self.torque_estimate = self._force.copy(), self._torque.copy()
+        return self.force_estimate, self.torque_estimate
+
+    def _advance(self, state: VehicleState, rows: NDArray[np.bool_]) -> None:
+        """Advance the estimates of the vehicles ``rows`` marks by one step."""
+        raise NotImplementedError
+
+    def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
+        self._wrench[:, 0] = thrust
+        self._wrench[:, 1:] = moment
+        self._stepped[:] = True
+
+    def _inner_observer(self) -> tuple:
+        return held_torque_estimate(self.torque_estimate)
 
 
 # Integral action's hand-set start (part 3 tunes it): ki = 8 m [N/(m s)], inside Routh's
@@ -179,19 +237,28 @@ class GeometricIntegralController(GeometricController):
         super().reset(num_vehicles, vehicle, dt, indices, actuation)
         if indices is None:
             self.integral = np.zeros((num_vehicles, 3))
+            self._due = np.ones(num_vehicles, dtype=bool)
         else:
             self.integral[indices] = 0.0
+            self._due[indices] = True
 
     def compute(self, time: NDArray, state: VehicleState, reference: Reference,
                 acceleration_correction: NDArray | None = None) -> tuple[NDArray, NDArray]:
         vehicle = self.vehicle
         ki = self.ki_per_mass * vehicle.mass
         limit = self.integral_limit_per_weight * vehicle.hover_thrust / ki
-        # ∫ex dt by forward Euler, clamped: ki |∫ex| <= limit_per_weight m g
-        self.integral = np.clip(self.integral + (state.position - reference.position)
-                                * self.dt, -limit, limit)
+        # ∫ex dt by forward Euler, clamped: ki |∫ex| <= limit_per_weight m g; once per
+        # flown step (a second compute before the next step integrates nothing)
+        due = self._due
+        self.integral[due] = np.clip(self.integral[due] + (state.position[due]
+                                                           - reference.position[due])
+                                     * self.dt, -limit, limit)
+        self._due[:] = False
         self._integral_force = ki * self.integral
         return super().compute(time, state, reference, acceleration_correction)
+
+    def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
+        self._due[:] = True
 
     def _estimates(self, state: VehicleState) -> tuple[NDArray, NDArray]:
         return self._integral_force, np.zeros_like(self._integral_force)

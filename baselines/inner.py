@@ -83,6 +83,13 @@ def inner_law(code: int, gains: NDArray, inertia: NDArray, diagnostics: dict,
                     np.stack([km, alpha]), z_torque, integral, previous, fresh, excess)
 
 
+def held_torque_estimate(torque_estimate: NDArray) -> tuple:
+    """``inner_law``'s ``observer`` for a torque estimate made once per control step and
+    held over its ticks (INDI's, L1's): the observer's form with zero gains, under which
+    ``d̂Ω = zΩ`` and ``inner_applied`` leaves zΩ as it is."""
+    return np.zeros((3, 3)), np.zeros((3, 3)), torque_estimate
+
+
 @njit(cache=True, inline="always")
 def _row(table, k):
     return (table[k, 0], table[k, 1], table[k, 2])

@@ -30,12 +30,12 @@ DISTINCT_V2_SETS = [key for key in V2_SETS
 def test_every_baseline_has_a_v2_set_for_the_paper_and_neural_fly_vehicles():
     for vehicle in ("paper", "neural-fly"):
         for name in ("geometric-ndob:tuned", "geometric-ndob:gains-tuned", "pid", "smc",
-                     "geometric-integral"):
+                     "geometric-integral", "indi", "l1"):
             assert (name, "v2", vehicle) in GAIN_SETS, (name, vehicle)
 
 
 @pytest.mark.parametrize("name", ["geometric-ndob:tuned", "geometric-ndob:gains-tuned", "pid",
-                                  "smc", "geometric-integral", "geometric"])
+                                  "smc", "geometric-integral", "geometric", "indi", "l1"])
 def test_v1_names_keep_v1_gains(name):
     v1 = make_controller(name, "paper", "v1")
     assert v1.gain_set.tuned_for is None and v1.gain_set.options == {}

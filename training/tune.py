@@ -60,6 +60,8 @@ from quad_dob_baselines import (
 from quad_dob_baselines.base import Controller
 from quad_dob_baselines.gain_sets import INERTIA_SCALED, scaled_to
 from quad_dob_baselines.geometric import INTEGRAL_GAINS, PAPER_GAINS
+from quad_dob_baselines.indi import INDI_FILTER
+from quad_dob_baselines.l1 import L1_GAINS
 from quad_dob_baselines.pid import PID_GAINS
 from quad_dob_baselines.smc import SMC_GAINS
 from quad_dob_env.disturbances import Constant
@@ -94,10 +96,26 @@ EXTRA_PASSES = 2  # v2: more passes while no admissible set is found (v1's never
 # better (80 /s scored 0.0222 m against 0.0236 m at 40 /s in a first run of this search).
 OBSERVER_RATES = {"translational_rate": (1.0, 2.0, 5.0, 10.0, 20.0, 40.0),
                   "rotational_rate": (2.0, 5.0, 10.0, 20.0, 40.0)}
+# INDI's filter and L1's adaptive-input filters are estimator bandwidths [rad/s] too: the
+# same cap and tie rule hold for them, so no method wins by a faster estimator alone. L1's
+# predictor rates are searched as plain gains (they set its estimate's one-step bias,
+# σ̂ ≈ e^{-a dt} d, not a bandwidth); its second torque stage keeps L1Quad's 15 rad/s.
+# The cap is on the estimator's delay: 25 ms, a first-order estimator's at 40 /s. A
+# second-order Butterworth at cutoff ω_c delays low frequencies by √2 / ω_c, so INDI's
+# filter has the same delay at 40√2 = 56.6 rad/s.
+BANDWIDTH_CAP = 40.0
+BANDWIDTH_CAPS = {**dict.fromkeys(OBSERVER_RATES, BANDWIDTH_CAP),
+                  "force_cutoff": BANDWIDTH_CAP, "torque_cutoff": BANDWIDTH_CAP,
+                  "filter_bandwidth": round(BANDWIDTH_CAP * 2 ** 0.5, 1)}
+BANDWIDTHS = tuple(BANDWIDTH_CAPS)
+GEOMETRIC = ("kx_per_mass", "kv_per_mass", "kR", "kOmega")
 SEARCHED = {
     # the geometric controller's own gains, with the observer at its tuned rates
-    "geometric-ndob:tuned": ("kx_per_mass", "kv_per_mass", "kR", "kOmega"),
-    "geometric-integral": ("kx_per_mass", "kv_per_mass", "kR", "kOmega", "ki_per_mass"),
+    "geometric-ndob:tuned": GEOMETRIC,
+    "geometric-integral": (*GEOMETRIC, "ki_per_mass"),
+    "indi": (*GEOMETRIC, "filter_bandwidth"),
+    "l1": (*GEOMETRIC, "force_cutoff", "torque_cutoff", "predictor_rate",
+           "rotational_predictor_rate"),
     "pid": ("position_kp", "position_kd", "position_ki", "attitude_kp", "rate_kp", "rate_ki",
             "rate_kd"),
     "smc": ("position_lambda", "position_boundary", "attitude_lambda", "attitude_eta",
@@ -112,6 +130,8 @@ SEARCHED_V2 = {"geometric-ndob:tuned": (*SEARCHED["geometric-ndob:tuned"],
 START = {
     "geometric-ndob:tuned": dict(PAPER_GAINS),  # Lee 2010's, which the paper flies
     "geometric-integral": {**PAPER_GAINS, **INTEGRAL_GAINS},
+    "indi": {**PAPER_GAINS, **INDI_FILTER},
+    "l1": {**PAPER_GAINS, **L1_GAINS},
     "pid": {**PID_GAINS, "position_kp": 16.0, "position_kd": 6.0, "position_ki": 6.0,
             "attitude_kp": 10.0, "rate_kp": 25.0, "rate_ki": 20.0, "rate_kd": 0.3},
     "smc": {**SMC_GAINS, "position_lambda": 2.8, "position_boundary": 0.35,
@@ -224,10 +244,10 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
             start = gains[name]
             for factor in FACTORS:
                 candidate = {**gains, name: round(start * factor, 6)}
-                if name in OBSERVER_RATES and candidate[name] > max(OBSERVER_RATES[name]):
+                if name in BANDWIDTHS and candidate[name] > BANDWIDTH_CAPS[name]:
                     continue  # v1's cap: a tenth of the sampling rate
                 value = trial(candidate, best)
-                if value is not None and _wins(value, best, name in OBSERVER_RATES,
+                if value is not None and _wins(value, best, name in BANDWIDTHS,
                                                candidate[name] < gains[name]):
                     best, gains = value, candidate
             log(f"  pass {sweep + 1}, {name}: {gains[name]:.4g} (objective {best[1]:.4f} m"
@@ -242,9 +262,10 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
 def _wins(value: tuple[int, float], best: tuple[int, float], is_rate: bool,
           slower: bool) -> bool:
     """Whether a candidate's (lost under the margin, objective) beats the best so far. An
-    observer rate follows v1's tie rule: a slower one wins within ``TIE_TOLERANCE`` of the
-    best objective, a faster one only beyond it (a faster observer amplifies noise and
-    delay for little)."""
+    estimator's bandwidth (``BANDWIDTHS``: observer rates, INDI's and L1's filters)
+    follows v1's tie rule: a slower one wins within ``TIE_TOLERANCE`` of the best
+    objective, a faster one only beyond it (a faster estimator amplifies noise and delay
+    for little)."""
     if value[0] != best[0] or not is_rate:
         return value < best
     if slower:
@@ -276,7 +297,8 @@ def observer_grid(log: Callable[[str], None] = print,
 
 
 DEFAULT_CONTROLLERS = {"v1": ("geometric-ndob", "pid", "smc"),
-                       "v2": ("geometric-ndob:tuned", "pid", "smc", "geometric-integral")}
+                       "v2": ("geometric-ndob:tuned", "pid", "smc", "geometric-integral",
+                              "indi", "l1")}
 
 
 def main(controllers: list[str] | None, out: Path, benchmark: str = "v2",

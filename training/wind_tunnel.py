@@ -20,7 +20,8 @@ NEURAL_FLY_RMS: dict[str, tuple[float, float, float, float]] = {
     "NF": (0.031, 0.048, 0.059, 0.094),
 }
 # simulated controller -> the real controller it is the counterpart of
-COUNTERPARTS = {"geometric-ndob:tuned": "NF-C", "geometric-integral": "nonlinear baseline"}
+COUNTERPARTS = {"geometric-ndob:tuned": "NF-C", "geometric-integral": "nonlinear baseline",
+                "indi": "INDI", "l1": "L1 adaptive"}
 FACTOR = 2.0  # the agreement asked for: within a factor of 2 at every wind speed
 
 
