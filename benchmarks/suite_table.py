@@ -5,6 +5,12 @@
 the RMS position error after the scenario's settle time in mm with its 95 % bootstrap
 interval, the delay margin, the flights lost of the seeds, and the distinct flights where
 fewer than the seeds (a scenario whose seeds vary nothing flies one flight).
+
+``--strongest`` prints instead, per scenario, the classical baseline with the lowest mean
+RMS error (what a learned policy has to beat) and the runner-up, and whether the two are
+told apart: by the paired interval of their difference where one of them is the run's
+``--baseline`` (the CSV holds only those), else by whether their 95 % intervals overlap.
+Learned policies (``residual``, ``ppo:``, ``sac:``) are left out.
 """
 
 from __future__ import annotations
@@ -18,9 +24,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("folder", type=Path)
     parser.add_argument("--skip", nargs="*", default=[], help="policies to leave out")
+    parser.add_argument("--strongest", action="store_true",
+                        help="the strongest classical baseline per scenario instead")
     args = parser.parse_args()
     rows = [row for row in csv.DictReader(open(args.folder / "evaluation.csv"))
             if row["policy"] not in args.skip]
+    if args.strongest:
+        strongest(rows)
+        return
     policies = list(dict.fromkeys(row["policy"] for row in rows))
     scenarios = list(dict.fromkeys(row["scenario"] for row in rows))
     cell = {(row["scenario"], row["policy"]): row for row in rows}
@@ -44,6 +55,42 @@ def main() -> None:
                 text += f", {row['distinct_flights']} distinct"
             cells.append(text)
         print(f"| {scenario} | " + " | ".join(cells) + " |")
+
+
+LEARNED = ("residual", "ppo:", "sac:")
+
+
+def _interval(row: dict) -> str:
+    return (f"{1000 * float(row['rms_position_settled_mean']):.1f} "
+            f"[{1000 * float(row['rms_position_settled_low']):.1f}, "
+            f"{1000 * float(row['rms_position_settled_high']):.1f}]")
+
+
+def strongest(rows: list[dict]) -> None:
+    """Per scenario: the lowest mean settled RMS error of the classical baselines flown,
+    the runner-up, and whether they are told apart (module docstring)."""
+    print("| scenario | strongest classical baseline [mm] | runner-up [mm] | told apart by |")
+    print("|---|---|---|---|")
+    for scenario in dict.fromkeys(row["scenario"] for row in rows):
+        flown = sorted((row for row in rows if row["scenario"] == scenario
+                        and not row["policy"].startswith(LEARNED) and not int(row["crashes"])),
+                       key=lambda row: float(row["rms_position_settled_mean"]))
+        best, second = flown[0], flown[1]
+        paired = next((row for row in (second, best) if row.get("baseline")
+                       and row["baseline"] in (best["policy"], second["policy"])
+                       and row["baseline"] != row["policy"]
+                       and row.get("rms_position_settled_diff_low")), None)
+        if paired is not None:
+            low = 1000 * float(paired["rms_position_settled_diff_low"])
+            high = 1000 * float(paired["rms_position_settled_diff_high"])
+            verdict = (f"paired difference [{low:.1f}, {high:.1f}] mm: "
+                       + ("excludes zero" if low > 0 or high < 0 else "includes zero"))
+        else:
+            apart = (float(best["rms_position_settled_high"])
+                     < float(second["rms_position_settled_low"]))
+            verdict = "intervals " + ("apart" if apart else "overlap")
+        print(f"| {scenario} | `{best['policy']}` {_interval(best)} | "
+              f"`{second['policy']}` {_interval(second)} | {verdict} |")
 
 
 if __name__ == "__main__":
