@@ -22,9 +22,12 @@ demo: $(STAMP)
 	$(BIN)/quad-dob paper --out results
 	$(BIN)/quad-dob evaluate --out results/evaluation
 
+# two test workers, one per core of CI's machine (pytest-xdist); TEST_WORKERS=0 runs the
+# suite in this process, as before
+TEST_WORKERS ?= 2
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS)
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
