@@ -11,9 +11,11 @@ from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
 from quad_dob_env.envs.core import QuadrotorBatch
 from quad_dob_env.envs.residual import DEFAULT_BASE_CONTROLLER, ResidualCommand
 from quad_dob_env.scenarios import make_scenario
+from quad_dob_env.validation import checked_keywords
 from quad_dob_env.wrappers import ResidualActionWrapper
 
 
+@checked_keywords(QuadrotorEnv.__init__)
 def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_scale: float = 0.1,
                       moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
                       authority_gate: float | None = None,
@@ -36,6 +38,7 @@ class ResidualVectorEnv(QuadrotorVectorEnv):
     base flies the gains its name means in the scenario's benchmark, or in
     ``base_benchmark`` where given (a residual model's training benchmark)."""
 
+    @checked_keywords(QuadrotorVectorEnv.__init__)
     def __init__(self, num_envs: int, scenario: Any = "paper-none",
                  scenario_options: dict[str, Any] | None = None,
                  base_controller: Any = DEFAULT_BASE_CONTROLLER, compiled: bool = True,

@@ -6,7 +6,10 @@ This module imports nothing from the package, so every layer may use it.
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable
+import functools
+import inspect
+from collections.abc import Callable, Iterable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,6 +24,36 @@ def unknown_name_error(kind: str, name: object, valid: Iterable[str]) -> ValueEr
     if close:
         message += f" (did you mean {close[0]!r}?)"
     return ValueError(message)
+
+
+def keyword_names(*functions: Callable) -> list[str]:
+    """The keyword arguments ``functions`` take by name, together (``self`` left out)."""
+    names: dict[str, None] = {}
+    for function in functions:
+        for parameter in inspect.signature(function).parameters.values():
+            if parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY) \
+                    and parameter.name != "self":
+                names[parameter.name] = None
+    return list(names)
+
+
+def checked_keywords(*forwards_to: Callable) -> Callable:
+    """Decorate a function (or ``__init__``) so that a keyword it does not take, nor the
+    functions it hands its ``**kwargs`` to (``forwards_to``), is a ValueError naming it,
+    the valid names and the closest, where Python would raise a bare TypeError naming only
+    the innermost function (``gym.make("QuadDOB/Hover-v1", action_mod=...)``)."""
+    def decorate(function: Callable) -> Callable:
+        owner = function.__qualname__.removesuffix(".__init__")
+
+        @functools.wraps(function)
+        def checked(*args: Any, **kwargs: Any) -> Any:
+            valid = keyword_names(function, *forwards_to)
+            for key in kwargs:
+                if key not in valid:
+                    raise unknown_name_error(f"keyword argument of {owner}", key, valid)
+            return function(*args, **kwargs)
+        return checked
+    return decorate
 
 
 def as_vector3(value: ArrayLike, name: str) -> NDArray[np.float64]:

@@ -104,3 +104,40 @@ def test_a_scenario_option_changes_every_flight(capsys):
                  "--json", "--scenarios", "paper-none", "--seeds", "1"]) == 0
     longer = json.loads(capsys.readouterr().out)[0]
     assert plain["rms_position_settled_mean"] != longer["rms_position_settled_mean"]
+
+
+def test_a_reader_that_stops_early_ends_the_command_quietly(capsys):
+    """`quad-dob list | head -2`: the pipe closes mid-listing; no traceback, no error line."""
+    import subprocess
+    import sys
+
+    assert main(["list"]) == 0
+    # longer than Python's 8 KiB stdout buffer, so the writer meets the closed pipe
+    assert len(capsys.readouterr().out) > 8192
+
+    process = subprocess.Popen([sys.executable, "-m", "quad_dob_training.cli", "list"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    first = process.stdout.readline()
+    process.stdout.close()  # what head does after its lines
+    _, err = process.communicate(timeout=120)
+    assert first.startswith(b"Environment ids")
+    assert err == b"", err.decode()
+    assert process.returncode == 1
+
+
+def test_every_option_of_every_command_says_what_it_does_and_its_default():
+    import argparse
+
+    from quad_dob_training.cli import build_parser
+
+    subcommands = next(action for action in build_parser()._actions
+                       if isinstance(action, argparse._SubParsersAction))
+    for name, parser in subcommands.choices.items():
+        for action in parser._actions:
+            if isinstance(action, argparse._HelpAction) or not action.option_strings:
+                continue
+            where = f"quad-dob {name} {action.option_strings[0]}"
+            assert action.help, f"{where} has no help text"
+            if action.default not in (None, False) or not action.required:
+                flag = isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction))
+                assert flag or "default" in action.help, f"{where} does not say its default"

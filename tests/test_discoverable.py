@@ -40,3 +40,31 @@ def test_the_unwrapped_env_enforces_reset_before_step():
         env.step(np.zeros(4, np.float32))
     env.reset(seed=0)
     env.step(np.zeros(4, np.float32))
+
+
+@pytest.mark.parametrize(("make", "owner", "typo", "meant"), [
+    (lambda **kw: gym.make("QuadDOB/Hover-v2", **kw), "QuadrotorEnv", "action_mod",
+     "action_mode"),
+    (lambda **kw: gym.make("QuadDOB/HoverResidual-v2", **kw), "make_residual_env",
+     "thrust_scal", "thrust_scale"),
+    (lambda **kw: gym.make_vec("QuadDOB/Hover-v2", num_envs=2,
+                               vectorization_mode="vector_entry_point", **kw),
+     "QuadrotorVectorEnv", "action_mod", "action_mode"),
+    (lambda **kw: gym.make_vec("QuadDOB/TrackResidual-v2", num_envs=2,
+                               vectorization_mode="vector_entry_point", **kw),
+     "ResidualVectorEnv", "thrust_scal", "thrust_scale"),
+    (lambda **kw: __import__("quad_dob_training.vec_env", fromlist=["x"]).QuadrotorSB3VecEnv(
+        2, "hover-calm", base_controller="pid", **kw), "QuadrotorSB3VecEnv", "moment_scal",
+     "moment_scale"),
+])
+def test_a_misspelled_keyword_is_answered_like_a_misspelled_value(make, owner, typo, meant):
+    """As a user meets it: the typo, every valid keyword (the wrapped env's too, for the
+    residual ones) and the closest, not a bare TypeError naming only the innermost class."""
+    with pytest.raises(ValueError) as raised:
+        make(**{typo: 1.0})
+    message = str(raised.value)
+    assert message.startswith(f"unknown keyword argument of {owner} {typo!r}; valid: ")
+    assert message.endswith(f"(did you mean {meant!r}?)")
+    assert "scenario_options" in message and "benchmark" in message
+    make(**{meant: "thrust_moments" if meant == "action_mode" else 0.2}).close()  # spelled
+    # right, the same call builds

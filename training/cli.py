@@ -261,14 +261,17 @@ def build_parser() -> argparse.ArgumentParser:
                        help="base controller of a residual (default: the yml's)")
     train.add_argument("--timesteps", type=_positive_int, default=None,
                        help=f"at most {MAX_TIMESTEPS:.0e} (default: the yml's)")
-    train.add_argument("--n-envs", type=_positive_int, default=None)
-    train.add_argument("--seed", type=_seed, default=0)
+    train.add_argument("--n-envs", type=_positive_int, default=None,
+                       help="vehicles trained in parallel (default: the yml's n_envs)")
+    train.add_argument("--seed", type=_seed, default=0,
+                       help="seeds the envs and the algorithm: policy initialisation, sampling "
+                       "(default: %(default)s)")
     train.add_argument("--out", type=Path, default=None,
                        help="run folder (default: runs/ALGO, or the resumed run's own)")
     train.add_argument("--resume", type=Path, default=None,
                        help="a run folder (its newest checkpoint) or a checkpoint's .state: "
                        "finishes that run as if it had never stopped; or a model .zip: "
-                       "trains --timesteps more from its weights")
+                       "trains --timesteps more from its weights (default: a fresh run)")
     train.add_argument("--checkpoint-every", type=_positive_int, default=None,
                        help="timesteps between checkpoints (default: 100000, or the resumed "
                        "run's own)")
@@ -287,7 +290,9 @@ def build_parser() -> argparse.ArgumentParser:
                           help="comma-separated scenario names (default: %(default)s)")
     evaluate.add_argument("--seeds", default="9001-9020",
                           help="a count N (seeds 0..N-1) or a range A-B (default: %(default)s)")
-    evaluate.add_argument("--out", type=Path, default=Path("results/evaluation"))
+    evaluate.add_argument("--out", type=Path, default=Path("results/evaluation"),
+                          help="folder for evaluation.md, .csv, .png and report.html "
+                          "(default: %(default)s)")
     evaluate.add_argument("--baseline", default=None,
                           help="controller every policy is compared with, paired over the "
                           "seeds with 95 %% bootstrap intervals; '' for none (default: the "
@@ -301,7 +306,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--scenario-option", action="append", metavar="KEY=VALUE",
                           help="an option for every scenario flown (make_scenario's keywords: "
                           "dt=0.005, duration=20, wind_scale=1.5, motor_lag=true, ...); "
-                          "repeatable")
+                          "repeatable (default: none, each scenario as it is named)")
     evaluate.add_argument("--delay-margins", nargs="?", type=_delay_grid, default=None,
                           const=",".join(f"{v:g}" for v in DELAY_GRID), metavar="GRID",
                           help="also each policy's delay margin: the largest extra latency of "
@@ -323,14 +328,18 @@ def build_parser() -> argparse.ArgumentParser:
     tune.add_argument("--vehicle", default="paper",
                       help="the vehicle the tuning scenarios are flown with (v2; v1 tunes "
                       "on the paper vehicle) (default: %(default)s)")
-    tune.add_argument("--out", type=Path, default=Path("results/tuning"))
+    tune.add_argument("--out", type=Path, default=Path("results/tuning"),
+                      help="folder for tuning.json, every trial of the search "
+                      "(default: %(default)s)")
     tune.set_defaults(handler=_tune)
     replay = commands.add_parser(
         "replay", help="render one episode of one or more policies (side by side) to a video")
     replay.add_argument("--policy", default="geometric,geometric-ndob:tuned",
                         help="comma-separated policies, as for evaluate (default: %(default)s)")
-    replay.add_argument("--scenario", default="paper-II")
-    replay.add_argument("--seed", type=_seed, default=0)
+    replay.add_argument("--scenario", default="paper-II",
+                        help="the scenario flown (default: %(default)s)")
+    replay.add_argument("--seed", type=_seed, default=0,
+                        help="the episode's seed (default: %(default)s)")
     replay.add_argument("--out", type=Path, default=Path("results/flight.gif"),
                         help="a .gif or .mp4 path (default: %(default)s)")
     replay.add_argument("--fps", type=_number_in(float, 0, MAX_FPS, "a number", True), default=20.0,
@@ -365,6 +374,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.handler(args)
+    except BrokenPipeError:
+        # the reader went away (`quad-dob list | head`): stop quietly, as Python's docs
+        # advise (signal module, "Note on SIGPIPE"): point stdout at devnull so the flush
+        # at exit cannot raise again, and exit 1
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 1
     except ValueError as error:  # bad names or values: say what and what is allowed
         parser.exit(2, f"quad-dob: error: {error}\n")
     except OSError as error:  # a file that could not be read or written mid-run

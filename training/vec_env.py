@@ -16,13 +16,16 @@ import numpy as np
 from numpy.typing import NDArray
 from stable_baselines3.common.vec_env import VecEnv
 
-from quad_dob_composition import make_vector_env
+from quad_dob_composition import ResidualVectorEnv, make_vector_env
+from quad_dob_env.envs import QuadrotorVectorEnv
+from quad_dob_env.validation import checked_keywords
 
 
 class QuadrotorSB3VecEnv(VecEnv):
     """``num_envs`` vehicles of ``scenario`` as an SB3 VecEnv; other keyword arguments are
     ``QuadrotorVectorEnv``'s."""
 
+    @checked_keywords(ResidualVectorEnv.__init__, QuadrotorVectorEnv.__init__)
     def __init__(self, num_envs: int, scenario: str = "paper-none", seed: int | None = None,
                  **env_kwargs: Any) -> None:
         self.vector_env = make_vector_env(num_envs, scenario, **env_kwargs)

@@ -20,7 +20,7 @@ from quad_dob_env.envs.rendering import (
     check_render_mode,
 )
 from quad_dob_env.scenarios import Scenario, make_scenario
-from quad_dob_env.validation import unknown_name_error
+from quad_dob_env.validation import checked_keywords, unknown_name_error
 
 
 class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
@@ -168,6 +168,7 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": list(RENDER_MODES), "render_fps": 100}
 
+    @checked_keywords()
     def __init__(self, scenario: str | Scenario = "paper-none",
                  scenario_options: dict[str, Any] | None = None,
                  action_mode: str = "thrust_moments", rotation_representation: str = "matrix",

@@ -25,7 +25,7 @@ from quad_dob_env.envs.limits import SpecWithEpisodeLength
 from quad_dob_env.envs.rendering import FlightRenderer
 from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
 from quad_dob_env.scenarios import Scenario, make_scenario
-from quad_dob_env.validation import unknown_name_error
+from quad_dob_env.validation import checked_keywords, unknown_name_error
 
 RENDERED_VEHICLES = 4
 
@@ -72,6 +72,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 100,
                                           "autoreset_mode": AutoresetMode.NEXT_STEP}
 
+    @checked_keywords()
     def __init__(self, num_envs: int, scenario: str | Scenario = "paper-none",
                  scenario_options: dict[str, Any] | None = None,
                  action_mode: str = "thrust_moments", rotation_representation: str = "matrix",
