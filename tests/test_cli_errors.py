@@ -141,3 +141,14 @@ def test_every_option_of_every_command_says_what_it_does_and_its_default():
             if action.default not in (None, False) or not action.required:
                 flag = isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction))
                 assert flag or "default" in action.help, f"{where} does not say its default"
+
+
+def test_a_sweep_sent_to_a_ray_cluster_that_is_not_there_says_what_to_do(tmp_path, capsys):
+    """`--ray-address auto` with no cluster: one message naming the address and the three
+    ways on, not Ray's ConnectionError with Ray's own flag in it."""
+    root = Path(__file__).parents[1]
+    err = _error(["sweep", str(root / "training/sweeps/observer_rate_vs_wind.yaml"),
+                  "--ray-address", "auto", "--out", str(tmp_path / "sweep")], capsys)
+    assert "quad-dob: error: --ray-address auto: no Ray cluster answers there" in err
+    assert "ray start --head" in err and "--ray-address local" in err
+    assert "--address" not in err.replace("--ray-address", "")

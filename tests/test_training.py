@@ -183,3 +183,16 @@ def test_evaluation_records_each_state_with_the_desired_attitude_asked_for_it():
                                rtol=0, atol=1e-12)
     np.testing.assert_allclose(evaluated.force_estimate, plain.force_estimate,
                                rtol=0, atol=1e-12)
+
+
+def test_a_run_off_a_terminal_prints_a_line_per_evaluation(tmp_path, capsys):
+    """`quad-dob train > log`: the progress bar would draw nothing until the end, so each
+    evaluation prints its line (here stdout is pytest's capture, not a terminal)."""
+    train(_tiny("direct", "QuadDOB/Hover-v1"), tmp_path, evaluate_every=128)
+    printed = [line for line in capsys.readouterr().out.splitlines()
+               if " timesteps: RMS position " in line]
+    rows = (tmp_path / "evaluations.csv").read_text().splitlines()[1:]
+    assert len(printed) == len(rows) >= 2
+    assert printed[0].startswith("0 timesteps: RMS position ")
+    assert [line.split(" timesteps")[0].replace(",", "") for line in printed] == [
+        row.split(",")[0] for row in rows]

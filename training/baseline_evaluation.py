@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import io
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -126,6 +127,11 @@ class BaselineEvaluation(BaseCallback):
                  "best_eval_rms_position": rms}, sort_keys=False))
         self.rows.append(row)
         self._write_rows()
+        if not sys.stdout.isatty():  # a log, where the progress bar shows nothing till the end
+            print(f"{self.num_timesteps:,} timesteps: RMS position {rms:.4f} m, crash rate "
+                  f"{crashes:.2f}" + ("" if self.base_scores is None else
+                                      f" (base {self.base_scores[0]:.4f} m)")
+                  + f", {time.perf_counter() - self._started:.0f} s", flush=True)
 
     def _write_rows(self) -> None:
         if not self.rows:

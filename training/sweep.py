@@ -21,7 +21,7 @@ on held-out seeds.
 A task is one combination. Its result is appended to ``results.jsonl`` (one JSON line) the
 moment it finishes, so a killed sweep loses only the tasks in flight and a rerun does only
 the missing ones. Tasks run on a process pool of this machine, or, with ``--ray-address``
-(``auto``, ``HOST:PORT`` or ``local``), as Ray tasks (``pip install .[ray]``): the same
+(``auto``, ``HOST:PORT`` or ``local``), as Ray tasks (``pip install 'ray>=2.9'``): the same
 function on the same inputs, so the results are the same. ``summary.md``, ``summary.csv``
 (mean ± std over seeds per combination) and, when the grid has two numeric axes, a heat map
 are built from the lines.
@@ -237,13 +237,20 @@ def run_ray(pending: list[dict], on_result: Callable[[dict], None], address: str
     try:
         import ray
     except ImportError:
-        raise ValueError("--ray-address needs Ray: pip install 'quad_dob_env[ray]'") from None
+        # the project is not on a package index: its extra only installs inside a checkout
+        raise ValueError("--ray-address needs Ray: pip install 'ray>=2.9'") from None
     started_here = not ray.is_initialized()
     if started_here:
         if address == "local":
             ray.init(num_cpus=num_cpus, include_dashboard=False, log_to_driver=False)
         else:
-            ray.init(address=address, log_to_driver=False)
+            try:
+                ray.init(address=address, log_to_driver=False)
+            except ConnectionError:
+                raise ValueError(
+                    f"--ray-address {address}: no Ray cluster answers there; start "
+                    "one with `ray start --head`, give its HOST:PORT, or use --ray-address "
+                    "local to run the sweep on a Ray instance of this machine") from None
     try:
         remote = ray.remote(run_task)
         running = [remote.remote(task) for task in pending]

@@ -34,6 +34,7 @@ differ from the run's (then it is no longer bit for bit the run never stopped).
 from __future__ import annotations
 
 import inspect
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -279,8 +280,10 @@ def _learn(start: RunStart, out: Path, progress_bar: bool) -> Any:
                            start.source)
     began = time.perf_counter()
     steps_before = model.num_timesteps
+    # off a terminal the bar draws nothing until the end: the evaluations print lines instead
     model.learn(max(start.remaining, 0), callback=[checkpoint, evaluation],
-                progress_bar=progress_bar, reset_num_timesteps=start.count_from_zero,
+                progress_bar=progress_bar and sys.stdout.isatty(),
+                reset_num_timesteps=start.count_from_zero,
                 tb_log_name=config["algo"])
     wall = time.perf_counter() - began
     config["observation_normalization"] = normalization(model.get_env())
