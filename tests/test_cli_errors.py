@@ -152,3 +152,18 @@ def test_a_sweep_sent_to_a_ray_cluster_that_is_not_there_says_what_to_do(tmp_pat
     assert "quad-dob: error: --ray-address auto: no Ray cluster answers there" in err
     assert "ray start --head" in err and "--ray-address local" in err
     assert "--address" not in err.replace("--ray-address", "")
+
+
+def test_the_hyperparameter_files_are_found_from_any_directory(tmp_path, monkeypatch, capsys):
+    """rl-zoo3's --conf-file outside the checkout: `quad-dob hyperparams ALGO` prints the
+    installed file, which is the one `quad-dob train` reads."""
+    import yaml
+
+    monkeypatch.chdir(tmp_path)
+    for algo in ("ppo", "sac"):
+        assert main(["hyperparams", algo]) == 0
+        path = Path(capsys.readouterr().out.strip())
+        assert path.is_absolute() and path.name == f"{algo}.yml"
+        assert "QuadDOB/HoverResidual-v1" in yaml.safe_load(path.read_text())
+    err = _error(["hyperparams", "td3"], capsys)
+    assert "invalid choice: 'td3'" in err

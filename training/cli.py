@@ -13,6 +13,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from quad_dob_training.listing import main as list_main
+from quad_dob_training.listing import print_hyperparams
 from quad_dob_training.margins import DELAY_GRID
 
 # More timesteps than any run on record by five orders of magnitude: a larger --timesteps is
@@ -21,12 +23,6 @@ MAX_TIMESTEPS = 10**11
 MAX_SEED = 2**32 - 1  # numpy seeds the run's generators from it
 MAX_VIDEO_WIDTH = 4096  # a panel's pixels
 MAX_FPS = 1000.0
-
-
-def _list(_: argparse.Namespace) -> int:
-    from quad_dob_training.listing import main as list_main
-
-    return list_main()
 
 
 def _paper(args: argparse.Namespace) -> int:
@@ -365,7 +361,12 @@ def build_parser() -> argparse.ArgumentParser:
     listing = commands.add_parser(
         "list", help="list env ids, scenarios with their feasibility margins, wind presets, "
         "controllers, policies and vehicles")
-    listing.set_defaults(handler=_list)
+    listing.set_defaults(handler=lambda _: list_main())
+    hyperparams = commands.add_parser(
+        "hyperparams", help="print the path of the installed hyperparameter file of ALGO, "
+        "for rl-zoo3's --conf-file from any directory")
+    hyperparams.add_argument("algo", choices=("ppo", "sac"), help="the algorithm's file")
+    hyperparams.set_defaults(handler=lambda args: print_hyperparams(args.algo))
     return parser
 
 

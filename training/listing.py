@@ -81,3 +81,12 @@ def _number(value: object) -> str:
     if isinstance(value, tuple):
         return "(" + ", ".join(f"{v:.4g}" for v in value) + ")"
     return f"{value:.4g}" if isinstance(value, float) else str(value)
+
+
+def print_hyperparams(algo: str) -> int:
+    """``quad-dob hyperparams ALGO``: the installed hyperparameter file's path (rl-zoo3's
+    ``--conf-file`` from any directory; ``quad-dob train`` reads the same file)."""
+    from quad_dob_training.run_config import HYPERPARAMS
+
+    print(HYPERPARAMS / f"{algo}.yml")
+    return 0
