@@ -48,3 +48,18 @@ def test_quad_dob_train_reads_every_entry_of_the_same_files(algo):
         if "Residual" in env_id:
             assert config["base_controller"] == "geometric-ndob:tuned"
     assert Path(HYPERPARAMS / f"{algo}.yml").is_file()
+
+
+def test_rl_zoo3_optimize_runs_its_trial_and_writes_its_report(tmp_path, monkeypatch):
+    """`python -m rl_zoo3.train ... -optimize` ran its trials, then crashed writing the
+    report without pandas (rl-zoo3 lists it only in an extra; the dev extra has it now)."""
+    from rl_zoo3 import train
+
+    logs = tmp_path / "logs"
+    _run(monkeypatch, train, ["--algo", "ppo", "--env", "QuadDOB/Hover-v1", "--gym-packages",
+                              "quad_dob_env", "--conf-file", str(HYPERPARAMS / "ppo.yml"),
+                              "-optimize", "--n-trials", "1", "--n-jobs", "1",
+                              "--n-timesteps", "512", "--n-startup-trials", "1",
+                              "--n-evaluations", "1", "--eval-episodes", "1", "-params",
+                              "n_envs:2", "-f", str(logs), "--seed", "0"])
+    assert list((logs / "ppo").glob("report_QuadDOB-Hover-v1_1-trials-512-*.csv"))
