@@ -249,10 +249,8 @@ class GeometricIntegralController(GeometricController):
         limit = self.integral_limit_per_weight * vehicle.hover_thrust / ki
         # ∫ex dt by forward Euler, clamped: ki |∫ex| <= limit_per_weight m g; once per
         # flown step (a second compute before the next step integrates nothing)
-        due = self._due
-        self.integral[due] = np.clip(self.integral[due] + (state.position[due]
-                                                           - reference.position[due])
-                                     * self.dt, -limit, limit)
+        step = (state.position - reference.position) * self.dt
+        self.integral = np.clip(self.integral + self._due[:, None] * step, -limit, limit)
         self._due[:] = False
         self._integral_force = ki * self.integral
         return super().compute(time, state, reference, acceleration_correction)

@@ -44,10 +44,10 @@ def checked_keywords(*forwards_to: Callable) -> Callable:
     the innermost function (``gym.make("QuadDOB/Hover-v1", action_mod=...)``)."""
     def decorate(function: Callable) -> Callable:
         owner = function.__qualname__.removesuffix(".__init__")
+        valid = keyword_names(function, *forwards_to)
 
         @functools.wraps(function)
         def checked(*args: Any, **kwargs: Any) -> Any:
-            valid = keyword_names(function, *forwards_to)
             for key in kwargs:
                 if key not in valid:
                     raise unknown_name_error(f"keyword argument of {owner}", key, valid)
