@@ -17,6 +17,8 @@ type), never ``quad_dob_training``.
 - ``inner``: their attitude laws, compiled per vehicle, for an inner loop that runs them
   at its own rate (``InnerLaw``, what ``Controller.inner_law`` hands it).
 
+- ``plugins``: a user's controller by ``py:package.module:Name`` or by the name an
+  installed package registers (entry-point group ``quad_dob_env.controllers``).
 - ``gain_sets``: what each name's gains are per benchmark and vehicle (v2's tuned with a
   latency and motor margin).
 
@@ -30,7 +32,9 @@ action on position instead of an observer), ``indi``, ``l1``, ``pid``, ``smc``.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
+from quad_dob_baselines import plugins
 from quad_dob_baselines.base import Controller
 from quad_dob_baselines.gain_sets import GAIN_SETS, MARGIN_LOSSES, GainSet, gain_set
 from quad_dob_baselines.geometric import GeometricController, GeometricIntegralController
@@ -98,13 +102,40 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
 }
 
 
+def controller_names() -> list[str]:
+    """Every name ``make_controller`` takes: the built-in ones, then those installed
+    packages register (``plugins.ENTRY_POINT_GROUP``); ``py:package.module:Name`` too."""
+    return [*CONTROLLERS, *plugins.installed_controllers(CONTROLLERS)]
+
+
+def is_controller_name(name: object) -> bool:
+    """Whether ``make_controller`` knows ``name`` (without importing a ``py:`` module)."""
+    return isinstance(name, str) and (name in CONTROLLERS or plugins.is_py_spec(name)
+                                      or name in plugins.installed_controllers(CONTROLLERS))
+
+
+def user_controller(name: str) -> tuple[plugins.ControllerFactory, Any] | None:
+    """(factory, the object it came from) for a ``py:`` or entry-point name; None for a
+    built-in one; a ValueError naming the valid ones for a name that is neither."""
+    found = plugins.resolve(name, CONTROLLERS)
+    if found is None and name not in CONTROLLERS:
+        raise unknown_name_error("controller", name, [*controller_names(),
+                                                      "py:package.module:Name"])
+    return found
+
+
 def make_controller(name: str, vehicle: VehicleParams | str = "paper",
                     benchmark: str = "v1", **options: object) -> Controller:
     """The named controller for ``vehicle`` with the gains its name means in ``benchmark``
-    (``gain_sets``: v1's are the modules' defaults); ``options`` override them."""
-    if name not in CONTROLLERS:
-        raise unknown_name_error("controller", name, CONTROLLERS)
+    (``gain_sets``: v1's are the modules' defaults); ``options`` override them. A user's
+    controller (``py:package.module:Name`` or an installed entry point, ``plugins``) flies
+    its own defaults in every benchmark."""
     params = get_vehicle(vehicle)
+    user = user_controller(name)
+    if user is not None:
+        controller = plugins.built_controller(user[0], name, params, options)
+        controller.gain_set = GainSet({}, None)
+        return controller
     chosen = gain_set(name, benchmark, params)
     controller = CONTROLLERS[name](params, **{**chosen.options, **options})
     controller.gain_set = chosen
@@ -126,6 +157,10 @@ __all__ = [
     "L1AdaptiveController",
     "NonlinearDisturbanceObserver",
     "SlidingModeController",
+    "controller_names",
     "gain_set",
+    "is_controller_name",
     "make_controller",
+    "plugins",
+    "user_controller",
 ]

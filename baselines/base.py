@@ -13,7 +13,7 @@ velocity, attitude and rates (the true state with ideal sensing) plus the raw
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -52,6 +52,12 @@ class Controller:
     inner_period: float | None = None
     # the ``gain_sets.GainSet`` make_controller built it with (None: built directly)
     gain_set: Any = None
+    # a user's controller (``plugins``): the gains ``quad-dob tune`` searches, name ->
+    # default (its start), and those of them that are an estimator's bandwidth [rad/s],
+    # capped and tie-broken as the observers' rates are; the built-in ones are tuned by
+    # ``training/tune.py``'s own tables
+    tunable_gains: ClassVar[dict[str, float]] = {}
+    estimator_bandwidths: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self) -> None:
         self.vehicle: VehicleParams | None = None

@@ -16,9 +16,12 @@ simulator (``quad_dob_env``) and the controllers (``quad_dob_baselines``); the f
   point: ``make_residual_env`` (one vehicle) and ``ResidualVectorEnv`` (N vehicles), both
   taking ``base_controller`` by name; ``make_vector_env`` picks the plain or residual
   vector env; ``residual_command`` builds a ``ResidualCommand`` for a core.
+- ``checks``: ``check_controller``, what a user's controller gets wrong against the
+  interface, found by building it and flying it as the benchmark will.
 """
 
 from quad_dob_composition.bases import fused_pass_for, make_base
+from quad_dob_composition.checks import check_controller
 from quad_dob_composition.envs import (
     ResidualVectorEnv,
     make_residual_env,
@@ -30,6 +33,7 @@ from quad_dob_composition.policy import ReferencePolicy
 __all__ = [
     "ReferencePolicy",
     "ResidualVectorEnv",
+    "check_controller",
     "fused_pass_for",
     "make_base",
     "make_residual_env",

@@ -160,10 +160,10 @@ def test_the_hyperparameter_files_are_found_from_any_directory(tmp_path, monkeyp
     import yaml
 
     monkeypatch.chdir(tmp_path)
-    for algo in ("ppo", "sac"):
+    for algo in ("ppo", "sac", "td3"):
         assert main(["hyperparams", algo]) == 0
         path = Path(capsys.readouterr().out.strip())
         assert path.is_absolute() and path.name == f"{algo}.yml"
         assert "QuadDOB/HoverResidual-v1" in yaml.safe_load(path.read_text())
-    err = _error(["hyperparams", "td3"], capsys)
-    assert "invalid choice: 'td3'" in err
+    err = _error(["hyperparams", "ddpg"], capsys)
+    assert "invalid choice: 'ddpg'" in err

@@ -39,7 +39,7 @@ def test_rl_zoo3_trains_each_id_from_ppo_yml_and_enjoy_loads_it(env_id, tmp_path
     assert "Loading" in printed and str(run) in printed
 
 
-@pytest.mark.parametrize("algo", ["ppo", "sac"])
+@pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
 def test_quad_dob_train_reads_every_entry_of_the_same_files(algo):
     for env_id in quad_dob_env.ENV_IDS:
         config = resolve_config(algo, "residual" if "Residual" in env_id else "direct", env_id,

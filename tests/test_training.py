@@ -95,8 +95,8 @@ def test_bad_training_and_evaluation_input_is_named():
         resolve_config("ppo", "residual", "QuadDOB/Track-v1", None, 10, 1, 0)
     with pytest.raises(ValueError, match=r"env id 'QuadDOB/Track-v9'.*valid"):
         resolve_config("ppo", "direct", "QuadDOB/Track-v9", None, 10, 1, 0)
-    with pytest.raises(ValueError, match=r"algorithm 'td3'.*ppo, sac"):
-        resolve_config("td3", "direct", "QuadDOB/Track-v1", None, 10, 1, 0)
+    with pytest.raises(ValueError, match=r"algorithm 'ddpg'.*ppo, sac, td3"):
+        resolve_config("ddpg", "direct", "QuadDOB/Track-v1", None, 10, 1, 0)
     assert parse_seeds("3") == [0, 1, 2] and parse_seeds("9001-9020")[-1] == 9020
     with pytest.raises(ValueError, match="inclusive range"):
         parse_seeds("20-10")

@@ -3,8 +3,10 @@
 The folder ``training/`` installs as ``quad_dob_training``; it sits on top and may import
 ``quad_dob_env`` and ``quad_dob_baselines``.
 
-- ``cli``: ``quad-dob list | paper | train | evaluate | tune | replay | sweep``;
-  ``listing``: what ``quad-dob list`` prints (every name, every preset number's source).
+- ``cli``: ``quad-dob list | paper | train | evaluate | leaderboard | tune |
+  check-controller | replay | sweep | hyperparams``; ``cli_checks``: the checks on what it is
+  given; ``listing``: what ``quad-dob list`` prints (every name, every preset number's
+  source).
 - ``rollout``: ``Flight`` records and ``fly`` (controllers through scenarios, batched).
 - ``metrics``: the scores every report uses (position; geodesic, tilt and heading
   errors); ``statistics``: bootstrap intervals and paired differences over seeds;
@@ -18,12 +20,15 @@ The folder ``training/`` installs as ``quad_dob_training``; it sits on top and m
   during training, and the training curve; ``checkpoints``: the checkpoints a killed run
   resumes from, to the weights of a run never stopped; ``run_folder``: a run folder's
   identity (the run id in every file loaded again) and its lock.
-- ``policies``: policies by name (controllers, ``ppo:PATH``, ``residual``) and flying them
-  over many seeds; ``model_files``: model zips loaded without unpickling (and, for a run's
-  own checkpoints, with); ``pretrained/`` holds the shipped residual policy.
+- ``policies``: policies by name (controllers, ``py:`` ones, ``ALGO:PATH``, ``residual``)
+  and flying them over many seeds; ``model_files``: model zips loaded without unpickling
+  (and, for a run's own checkpoints, with); ``pretrained/`` holds the shipped residual
+  policy.
 - ``evaluate``: every policy on every scenario over seeds: tables with intervals and the
   paired difference to a baseline, distinct flights, the estimator's errors, bar plot,
-  JSON; ``margins``: delay margins (the extra latency a policy's flights take).
+  JSON; ``margins``: delay margins (the extra latency a policy's flights take);
+  ``results``: ``evaluation.json`` (its schema in ``schemas/``) and leaderboards merged
+  from many users' files.
 - ``tune``: the one procedure that chooses the baselines' gains and the observer rates on
   tuning seeds.
 - ``replay``: episodes rendered to GIF/MP4, side by side.

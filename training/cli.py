@@ -10,17 +10,25 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import tempfile
 from pathlib import Path
 
+from quad_dob_training.cli_checks import (
+    MAX_TIMESTEPS,
+    _delay_grid,
+    _key_values,
+    _names,
+    _number_in,
+    _positive_float,
+    _positive_int,
+    _seed,
+    _tuning_seeds,
+    _writable_file,
+    _writable_folder,
+)
+from quad_dob_training.listing import ALGORITHMS, print_hyperparams
 from quad_dob_training.listing import main as list_main
-from quad_dob_training.listing import print_hyperparams
 from quad_dob_training.margins import DELAY_GRID
 
-# More timesteps than any run on record by five orders of magnitude: a larger --timesteps is
-# a typo, and SB3 would only find out after building the env and the model.
-MAX_TIMESTEPS = 10**11
-MAX_SEED = 2**32 - 1  # numpy seeds the run's generators from it
 MAX_VIDEO_WIDTH = 4096  # a panel's pixels
 MAX_FPS = 1000.0
 
@@ -70,7 +78,21 @@ def _evaluate(args: argparse.Namespace) -> int:
     options.setdefault("benchmark", args.benchmark or "v2")
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
                          args.json, args.baseline, args.suite, trust_pickle=args.trust_pickle,
-                         scenario_options=options, delay_grid=args.delay_margins)
+                         scenario_options=options, delay_grid=args.delay_margins,
+                         merge=args.merge, command=["quad-dob", *args.argv])
+
+
+def _leaderboard(args: argparse.Namespace) -> int:
+    from quad_dob_training.results import merged_leaderboard, read_document, source_labels
+
+    if args.out is not None:
+        _writable_file(args.out, "--out")
+    documents = [read_document(path) for path in args.files]
+    board = merged_leaderboard(list(zip(source_labels(args.files), documents, strict=True)))
+    print(board, end="")
+    if args.out is not None:
+        args.out.write_text(board)
+    return 0
 
 
 def _tune(args: argparse.Namespace) -> int:
@@ -80,7 +102,21 @@ def _tune(args: argparse.Namespace) -> int:
     get_vehicle(args.vehicle)  # an unknown name fails here, naming the presets
     _writable_folder(args.out, "--out")
     return tune_main(None if args.controllers is None else _names(args.controllers), args.out,
-                     args.benchmark or "v2", args.vehicle)
+                     args.benchmark or "v2", args.vehicle, seeds=args.seeds,
+                     passes=args.passes)
+
+
+def _check_controller(args: argparse.Namespace) -> int:
+    from quad_dob_composition.checks import check_controller
+    from quad_dob_env.params import get_vehicle
+
+    get_vehicle(args.vehicle)
+    problems = check_controller(args.controller, args.vehicle, args.benchmark or "v2")
+    for problem in problems:
+        print(f"- {problem}")
+    print(f"{args.controller}: " + (f"{len(problems)} problem(s)" if problems else
+                                    "passes every check (interface, batch, reset, calm hover)"))
+    return 1 if problems else 0
 
 
 def _replay(args: argparse.Namespace) -> int:
@@ -109,107 +145,6 @@ def _benchmark_option(parser: argparse.ArgumentParser) -> None:
                         "(mocap sensing, inner loop, motors, thrust uncertainty, rotor "
                         "aerodynamics; the gains tuned for it), or v1, the ideal loop, to "
                         "reproduce v1's tables (default: v2)")
-
-
-def _names(text: str) -> list[str]:
-    return [name.strip() for name in text.split(",") if name.strip()]
-
-
-def _key_values(pairs: list[str], option: str) -> dict[str, object]:
-    """``["dt=0.005", "wind=moderate"]`` -> ``{"dt": 0.005, "wind": "moderate"}``: each
-    value a number as Python reads one (``1e-3`` too, which YAML 1.1 leaves a string), else
-    parsed as YAML (``true``/``false``, lists, mappings; anything else stays text), here, so
-    the library is never handed an unparsed string for a number."""
-    import yaml
-
-    options: dict[str, object] = {}
-    for pair in pairs:
-        key, equals, text = pair.partition("=")
-        key = key.strip()
-        if not equals or not key.isidentifier():
-            raise ValueError(f"{option} takes KEY=VALUE with KEY a name, such as dt=0.005, "
-                             f"got {pair!r}")
-        if key in options:
-            raise ValueError(f"{option} {key} is given twice")
-        try:
-            options[key] = _parsed_number(text.strip()) if _is_number(text) else (
-                yaml.safe_load(text) if text.strip() else "")
-        except yaml.YAMLError:
-            raise ValueError(f"{option} {pair!r}: the value is not a number, a word or a "
-                             "YAML list or mapping") from None
-    return options
-
-
-def _delay_grid(text: str) -> tuple[float, ...]:
-    """``"0,0.01,0.02"`` -> increasing latencies >= 0 [s] (``margins.check_grid``), or
-    argparse's error."""
-    from quad_dob_training.margins import check_grid
-
-    try:
-        return check_grid(text)
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
-def _parsed_number(text: str) -> int | float:
-    try:
-        return int(text)
-    except ValueError:
-        return float(text)
-
-
-def _writable_folder(path: Path, option: str) -> None:
-    """Refuse, before any work, an output folder that is a file or cannot be written:
-    create it (its parents too) and a file in it, as the command will."""
-    if path.exists() and not path.is_dir():
-        raise ValueError(f"{option} {str(path)!r} is a file, not a folder: give a folder to "
-                         "write into")
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=path):
-            pass
-    except OSError as error:
-        raise ValueError(f"{option} {str(path)!r} cannot be written ({error.strerror}): give "
-                         "a folder you may write into") from None
-
-
-def _writable_file(path: Path, option: str) -> None:
-    """Refuse, before any work, an output file that is a folder or whose folder cannot be
-    written."""
-    if path.is_dir():
-        raise ValueError(f"{option} {str(path)!r} is a folder: give a file name")
-    _writable_folder(path.parent if str(path.parent) else Path("."), f"{option}'s folder")
-    if path.exists() and not os.access(path, os.W_OK):
-        raise ValueError(f"{option} {str(path)!r} exists and cannot be overwritten")
-
-
-def _number_in(kind: type, low: float, high: float, what: str,
-               strictly: bool = False) -> object:
-    """An argparse type: a ``kind`` number in [low, high] (above ``low`` if ``strictly``)."""
-    def parse(text: str) -> float | int:
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}") from None
-        if not (value > low if strictly else value >= low) or value > high:
-            raise argparse.ArgumentTypeError(f"must be {'>' if strictly else '>='} {low:g} "
-                                             f"and <= {high:g}, got {text}")
-        return value
-    parse.__name__ = kind.__name__  # argparse names the type in its messages
-    return parse
-
-
-_positive_float = _number_in(float, 0, 1e9, "a number", strictly=True)
-_positive_int = _number_in(int, 1, MAX_TIMESTEPS, "a whole number")
-_seed = _number_in(int, 0, MAX_SEED, "a whole number")
 
 
 def _trust_pickle_option(command: argparse.ArgumentParser) -> None:
@@ -243,7 +178,8 @@ def build_parser() -> argparse.ArgumentParser:
     train = commands.add_parser(
         "train", help="train PPO or SAC (stable-baselines3) on the vector env, residual or "
         "direct; resumable")
-    train.add_argument("--algo", default="ppo", help="ppo or sac (default: %(default)s)")
+    train.add_argument("--algo", default="ppo", choices=ALGORITHMS,
+                       help="the stable-baselines3 algorithm (default: %(default)s)")
     train.add_argument("--mode", default="residual", help="residual or direct "
                        "(default: %(default)s)")
     train.add_argument("--env", default="QuadDOB/TrackResidual-v1",
@@ -280,14 +216,15 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate = commands.add_parser(
         "evaluate", help="score policies on scenarios over seeds: table, CSV, bar plot")
     evaluate.add_argument("--policies", default="geometric-ndob:tuned,geometric-ndob,pid,smc,"
-                          "residual", help="comma-separated: controller names, ppo:PATH, "
+                          "residual", help="comma-separated: controller names, "
+                          "py:package.module:Name (your own), ppo:PATH, sac:PATH, td3:PATH, "
                           "residual (the shipped policy), residual:PATH (default: %(default)s)")
     evaluate.add_argument("--scenarios", default="dryden-helix-gusts",
                           help="comma-separated scenario names (default: %(default)s)")
     evaluate.add_argument("--seeds", default="9001-9020",
                           help="a count N (seeds 0..N-1) or a range A-B (default: %(default)s)")
     evaluate.add_argument("--out", type=Path, default=Path("results/evaluation"),
-                          help="folder for evaluation.md, .csv, .png and report.html "
+                          help="folder for evaluation.md, .json, .csv, .png and report.html "
                           "(default: %(default)s)")
     evaluate.add_argument("--baseline", default=None,
                           help="controller every policy is compared with, paired over the "
@@ -309,17 +246,29 @@ def build_parser() -> argparse.ArgumentParser:
                           "GRID (comma-separated seconds, default %(const)s) that keeps every "
                           "flight")
     evaluate.add_argument("--json", action="store_true", help="print the rows as JSON")
+    evaluate.add_argument("--merge", type=Path, nargs="+", default=[], metavar="JSON",
+                          help="others' evaluation.json files, merged with this run's into "
+                          "leaderboard-merged.md, one table per benchmark version (default: "
+                          "none)")
     _trust_pickle_option(evaluate)
     evaluate.set_defaults(handler=_evaluate)
+    board = commands.add_parser(
+        "leaderboard", help="merge evaluation.json files from different users and machines "
+        "into one leaderboard, one table per benchmark version")
+    board.add_argument("files", type=Path, nargs="+", help="evaluation.json files")
+    board.add_argument("--out", type=Path, default=None,
+                       help="also write the leaderboard to this Markdown file (default: only "
+                       "print it)")
+    board.set_defaults(handler=_leaderboard)
     tune = commands.add_parser(
         "tune", help="choose the baselines' gains and the observer rates on tuning seeds "
         "(100-109), by the procedure in training/tune.py")
     tune.add_argument("--controllers", default=None,
-                      help="comma-separated: pid, smc, geometric-integral, geometric-ndob:tuned "
-                      "(the geometric gains; in v2 with the observer's rates), and in v1 "
-                      "geometric-ndob (the observer's rates alone) (default: v2's "
-                      "geometric-ndob:tuned,pid,smc,geometric-integral; v1's "
-                      "geometric-ndob,pid,smc)")
+                      help="comma-separated: pid, smc, geometric-integral, indi, l1, "
+                      "geometric-ndob:tuned (the geometric gains; in v2 with the observer's "
+                      "rates), in v1 geometric-ndob (the observer's rates alone), or a user "
+                      "controller py:package.module:Name that declares tunable_gains "
+                      "(default: v2's six, v1's geometric-ndob,pid,smc)")
     _benchmark_option(tune)
     tune.add_argument("--vehicle", default="paper",
                       help="the vehicle the tuning scenarios are flown with (v2; v1 tunes "
@@ -327,7 +276,22 @@ def build_parser() -> argparse.ArgumentParser:
     tune.add_argument("--out", type=Path, default=Path("results/tuning"),
                       help="folder for tuning.json, every trial of the search "
                       "(default: %(default)s)")
+    tune.add_argument("--seeds", type=_tuning_seeds, default=None,
+                      help="tuning seeds, a count or a range A-B (default: 100-109, which "
+                      "every shipped set was tuned on; evaluation's 9001-9020 are refused)")
+    tune.add_argument("--passes", type=_number_in(int, 1, 10, "a whole number"), default=None,
+                      help="passes of the descent over the gains, 1 to 10 (default: 2, "
+                      "and in v2 up to 2 more while the best loses margin flights)")
     tune.set_defaults(handler=_tune)
+    check = commands.add_parser(
+        "check-controller", help="check a controller (py:package.module:Name, or any name) "
+        "against the Controller interface and fly it in a calm hover; exit 1 on a problem")
+    check.add_argument("controller", help="the controller's name, e.g. "
+                       "py:example_pd.controller:HoverPD")
+    _benchmark_option(check)
+    check.add_argument("--vehicle", default="paper",
+                       help="the vehicle it is built for and flown on (default: %(default)s)")
+    check.set_defaults(handler=_check_controller)
     replay = commands.add_parser(
         "replay", help="render one episode of one or more policies (side by side) to a video")
     replay.add_argument("--policy", default="geometric,geometric-ndob:tuned",
@@ -365,14 +329,16 @@ def build_parser() -> argparse.ArgumentParser:
     hyperparams = commands.add_parser(
         "hyperparams", help="print the path of the installed hyperparameter file of ALGO, "
         "for rl-zoo3's --conf-file from any directory")
-    hyperparams.add_argument("algo", choices=("ppo", "sac"), help="the algorithm's file")
+    hyperparams.add_argument("algo", choices=ALGORITHMS, help="the algorithm's file")
     hyperparams.set_defaults(handler=lambda args: print_hyperparams(args.algo))
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
+    args.argv = argv  # what evaluation.json records as its command
     try:
         return args.handler(args)
     except BrokenPipeError:

@@ -8,10 +8,12 @@ per-seed difference to ``baseline`` (default the recommended geometric + NDOB) w
 bootstrap interval (``quad_dob_training.statistics``): "better" means that interval lies
 below zero.
 
-Writes ``evaluation.md``, ``evaluation.csv``, ``evaluation.png`` (bars with their 95 %
-intervals) and the interactive ``report.html`` (figures of the first seed), or prints the
-rows as JSON. JSON and CSV keys: ``{score}_mean``, ``_std``, ``_low``, ``_high`` for each
-score, ``{score}_diff_mean``, ``_diff_low``, ``_diff_high`` against ``baseline``.
+Writes ``evaluation.md``, ``evaluation.csv``, ``evaluation.json`` (the rows with their
+provenance, in the schema others' results merge by: ``quad_dob_training.results``),
+``evaluation.png`` (bars with their 95 % intervals) and the interactive ``report.html``
+(figures of the first seed), or prints the rows as JSON. JSON and CSV keys:
+``{score}_mean``, ``_std``, ``_low``, ``_high`` for each score, ``{score}_diff_mean``,
+``_diff_low``, ``_diff_high`` against ``baseline``.
 """
 
 from __future__ import annotations
@@ -30,6 +32,13 @@ from quad_dob_training.margins import check_grid, delay_margin
 from quad_dob_training.metrics import flight_metrics
 from quad_dob_training.policies import fly_policy, make_policy
 from quad_dob_training.report import write_report
+from quad_dob_training.results import (
+    merged_leaderboard,
+    read_document,
+    results_document,
+    source_labels,
+    write_document,
+)
 from quad_dob_training.rollout import check_flight_memory
 from quad_dob_training.statistics import bootstrap_mean, paired_difference
 
@@ -129,6 +138,13 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
             row = _row(scenario_name, policy.name, seeds, metrics[spec], baseline, reference)
             row["distinct_flights"] = distinct[spec]
             row["gains"] = _gains_used(policy, scenario)
+            row.update(policy_spec=spec, benchmark=scenario.benchmark,
+                       vehicle=scenario.vehicle.name,
+                       sensing=getattr(scenario.sensing, "name", None) or "ideal",
+                       env_entry_point=("quad_dob_composition:ResidualVectorEnv"
+                                        if policy.base is not None else
+                                        "quad_dob_env.envs:QuadrotorVectorEnv"),
+                       env_id=(policy.config or {}).get("env_id", ""))
             if delay_grid is not None:
                 margin = delay_margin(policy, scenario_name, seeds, scenario_options,
                                       check_grid(delay_grid), flown=flights_of[spec])
@@ -317,14 +333,19 @@ def _bar_plot(rows: list[dict], path: Path) -> None:
 def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
          as_json: bool, baseline: str | None = None, suite: bool = False, *,
          trust_pickle: bool = False, scenario_options: dict[str, object] | None = None,
-         delay_grid: Sequence[float] | None = None) -> int:
+         delay_grid: Sequence[float] | None = None, merge: Sequence[Path] = (),
+         command: list[str] | None = None) -> int:
     """``baseline`` None: the recommended base; "": no comparison. ``suite``: every
     scenario of the benchmark's suite (``SUITES``, by ``scenario_options["benchmark"]``,
     v1, the library's default, when not given; the CLI gives v2) instead of ``scenarios``,
     and ``leaderboard.md``.
     ``trust_pickle`` (``--trust-pickle``): model files may be unpickled.
     ``scenario_options`` (``--scenario-option KEY=VALUE``): passed to every scenario.
-    ``delay_grid`` (``--delay-grid``): the latencies each delay margin is searched on."""
+    ``delay_grid`` (``--delay-grid``): the latencies each delay margin is searched on.
+    ``merge`` (``--merge``): other runs' ``evaluation.json`` files, merged with this one's
+    into ``leaderboard-merged.md`` (``quad_dob_training.results``); ``command`` is recorded
+    in ``evaluation.json``."""
+    others = [(path, read_document(path)) for path in merge]  # a bad file fails first
     baseline = DEFAULT_BASE_CONTROLLER if baseline is None else baseline
     benchmark = str((scenario_options or {}).get("benchmark", "v1"))  # the library's
     if suite:
@@ -341,6 +362,8 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
         print(json.dumps(rows, indent=1))
         return 0
     write_tables(rows, out)
+    document = results_document(rows, seed_list, scenario_options or {}, command)
+    write_document(document, out / "evaluation.json")
     columns = [("scenario", "scenario"), ("policy", "policy"), ("seeds", "seeds")]
     for key, label in SCORES:
         columns += [(f"{key}_mean", f"{label} mean"), (f"{key}_std", "± std")]
@@ -350,13 +373,20 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
                     ("rms_position_settled_diff_high", "high")]
     write_report(out / "report.html", f"quad-dob evaluate (figures: seed {seed_list[0]})",
                  rows, [*columns, ("crash_rate", "crash rate")], first_flights)
+    if others:
+        labels = source_labels([out / "evaluation.json", *(path for path, _ in others)])
+        merged = merged_leaderboard(list(zip(labels, [document, *(d for _, d in others)],
+                                             strict=True)))
+        (out / "leaderboard-merged.md").write_text(merged)
+        print(merged)
     if suite:
         board = leaderboard(rows, benchmark)
         (out / "leaderboard.md").write_text(board + "\n")
         print(board)
-        print(f"\nwrote {out / 'leaderboard.md'}, evaluation.md, evaluation.csv, "
-              "evaluation.png, report.html")
+        print(f"\nwrote {out / 'leaderboard.md'}, evaluation.md, evaluation.json, "
+              "evaluation.csv, evaluation.png, report.html")
         return 0
     print(markdown_table(rows))
-    print(f"\nwrote {out / 'evaluation.md'}, evaluation.csv, evaluation.png, report.html")
+    print(f"\nwrote {out / 'evaluation.md'}, evaluation.json, evaluation.csv, evaluation.png, "
+          "report.html")
     return 0

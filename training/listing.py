@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+# the stable-baselines3 algorithms quad-dob train trains and ALGO:PATH loads (here, not in
+# model_files, so the CLI can offer them without importing the simulator)
+ALGORITHMS = ("ppo", "sac", "td3")
+
 
 def main() -> int:
     """Print the ids, scenarios, wind presets, controllers, vehicles and sensing presets."""
     import quad_dob_env
-    from quad_dob_baselines import CONTROLLERS, GAIN_SETS
+    from quad_dob_baselines import CONTROLLERS, GAIN_SETS, controller_names
     from quad_dob_env.params import VEHICLE_SOURCES
     from quad_dob_env.scenarios import WIND_PRESETS, make_scenario
 
@@ -26,12 +30,17 @@ def main() -> int:
     for name, (mean, w20) in WIND_PRESETS.items():
         print(f"  {name:<10} {mean:g} m/s mean, W20 = {w20:.2f} m/s")
     print("Controllers:", ", ".join(CONTROLLERS))
+    installed = [name for name in controller_names() if name not in CONTROLLERS]
+    print("  installed by packages (entry points quad_dob_env.controllers):",
+          ", ".join(installed) or "none")
+    print("  your own: py:package.module:Name (quad-dob check-controller SPEC checks one)")
     print("  gains: v1's are the modules' defaults; v2's, tuned in v2's loop with the margin "
           "(quad-dob tune), per vehicle (others fly the paper vehicle's):")
     for (name, benchmark, vehicle), options in GAIN_SETS.items():
         gains = ", ".join(f"{key} {value:.4g}" for key, value in options.items())
         print(f"    {name:<27} {benchmark} {vehicle:<11} {gains}")
-    print("Policies: any controller, residual (the shipped policy), residual:PATH, ppo:PATH")
+    print("Policies: any controller, residual (the shipped policy), residual:PATH, "
+          + ", ".join(f"{algo}:PATH" for algo in ALGORITHMS))
     print("Vehicles (every number and its source):")
     for name, sources in VEHICLE_SOURCES.items():
         vehicle = quad_dob_env.VEHICLES[name]

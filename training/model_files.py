@@ -41,9 +41,9 @@ import yaml
 from quad_dob_composition import make_vector_env
 from quad_dob_env.memory import check_memory
 from quad_dob_env.validation import unknown_name_error
+from quad_dob_training.listing import ALGORITHMS
 from quad_dob_training.run_folder import zip_run_id
 
-ALGORITHMS = ("ppo", "sac")  # what quad-dob train trains and ppo:PATH / residual:PATH load
 PRETRAINED = Path(__file__).parent / "pretrained"
 SHIPPED_RESIDUAL = PRETRAINED / "residual_random_tracks.zip"
 # sha256 of the shipped zip and of the config beside it (base controller, env options,

@@ -2,12 +2,14 @@
 
 A policy is what ``quad-dob evaluate --policies`` names:
 
-| spec               | what flies                                                        |
-|--------------------|-------------------------------------------------------------------|
-| ``geometric-ndob`` (any ``baselines`` controller name) | that controller alone     |
-| ``ppo:PATH``       | a PPO or SAC model from ``quad-dob train`` (direct or residual)   |
-| ``residual``       | the shipped residual policy (``training/pretrained``) on its base |
-| ``residual:PATH``  | a residual model from ``quad-dob train --mode residual``          |
+| spec                | what flies                                                       |
+|---------------------|------------------------------------------------------------------|
+| ``geometric-ndob``  | that controller alone (any ``baselines`` controller name)        |
+| ``py:pkg.mod:Name`` | a user's controller (or a name an installed package registers)   |
+| ``ppo:PATH``        | a PPO model from ``quad-dob train``, direct or residual as its   |
+|                     | config says; ``sac:PATH``, ``td3:PATH`` the same for SAC, TD3    |
+| ``residual``        | the shipped residual policy (``training/pretrained``) on its base|
+| ``residual:PATH``   | a residual model from ``quad-dob train --mode residual``         |
 
 The shipped policy's zip and its config (base controller, env options, observation
 statistics) are checked against ``SHIPPED_RESIDUAL_SHA256`` and
@@ -21,7 +23,7 @@ metric code as ``quad-dob paper``. A request whose records would pass the memory
 (``quad_dob_env.memory``; ``rollout.RECORD_BYTES_PER_STEP`` a vehicle and step) is refused before
 anything is built.
 
-Model files (``ppo:PATH``, ``residual:PATH``, the shipped one) are loaded by
+Model files (``ALGO:PATH``, ``residual:PATH``, the shipped one) are loaded by
 ``quad_dob_training.model_files`` without unpickling anything, because unpickling runs
 whatever code the file's author put in it: the pickled entries of the zip's JSON (spaces,
 policy class, schedules, training buffers) are rebuilt from the config beside it and the env
@@ -41,13 +43,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_baselines import CONTROLLERS
+from quad_dob_baselines import controller_names, is_controller_name, user_controller
 from quad_dob_composition import make_vector_env
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.validation import unknown_name_error
 from quad_dob_training.model_files import (
+    ALGORITHMS,
     SHIPPED_RESIDUAL,
     SHIPPED_RESIDUAL_CONFIG_SHA256,
     SHIPPED_RESIDUAL_SHA256,
@@ -95,27 +98,32 @@ class Policy:
 
 def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
     """The policy a ``--policies`` entry names (see the module docstring); ``trust_pickle``
-    lets ``ppo:PATH`` / ``residual:PATH`` unpickle their zips (``load_model``). The shipped
+    lets ``ALGO:PATH`` / ``residual:PATH`` unpickle their zips (``load_model``). The shipped
     policy is always loaded checked and without unpickling."""
     kind, _, path = spec.partition(":")
-    if spec in CONTROLLERS:
+    if is_controller_name(spec):
+        user_controller(spec)  # a py: module that does not import fails here, named
         return Policy(spec, base=spec)
     if kind == "residual" and not path:
         model, config = load_model(SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256,
                                    expected_config_sha256=SHIPPED_RESIDUAL_CONFIG_SHA256)
         return Policy("residual", config["base_controller"], model, config,
                       trained_benchmark(config))
-    if kind in ("ppo", "residual") and path:
+    if (kind in ALGORITHMS or kind == "residual") and path:
         model, config = load_model(path, trust_pickle=trust_pickle)
-        mode = config.get("mode")
+        mode, algo = config.get("mode"), config.get("algo", "ppo")
         if kind == "residual" and mode != "residual":
             raise ValueError(f"{spec!r}: the model at {path} was trained in mode {mode!r}, "
                              "not 'residual'")
+        if kind in ALGORITHMS and kind != algo:
+            raise ValueError(f"{spec!r}: the model at {path} was trained with {algo} (its "
+                             f"config says so), not {kind}: name it {algo}:{path}")
         base = config.get("base_controller") if mode == "residual" else None
         return Policy(f"{kind}:{_short_name(Path(path))}", base, model, config,
                       trained_benchmark(config) if base is not None else None)
-    raise unknown_name_error("policy", spec, [*CONTROLLERS, "ppo:PATH", "residual",
-                                              "residual:PATH"])
+    raise unknown_name_error("policy", spec, [
+        *controller_names(), "py:package.module:Name",
+        *(f"{algo}:PATH" for algo in ALGORITHMS), "residual", "residual:PATH"])
 
 
 def trained_benchmark(config: dict) -> str:

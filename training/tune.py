@@ -34,6 +34,11 @@ Benchmark v2 (``--benchmark v2 --vehicle NAME``, the default):
   ``:gains-tuned`` are one set; ``geometric-integral`` is searched too. The start's
   absolute attitude gains are scaled to the vehicle's inertia (``start_gains``).
 
+A user's controller (``--controllers py:package.module:Name``, or a name an installed
+package registers) goes through the same descent, margin and tie rule, over the gains its
+``tunable_gains`` declares, from their defaults; its ``estimator_bandwidths`` are capped at
+``BANDWIDTH_CAP``. ``tuning.json`` holds the winner, for the user to make its defaults.
+
 v1's winners are the modules' defaults (``PID_GAINS``, ``SMC_GAINS``,
 ``TUNED_OBSERVER_RATES``, ``TUNED_GEOMETRIC_GAINS``), v2's are ``GAIN_SETS``;
 ``quad-dob tune`` prints the search so it can be checked and rerun. The SMC's switching
@@ -52,10 +57,13 @@ from typing import Any
 import numpy as np
 
 from quad_dob_baselines import (
+    CONTROLLERS,
     TUNED_OBSERVER_RATES,
     GeometricController,
     NonlinearDisturbanceObserver,
     make_controller,
+    plugins,
+    user_controller,
 )
 from quad_dob_baselines.base import Controller
 from quad_dob_baselines.gain_sets import INERTIA_SCALED, scaled_to
@@ -143,6 +151,41 @@ START = {
 START_V2 = {"geometric-ndob:tuned": dict(TUNED_OBSERVER_RATES)}
 
 
+def declared(controller: str) -> tuple[dict[str, float], tuple[str, ...]] | None:
+    """A user controller's ``tunable_gains`` and ``estimator_bandwidths``
+    (``quad_dob_baselines.plugins``); None for a built-in one. One that declares no gains
+    cannot be tuned, and is told how to declare them."""
+    user = user_controller(controller)
+    if user is None:
+        return None
+    gains, bandwidths = plugins.declared_gains(user[1], controller)
+    if not gains:
+        raise ValueError(f"quad-dob tune: {controller!r} declares no tunable_gains; give its "
+                         "class (or function) a tunable_gains = {'gain': default, ...} "
+                         "attribute naming the gains to search and where they start")
+    return gains, bandwidths
+
+
+def searched_gains(controller: str, benchmark: str = "v1") -> tuple[str, ...]:
+    """The gains the descent searches: ``SEARCHED`` (``SEARCHED_V2`` in v2), or a user
+    controller's declared ``tunable_gains``."""
+    user = declared(controller)
+    if user is not None:
+        return tuple(user[0])
+    return SEARCHED_V2.get(controller, SEARCHED[controller]) if benchmark != "v1" else \
+        SEARCHED[controller]
+
+
+def bandwidth_caps(controller: str) -> dict[str, float]:
+    """The estimator bandwidths among its gains and their caps: ``BANDWIDTH_CAPS``, or a
+    user controller's ``estimator_bandwidths``, each capped at ``BANDWIDTH_CAP`` (the
+    first-order estimator's: a user's filter of higher order states its delay itself)."""
+    user = declared(controller)
+    if user is None:
+        return BANDWIDTH_CAPS
+    return dict.fromkeys(user[1], BANDWIDTH_CAP)
+
+
 def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
                 ) -> dict[str, float]:
     """Where the descent starts for ``vehicle``: ``START`` (with ``START_V2`` in v2), its
@@ -150,7 +193,11 @@ def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
     vehicle's inertia over the paper vehicle's (trace over trace), so the geometric laws
     start at the same attitude bandwidths on any vehicle. The other gains are per mass or
     inertia already, but for the SMC's disturbance bound (33 N, not searched), which the
-    start keeps as v1 set it."""
+    start keeps as v1 set it. A user controller starts at its declared defaults, unscaled
+    (which of its gains are absolute is its own to say)."""
+    user = declared(controller)
+    if user is not None:
+        return dict(user[0])
     gains = {**START[controller], **(START_V2.get(controller, {}) if benchmark != "v1" else {})}
     scaled = scaled_to(gains, vehicle, INERTIA_SCALED)
     return {key: round(value, 6) if value != gains[key] else gains[key]
@@ -203,15 +250,16 @@ def score(build: Callable[[], Controller], benchmark: str = "v1", vehicle: str =
 
 def coordinate_descent(controller: str, log: Callable[[str], None] = print,
                        benchmark: str = "v1", vehicle: str = "paper",
-                       seeds: tuple[int, ...] = TUNING_SEEDS
+                       seeds: tuple[int, ...] = TUNING_SEEDS, passes: int = PASSES
                        ) -> tuple[dict[str, float], list[dict]]:
-    """The gains of ``controller`` ("pid", "smc", "geometric-integral", or
-    "geometric-ndob:tuned": in v1 the geometric controller's own gains, in v2 those and the
-    observer's rates) by coordinate descent. In v1 a candidate wins on the objective; in v2
-    first on how many tuning flights it loses under ``MARGIN`` (none: admissible), then
-    on the objective, so the descent walks to admissible sets before it sharpens them."""
-    searched = SEARCHED_V2.get(controller, SEARCHED[controller]) if benchmark != "v1" else \
-        SEARCHED[controller]
+    """The gains of ``controller`` ("pid", "smc", "geometric-integral", "indi", "l1", a user
+    controller that declares ``tunable_gains``, or "geometric-ndob:tuned": in v1 the
+    geometric controller's own gains, in v2 those and the observer's rates) by coordinate
+    descent. In v1 a candidate wins on the objective; in v2 first on how many tuning
+    flights it loses under ``MARGIN`` (none: admissible), then on the objective, so the
+    descent walks to admissible sets before it sharpens them."""
+    searched = searched_gains(controller, benchmark)
+    caps = bandwidth_caps(controller)
     gains = start_gains(controller, benchmark, vehicle)
     history: list[dict] = []
 
@@ -239,15 +287,15 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
         + (f", losing {best[0]} flights under the margin" if benchmark != "v1" else ""))
     sweep = 0
     # two passes; in v2, up to EXTRA_PASSES more while the best still loses margin flights
-    while sweep < PASSES or (best[0] and sweep < PASSES + EXTRA_PASSES):
+    while sweep < passes or (best[0] and sweep < passes + EXTRA_PASSES):
         for name in searched:
             start = gains[name]
             for factor in FACTORS:
                 candidate = {**gains, name: round(start * factor, 6)}
-                if name in BANDWIDTHS and candidate[name] > BANDWIDTH_CAPS[name]:
+                if name in caps and candidate[name] > caps[name]:
                     continue  # v1's cap: a tenth of the sampling rate
                 value = trial(candidate, best)
-                if value is not None and _wins(value, best, name in BANDWIDTHS,
+                if value is not None and _wins(value, best, name in caps,
                                                candidate[name] < gains[name]):
                     best, gains = value, candidate
             log(f"  pass {sweep + 1}, {name}: {gains[name]:.4g} (objective {best[1]:.4f} m"
@@ -302,32 +350,39 @@ DEFAULT_CONTROLLERS = {"v1": ("geometric-ndob", "pid", "smc"),
 
 
 def main(controllers: list[str] | None, out: Path, benchmark: str = "v2",
-         vehicle: str = "paper") -> int:
+         vehicle: str = "paper", *, seeds: tuple[int, ...] | None = None,
+         passes: int | None = None) -> int:
     """Tune ``controllers`` (None: ``DEFAULT_CONTROLLERS``) for ``benchmark`` on
-    ``vehicle``; writes ``tuning.json`` with every trial and prints each winner."""
+    ``vehicle``, on ``seeds`` (None: ``TUNING_SEEDS``) with ``passes`` (None: ``PASSES``);
+    writes ``tuning.json`` with every trial and prints each winner."""
+    seeds = TUNING_SEEDS if seeds is None else tuple(seeds)
+    passes = PASSES if passes is None else int(passes)
     start = time.perf_counter()
     if benchmark == "v1" and vehicle != "paper":
         raise ValueError(f"v1's gains are tuned on the paper vehicle, got --vehicle {vehicle}")
     chosen = list(controllers or DEFAULT_CONTROLLERS[benchmark])
     allowed = [*(["geometric-ndob"] if benchmark == "v1" else []), *SEARCHED]
     for controller in chosen:
-        if controller not in allowed:
+        if controller not in allowed and (controller in CONTROLLERS
+                                          or declared(controller) is None):
             raise ValueError(f"quad-dob tune --benchmark {benchmark} tunes "
-                             f"{', '.join(allowed)}, got {controller!r}"
+                             f"{', '.join(allowed)} and user controllers "
+                             f"(py:package.module:Name) that declare tunable_gains, got "
+                             f"{controller!r}"
                              + ("; in v2 the observer's rates are tuned with the geometric "
                                 "gains: geometric-ndob:tuned" if controller == "geometric-ndob"
                                 else ""))
     out.mkdir(parents=True, exist_ok=True)
     report: dict[str, Any] = {"benchmark": benchmark, "vehicle": vehicle,
-                              "seeds": list(TUNING_SEEDS),
+                              "seeds": list(seeds), "passes": passes,
                               "scenarios": list(TUNING_SCENARIOS[benchmark]),
                               "margin": MARGIN if benchmark != "v1" else None}
     for controller in chosen:
         if controller == "geometric-ndob":
-            winner, history = observer_grid()
+            winner, history = observer_grid(seeds=seeds)
         else:
             winner, history = coordinate_descent(controller, benchmark=benchmark,
-                                                 vehicle=vehicle)
+                                                 vehicle=vehicle, seeds=seeds, passes=passes)
         report[controller] = {"winner": winner, "history": history}
         print(f"{controller}: {json.dumps(winner)}")
         (out / "tuning.json").write_text(json.dumps(report, indent=1) + "\n")

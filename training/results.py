@@ -1,0 +1,180 @@
+"""Evaluation results others can submit: ``evaluation.json``, and leaderboards merged from
+many such files.
+
+``quad-dob evaluate`` writes ``evaluation.json``: the rows of its tables, each with the full
+provenance of what was flown (project version; the env's entry point, id and version; the
+scenario with its options, benchmark version, vehicle and sensing preset; the seeds; the
+policy as it was named), under a ``schema`` name and ``schema_version``, with the machine and
+library versions it ran on. ``schemas/evaluation.schema.json`` is its JSON Schema (draft
+2020-12); every file read back is validated against it, so a hand-edited or truncated one is
+named with the field that is wrong.
+
+``merged_leaderboard`` puts the rows of files from different users and machines side by
+side, one table per benchmark version: rows of v1 and v2 are never compared, since the same
+scenario name flies a different loop in each. Where two files hold the same policy on the
+same scenario, benchmark and seeds, the table says whether their 95 % intervals of the RMS
+position error overlap: scores from two machines should agree within their intervals,
+though not bit for bit.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import platform
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+SCHEMA_NAME = "quad_dob_env.evaluation"
+SCHEMA_VERSION = 1
+SCHEMA_PATH = Path(__file__).parent / "schemas" / "evaluation.schema.json"
+# the per-row columns the provenance takes out of the flat row
+PROVENANCE_KEYS = ("policy_spec", "benchmark", "vehicle", "sensing", "env_entry_point",
+                   "env_id")
+
+
+def machine() -> dict[str, str]:
+    """The machine and library builds a result came from (a bit-for-bit claim's scope)."""
+    import numba
+
+    return {"python": platform.python_version(), "platform": platform.platform(),
+            "processor": platform.processor() or platform.machine(),
+            "numpy": np.__version__, "numba": numba.__version__}
+
+
+def results_document(rows: list[dict], seeds: list[int], scenario_options: dict[str, Any],
+                     command: list[str] | None = None) -> dict[str, Any]:
+    """The ``evaluation.json`` of ``rows`` (``evaluate.evaluate``'s), flown on ``seeds``
+    with ``scenario_options`` (a controller flies as a residual env's base, residual
+    zero; a direct model in the plain vector env; a model's env id is the one it trained
+    on, none for a controller)."""
+    from quad_dob_env import __version__
+
+    documented = []
+    for row in rows:
+        scores = {key: _plain(value) for key, value in row.items()
+                  if key not in PROVENANCE_KEYS and key != "seeds"}
+        documented.append({**scores, "provenance": {
+            "project_version": __version__,
+            "policy_spec": row["policy_spec"],
+            "scenario": row["scenario"],
+            "scenario_options": {k: _plain(v) for k, v in scenario_options.items()},
+            "benchmark": row["benchmark"], "vehicle": row["vehicle"],
+            "sensing": row["sensing"], "seeds": [int(seed) for seed in seeds],
+            "env": {"entry_point": row["env_entry_point"], "id": row["env_id"] or None,
+                    "version": row["benchmark"]},
+        }})
+    return {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION,
+            "created": datetime.datetime.now(datetime.timezone.utc).isoformat(
+                timespec="seconds"),
+            "project": {"name": "quad_dob_env", "version": __version__},
+            "machine": machine(), "command": list(command or []), "rows": documented}
+
+
+def _plain(value: Any) -> Any:
+    """JSON's own types: numpy scalars as Python numbers, NaN as null (JSON has none)."""
+    if isinstance(value, (np.floating, float)):
+        return None if not np.isfinite(value) else float(value)
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def write_document(document: dict[str, Any], path: Path) -> None:
+    validate(document, str(path))
+    path.write_text(json.dumps(document, indent=1) + "\n")
+
+
+def validate(document: Any, source: str) -> None:
+    """A ValueError naming ``source``, the field and what the schema wants, unless
+    ``document`` is a valid ``evaluation.json`` of this schema version."""
+    import jsonschema
+
+    schema = json.loads(SCHEMA_PATH.read_text())
+    if isinstance(document, dict) and document.get("schema") == SCHEMA_NAME and \
+            document.get("schema_version") != SCHEMA_VERSION:
+        raise ValueError(f"{source}: schema_version {document.get('schema_version')!r}; this "
+                         f"version of quad_dob_env reads {SCHEMA_VERSION}")
+    error = jsonschema.exceptions.best_match(
+        jsonschema.Draft202012Validator(schema).iter_errors(document))
+    if error is not None:
+        where = "/".join(str(part) for part in error.absolute_path) or "the top level"
+        raise ValueError(f"{source} is not a valid {SCHEMA_NAME} file: at {where}: "
+                         f"{error.message}")
+
+
+def read_document(path: Path) -> dict[str, Any]:
+    try:
+        document = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{path} is not JSON ({error.msg}, line {error.lineno})") from None
+    except OSError as error:
+        raise ValueError(f"{path} cannot be read ({error.strerror})") from None
+    validate(document, str(path))
+    return document
+
+
+def merged_leaderboard(sources: list[tuple[str, dict[str, Any]]]) -> str:
+    """Markdown: per benchmark version, per scenario, every (source, row) sorted by RMS
+    position error, with the seeds, the crash rate, the project version and the machine; a
+    policy flown on the same scenario and seeds in two sources is marked with whether the
+    sources agree (95 % intervals overlap)."""
+    entries = [(label, document, row) for label, document in sources
+               for row in document["rows"]]
+    lines: list[str] = []
+    for benchmark in sorted({row["provenance"]["benchmark"] for _, _, row in entries}):
+        mine = [e for e in entries if e[2]["provenance"]["benchmark"] == benchmark]
+        lines += [f"## Benchmark {benchmark}", "",
+                  "| scenario | policy | source | seeds | RMS ‖e_x‖ [m] (95 % CI) | crashed | "
+                  "project | machine | across sources |", "|" + "---|" * 9]
+        for scenario in dict.fromkeys(e[2]["scenario"] for e in mine):
+            rows = sorted((e for e in mine if e[2]["scenario"] == scenario),
+                          key=lambda e: e[2]["rms_position_settled_mean"])
+            for label, document, row in rows:
+                seeds = row["provenance"]["seeds"]
+                lines.append(
+                    f"| {scenario} | {row['policy']} | {label} | {_seed_text(seeds)} | "
+                    f"{row['rms_position_settled_mean']:.4f} "
+                    f"[{row['rms_position_settled_low']:.4f}, "
+                    f"{row['rms_position_settled_high']:.4f}] | "
+                    f"{row['crashes']}/{row['flights']} | {document['project']['version']} | "
+                    f"{document['machine']['processor']}, numpy "
+                    f"{document['machine']['numpy']} | {_agreement(row, label, rows)} |")
+        lines.append("")
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def _seed_text(seeds: list[int]) -> str:
+    if seeds == list(range(seeds[0], seeds[0] + len(seeds))):
+        return f"{seeds[0]}-{seeds[-1]}" if len(seeds) > 1 else str(seeds[0])
+    return f"{len(seeds)} seeds"
+
+
+def _agreement(row: dict, label: str, rows: list[tuple[str, dict, dict]]) -> str:
+    """Against the same policy spec and seeds in the other sources: "agrees with B" when
+    the two 95 % intervals overlap, "differs from B" when not; "—" when no other source
+    flew it."""
+    key = (row["provenance"]["policy_spec"], tuple(row["provenance"]["seeds"]))
+    verdicts = []
+    for other_label, _, other in rows:
+        if other_label == label or (other["provenance"]["policy_spec"],
+                                    tuple(other["provenance"]["seeds"])) != key:
+            continue
+        overlap = (row["rms_position_settled_low"] <= other["rms_position_settled_high"]
+                   and other["rms_position_settled_low"] <= row["rms_position_settled_high"])
+        verdicts.append(f"{'agrees with' if overlap else 'differs from'} {other_label}")
+    return "; ".join(verdicts) or "—"
+
+
+def source_labels(paths: list[Path]) -> list[str]:
+    """Short, distinct labels for merged files: the file's folder name (``results/alice/
+    evaluation.json`` -> ``alice``), the whole path where two would be the same."""
+    labels = [Path(path).parent.name or Path(path).stem for path in paths]
+    return [label if labels.count(label) == 1 else str(path)
+            for label, path in zip(labels, paths, strict=True)]
