@@ -28,7 +28,7 @@ from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.validation import unknown_name_error
 
 # Benchmark v2's sets: `quad-dob tune --benchmark v2 --vehicle VEHICLE` (training/tune.py,
-# 2026-12-02, seeds 100-109; the README's "Benchmark v2" section has each search's figures).
+# 2026-12-02, seeds 100-109; docs/benchmark-v2.md and docs/indi-l1.md have each search's figures).
 # The geometric + NDOB's rates are tuned with its gains in v2, so its two names are one set.
 _PAPER_NDOB = {"kx_per_mass": 8.0, "kv_per_mass": 3.92, "kR": 6.167, "kOmega": 1.27,
                "translational_rate": 40.0, "rotational_rate": 9.8}

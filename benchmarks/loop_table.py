@@ -1,7 +1,7 @@
-"""The README's vehicle-loop table from ``quad-dob evaluate`` runs, one per factor of
-Benchmark v2 part 2 (each on alone, the rest as v1), plus the full loop.
+"""The vehicle-loop table of docs/benchmark-v2-loop.md from ``quad-dob evaluate`` runs, one
+per factor of Benchmark v2 part 2 (each on alone, the rest as v1), plus the full loop.
 
-Run by hand after the evaluations the README names (``results/loop/<variant>``, variants
+Run by hand after the evaluations that page names (``results/loop/<variant>``, variants
 below), then ``python benchmarks/loop_table.py results/loop``. Prints, per scenario, each
 policy's RMS position error (t >= 2 s) with its 95 % bootstrap interval and the flights it
 lost under each variant.

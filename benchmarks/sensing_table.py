@@ -1,6 +1,7 @@
-"""The README's sensing table from three ``quad-dob evaluate`` runs (one per sensing preset).
+"""The sensing table of docs/benchmark-v2-sensing.md from three ``quad-dob evaluate`` runs
+(one per sensing preset).
 
-Run by hand after the evaluations the README names::
+Run by hand after the evaluations that page names::
 
     for s in ideal mocap gnss-imu; do quad-dob evaluate --policies ... --scenarios ... \\
         --seeds 9001-9020 --scenario-option sensing=$s --delay-margins \\

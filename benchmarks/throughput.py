@@ -3,7 +3,7 @@ vector env with and without the geometric+NDOB base controller in the loop, and 
 env under each sensing preset (``quad_dob_env.sensing``) beside the ideal one.
 
 Run by hand (not part of the test suite): ``python benchmarks/throughput.py``. Prints
-markdown tables; the README quotes them. Compilation happens before timing starts.
+markdown tables; docs/speed.md quotes them. Compilation happens before timing starts.
 ``--sensing-only`` runs the sensing table alone; ``--loop-only`` the vehicle-loop table
 (Benchmark v2: v1, part 1's sensing, each of part 2's factors on top of it, and the full
 v2 loop, in one run).

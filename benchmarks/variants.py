@@ -1,4 +1,4 @@
-"""What the README's table scripts share: the evaluation rows of one folder per variant."""
+"""What the docs' table scripts share: the evaluation rows of one folder per variant."""
 
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ Run by hand: ``python benchmarks/wind_tracking.py [--seeds 9001-9020]``. Prints 
 table, per scenario and controller, of the RMS position, tilt and heading errors after
 t = 2 s (mean over the seeds; a lost flight counts over the part it flew), the flights
 lost, and the position error's paired difference to the recommended geometric + NDOB with
-its 95 % bootstrap interval; the README quotes it. The gains were tuned on seeds 100-109
+its 95 % bootstrap interval; docs/benchmark-v1.md quotes it. The gains were tuned on seeds 100-109
 (``quad-dob tune``); the default seeds here were never used for tuning.
 """
 

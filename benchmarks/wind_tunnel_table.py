@@ -1,6 +1,7 @@
-"""The README's wind-tunnel tables from ``quad-dob evaluate`` runs on ``figure8-wind-*``.
+"""The wind-tunnel tables of docs/benchmark-v2.md from ``quad-dob evaluate`` runs on
+``figure8-wind-*``.
 
-Run by hand after the evaluations the README names: ``<folder>/v2`` (Benchmark v2's loop)
+Run by hand after the evaluations that page names: ``<folder>/v2`` (Benchmark v2's loop)
 and one folder per factor switched off (``VARIANTS``), then
 ``python benchmarks/wind_tunnel_table.py <folder>``. Prints the simulated counterparts
 beside Neural-Fly's real flights (``quad_dob_training.wind_tunnel``), then the ablation:

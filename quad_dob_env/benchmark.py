@@ -21,8 +21,8 @@ BENCHMARKS = ("v1", "v2")
 # Benchmark v2's inner loop [Hz]: PX4's attitude loop rate (IMU_INTEG_RATE, 200 Hz by
 # default; its rate loop runs at IMU_GYRO_RATEMAX, 400 Hz), over the 100 Hz position loop
 # of dt = 0.01 s. There the full v2 loop with the base at N = 1024 keeps 0.38-0.43 of v1's
-# throughput, above the third asked for; at 400 Hz 0.28-0.32 (README, "Speed of the
-# vehicle loop").
+# throughput, above the third asked for; at 400 Hz 0.28-0.32 (docs/benchmark-v2-loop.md,
+# "Speed of the vehicle loop").
 V2_INNER_RATE = 200.0
 V2_SENSING = "mocap"
 # the fields a benchmark sets where the scenario leaves them None

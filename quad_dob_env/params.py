@@ -5,7 +5,7 @@ collective thrust and body moments, ``[f, Mx, My, Mz] = A @ rotor_thrusts``: a r
 body position ``(px, py)`` pushing ``t`` along body +z adds ``py t`` to ``Mx``, ``-px t``
 to ``My``, and its drag torque ``spin * c * t`` to ``Mz``.
 
-Every number of every preset has its source in ``VEHICLE_SOURCES`` (the README tabulates
+Every number of every preset has its source in ``VEHICLE_SOURCES`` (docs/physics.md tabulates
 it): the paper and Lee et al. 2010 for the paper vehicle's mass, inertia and arm; the UIUC
 propeller data of its 10-inch propeller class for its yaw moment per newton of thrust; our
 stated estimates for what the paper does not give (rotor limit, drag, motor lag).

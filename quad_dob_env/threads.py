@@ -16,7 +16,7 @@ answer on another, a few microseconds each way. A forked child (Gymnasium's
 Only public ground: Python threads, a queue, and kernels compiled by numba's ``njit`` with
 ``nogil=True``. (Until 2026-12 workers also waited inside compiled code on libc semaphores
 bound through llvmlite, ~25 µs a call faster at N = 256; that leaned on numba internals and
-an assumed ``sizeof(sem_t)``, and is gone: README, "Speed".)
+an assumed ``sizeof(sem_t)``, and is gone: docs/speed.md.)
 """
 
 from __future__ import annotations

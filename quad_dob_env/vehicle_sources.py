@@ -1,6 +1,6 @@
 """Where every number of each vehicle preset (``quad_dob_env.params.VEHICLES``) comes from.
 
-``quad-dob list`` prints them beside the values, the README tabulates them, and a test holds
+``quad-dob list`` prints them beside the values, docs/physics.md tabulates them, and a test holds
 every field of every preset to a source here. Imports nothing.
 """
 

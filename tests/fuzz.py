@@ -997,7 +997,8 @@ class _Flight:
                 if reason is None and self._gymnasium_time_limit(truncated[i], terminated[i],
                                                                  count[i]):
                     # Gymnasium's TimeLimit (gym.make's max_episode_steps) sets truncated
-                    # and leaves info alone; the env cannot see it (README, "Use it")
+                    # and leaves info alone; the env cannot see it
+                    # (docs/getting-started.md, "Use it")
                     self.outcome.reasons["time_limit (Gymnasium's TimeLimit)"] += 1
                 elif reason is None:
                     self.fail("missing_termination_reason",

@@ -152,7 +152,7 @@ def test_the_recommended_base_keeps_every_flight_of_benchmark_v2():
     """v2's own gains on v2's suite (the wind tunnel's strongest wind for the figure-8s):
     no flight lost, the heading held within 0.3 rad, but for helix-force-torque's yaw
     torque, half the hover's yaw authority, which the mixer serves last: no baseline holds
-    that heading within 0.2 rad (the README's table; 0.39 rad here over 20 seeds)."""
+    that heading within 0.2 rad (docs/benchmark-v2.md's table; 0.39 rad here over 20 seeds)."""
     from quad_dob_training.evaluate import SUITES, evaluate
 
     scenarios = [name for names in SUITES["v2"].values() for name in names

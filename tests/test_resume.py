@@ -75,16 +75,17 @@ def _checkpoint_steps(run: Path) -> list[int]:
 
 def _stop_past_a_checkpoint(process: subprocess.Popen, run: Path) -> int:
     """Freeze the run (SIGSTOP: it still holds its lock) once it has a checkpoint and has
-    evaluated past it, so the resumed run must drop that row and evaluate it again; the
-    newest checkpoint's timesteps."""
+    evaluated at it (the evaluation runs after the checkpoint is written, at the same
+    rollout start), so the resumed run must drop that row and evaluate it again; the newest
+    checkpoint's timesteps."""
     deadline = time.monotonic() + 300
     while True:
         assert process.poll() is None and time.monotonic() < deadline, "no checkpoint came"
         steps = _checkpoint_steps(run)
-        if steps and max(_evaluated_timesteps(run), default=0) > steps[-1]:
+        if steps and max(_evaluated_timesteps(run), default=0) >= steps[-1]:
             os.kill(process.pid, signal.SIGSTOP)
             steps = _checkpoint_steps(run)  # checked again: it may have moved on meanwhile
-            if max(_evaluated_timesteps(run)) > steps[-1]:
+            if max(_evaluated_timesteps(run)) >= steps[-1]:
                 return steps[-1]
             os.kill(process.pid, signal.SIGCONT)
         time.sleep(0.02)
@@ -129,7 +130,8 @@ def test_a_training_killed_mid_run_resumes_in_a_new_process_to_the_same_run(tmp_
     names = sorted(p.name for p in (whole / "checkpoints").iterdir())
     assert names == ["ppo_36000.state", "ppo_36000.zip", "ppo_72000.state", "ppo_72000.zip"]
     assert sorted(p.name for p in (killed / "checkpoints").iterdir()) == names
-    assert _evaluated_timesteps(whole) == list(range(0, LARGE["n_timesteps"] + 1, 18000))
+    # due every 18,000 timesteps, flown at the rollouts' starts: whole rollouts of 36,000
+    assert _evaluated_timesteps(whole) == list(range(0, LARGE["n_timesteps"] + 1, ROLLOUT))
     assert (killed / "evaluations.csv").read_text() == (whole / "evaluations.csv").read_text()
     assert (killed / "run.lock").read_text() == ""  # released cleanly
 

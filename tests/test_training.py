@@ -116,7 +116,7 @@ def test_normalised_observations_travel_with_the_model(tmp_path):
 
 
 def test_the_shipped_residual_beats_its_base_in_gusty_turbulence():
-    # a guard on the shipped policy: five of the README's 20 held-out seeds
+    # a guard on the shipped policy: five of the 20 held-out seeds of docs/residual-rl.md
     rows = evaluate(["geometric-ndob:tuned", "residual"], ["dryden-helix-gusts"],
                     parse_seeds("9001-9005"))
     base, residual = rows
@@ -196,3 +196,27 @@ def test_a_run_off_a_terminal_prints_a_line_per_evaluation(tmp_path, capsys):
     assert printed[0].startswith("0 timesteps: RMS position ")
     assert [line.split(" timesteps")[0].replace(",", "") for line in printed] == [
         row.split(",")[0] for row in rows]
+
+
+def test_evaluation_rows_score_the_weights_of_their_own_timesteps_and_never_repeat(tmp_path):
+    """An evaluation that falls due inside a rollout runs at the next rollout's start, where
+    the weights are those of exactly that many timesteps; the last row is the final model.
+    (It ran mid-rollout, so a row scored the weights of an earlier count, and the run's end
+    scored the final weights again under the same count: a repeated row, other numbers.)"""
+    import csv
+
+    from quad_dob_env import make_scenario
+    from quad_dob_training.baseline_evaluation import EVAL_SEEDS
+    from quad_dob_training.metrics import flight_metrics
+    from quad_dob_training.policies import fly_policy
+
+    config = resolve_config("ppo", "direct", "QuadDOB/Hover-v1", "hover-calm", 768, 8, seed=3)
+    config["algo_kwargs"].update(n_steps=32, batch_size=64, n_epochs=1)  # rollouts of 256
+    train(config, tmp_path, evaluate_every=300, progress_bar=False)
+    with open(tmp_path / "evaluations.csv", newline="") as file:
+        rows = list(csv.DictReader(file))
+    assert [int(row["timesteps"]) for row in rows] == [0, 512, 768]
+    final = make_policy(f"ppo:{tmp_path}")
+    flights = fly_policy(final, make_scenario("hover-calm"), EVAL_SEEDS)
+    scored = float(np.mean([flight_metrics(f)["rms_position_settled"] for f in flights]))
+    assert float(rows[-1]["rms_position"]) == pytest.approx(scored, rel=1e-12)

@@ -1,6 +1,8 @@
 """The evaluation during training: ``BaselineEvaluation`` flies the policy on held-out seeds
 (``EVAL_SEEDS``) beside the base controller, every so many timesteps, into
-``evaluations.csv`` and ``best_model.zip``; ``plot_training_curve`` draws that CSV as
+``evaluations.csv`` and ``best_model.zip``; an evaluation falls due every so many
+timesteps and runs at the next rollout's start, so each row scores the weights trained on
+exactly its timesteps, and the last row the final model; ``plot_training_curve`` draws that CSV as
 ``training_curve.png``; ``normalization`` is the observation statistics a model's config
 carries.
 """
@@ -89,10 +91,17 @@ class BaselineEvaluation(BaseCallback):
             self._next = self.num_timesteps + self.every
             self._evaluate()
 
-    def _on_step(self) -> bool:
+    def _on_rollout_start(self) -> None:
+        # At a rollout's start the weights are those trained on exactly num_timesteps: an
+        # evaluation in the middle of a rollout would score the weights of the rollout's
+        # start under a later count, and the one at training end, at the same count, the
+        # updated weights: two rows of one count with different numbers.
         if self.num_timesteps >= self._next:
-            self._next += self.every
+            while self._next <= self.num_timesteps:
+                self._next += self.every
             self._evaluate()
+
+    def _on_step(self) -> bool:
         return True
 
     def _on_training_end(self) -> None:

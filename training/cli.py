@@ -176,7 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     paper.set_defaults(handler=_paper)
     train = commands.add_parser(
-        "train", help="train PPO or SAC (stable-baselines3) on the vector env, residual or "
+        "train", help="train PPO, SAC or TD3 (stable-baselines3) on the vector env, residual or "
         "direct; resumable")
     train.add_argument("--algo", default="ppo", choices=ALGORITHMS,
                        help="the stable-baselines3 algorithm (default: %(default)s)")
@@ -208,13 +208,14 @@ def build_parser() -> argparse.ArgumentParser:
                        help="timesteps between checkpoints (default: 100000, or the resumed "
                        "run's own)")
     train.add_argument("--evaluate-every", type=_positive_int, default=None,
-                       help="timesteps between evaluations against the base (default: "
-                       "100000, or the resumed run's own)")
+                       help="timesteps between evaluations against the base, each run at "
+                       "the first rollout's start past it (default: 100000, or the resumed "
+                       "run's own)")
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
     _trust_pickle_option(train)
     train.set_defaults(handler=_train)
     evaluate = commands.add_parser(
-        "evaluate", help="score policies on scenarios over seeds: table, CSV, bar plot")
+        "evaluate", help="score policies on scenarios over seeds: table, CSV, JSON, bar plot")
     evaluate.add_argument("--policies", default="geometric-ndob:tuned,geometric-ndob,pid,smc,"
                           "residual", help="comma-separated: controller names, "
                           "py:package.module:Name (your own), ppo:PATH, sac:PATH, td3:PATH, "

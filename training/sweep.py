@@ -61,7 +61,7 @@ SHIPPED_SWEEPS = Path(__file__).parent / "sweeps"
 
 def find_config(path: Path | str) -> Path:
     """``path`` as given, or else a shipped sweep by name or by its ``training/sweeps/``
-    path, so the README's commands work from any directory."""
+    path, so the docs' commands work from any directory."""
     given = Path(path)
     if given.is_file():
         return given

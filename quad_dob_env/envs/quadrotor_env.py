@@ -134,7 +134,7 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     - v2 (2026-12): the ids ``QuadDOB/Hover-v2``, ``HoverResidual-v2``, ``TrackResidual-v2``
       and ``TracksResidual-v2`` fly the v1 ids' scenarios under ``benchmark="v2"``: ``mocap``
       sensing, the 200 Hz inner loop, speed motors, thrust uncertainty, rotor aerodynamics.
-      Their controllers' gains are still v1's (part 3 of Benchmark v2 retunes them). The
+      Their controllers fly the gains tuned for that loop (Benchmark v2, part 3). The
       v1 ids stay registered and unchanged (Gymnasium now warns that a newer version
       exists when one is made); ``Track-v1``'s wrench-actuated paper helix has no v2 yet.
     - v1, sensing (2026-12, no id bumped: the defaults fly as before, bit for bit): the

@@ -100,7 +100,7 @@ def check_controller(base: Any) -> Any:
 
 
 # The recommended base: geometric + NDOB with observer rates chosen by a sweep on tuning
-# seeds (README, "Fair baselines"); the paper's observer gains are "geometric-ndob".
+# seeds (docs/benchmark-v1.md); the paper's observer gains are "geometric-ndob".
 DEFAULT_BASE_CONTROLLER = "geometric-ndob:tuned"
 
 

@@ -1,10 +1,11 @@
-"""Every example of the README runs, so none can rot: its Python blocks in order in one
-namespace (as a reader pastes them), its ``>>>`` block against the output it shows, and
-every command of its bash blocks, in order, in a scratch folder.
+"""Every example of the README and of the docs pages runs, so none can rot: each page's
+Python blocks in order in one namespace (as a reader pastes them), its ``>>>`` blocks
+against the output they show, and every command of the bash blocks of all pages, in page
+order (the README, then the site's navigation), in one scratch folder.
 
 Commands run as written but for the budgets below (a smoke run cannot train 1.5 M
 timesteps or fly 20 seeds of every policy), and a command the test does not know fails
-it: a new README command needs a line here.
+it: a new command in a page needs a line here.
 """
 
 import builtins
@@ -20,7 +21,25 @@ import yaml
 from quad_dob_training import cli
 
 ROOT = Path(__file__).parents[1]
-README = (ROOT / "README.md").read_text()
+
+
+def _pages() -> list[Path]:
+    """The README, then every page of the site's navigation that is written by hand (the
+    generated ones hold no examples), in order."""
+    nav = yaml.safe_load((ROOT / "mkdocs.yml").read_text())["nav"]
+
+    def walk(entry) -> list[str]:
+        if isinstance(entry, str):
+            return [entry]
+        if isinstance(entry, list):
+            return [page for item in entry for page in walk(item)]
+        return [page for value in entry.values() for page in walk(value)]
+
+    return [ROOT / "README.md", *(ROOT / "docs" / page for page in walk(nav)
+                                  if (ROOT / "docs" / page).is_file())]
+
+
+PAGES = _pages()
 BUDGETS = [  # (pattern, replacement): the only changes made to a README command
     (r"--timesteps \d+", "--timesteps 4096"),
     (r"--seeds 9001-9020", "--seeds 9001-9002"),
@@ -30,10 +49,10 @@ BUDGETS = [  # (pattern, replacement): the only changes made to a README command
 SWEEP_BUDGET = {"timesteps": 4096}  # a training sweep's config: the same grid, short runs
 
 
-def _fenced() -> list[tuple[str, str]]:
-    """(language, text) of every fenced block, in order."""
+def _fenced(page: Path) -> list[tuple[str, str]]:
+    """(language, text) of every fenced block of ``page``, in order."""
     blocks, language, lines = [], None, []
-    for line in README.splitlines():
+    for line in page.read_text().splitlines():
         if line.startswith("```") and language is None:
             language, lines = line[3:].strip(), []
         elif line.startswith("```"):
@@ -44,8 +63,10 @@ def _fenced() -> list[tuple[str, str]]:
     return blocks
 
 
-def _blocks(language: str) -> list[str]:
-    return [text for kind, text in _fenced() if kind == language]
+def _blocks(language: str, page: Path | None = None) -> list[str]:
+    """The blocks in ``language`` of ``page`` (None: of every page, in order)."""
+    return [text for one in ([page] if page else PAGES) for kind, text in _fenced(one)
+            if kind == language]
 
 
 def _commands() -> list[str]:
@@ -59,16 +80,22 @@ def _commands() -> list[str]:
     return commands
 
 
-def test_the_readme_has_examples_to_test():
-    assert len(_blocks("python")) >= 2 and len(_commands()) >= 10
+def test_the_pages_have_examples_to_test():
+    assert len(_blocks("python")) >= 4 and len(_commands()) >= 15
+    assert len(PAGES) >= 15
 
 
-def test_every_python_block_runs_in_order():
+@pytest.mark.parametrize("page", [p for p in PAGES if _blocks("python", p)],
+                         ids=lambda page: page.name)
+def test_every_python_block_of_a_page_runs_in_order(page, monkeypatch):
+    monkeypatch.chdir(ROOT)  # a reader at the checkout's root
+    monkeypatch.setattr(sys, "path", list(sys.path))
     namespace: dict = {}
-    for block in _blocks("python"):
-        exec(compile(block, "README.md", "exec"), namespace)
-    assert namespace["envs"].num_envs == 4096
-    namespace["envs"].close()
+    for block in _blocks("python", page):
+        exec(compile(block, str(page.relative_to(ROOT)), "exec"), namespace)
+    if page.name == "getting-started.md":
+        assert namespace["envs"].num_envs == 4096
+        namespace["envs"].close()
 
 
 def test_the_refusal_shown_is_the_refusal_raised():
@@ -108,21 +135,32 @@ def no_ray_left_behind():
         sys.modules["ray"].shutdown()
 
 
-def test_every_readme_command_runs(tmp_path, monkeypatch, no_ray_left_behind):
+def test_every_command_of_the_pages_runs(tmp_path, monkeypatch, no_ray_left_behind):
     monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", list(sys.path))
     ran = []
     for command in _commands():
         if command == "make test":
             continue  # it is this suite
+        if command.startswith("export PYTHONPATH="):
+            # a folder of the checkout, as the page's reader has it; in this process
+            folder = str(ROOT / command.partition("=")[2])
+            monkeypatch.setenv("PYTHONPATH", folder)
+            sys.path.insert(0, folder)
+            ran.append(command)
+            continue
         if command == "make demo":
             for line in _demo_recipe():
                 _run(line)
             assert (tmp_path / "results" / "evaluation" / "evaluation.md").is_file()
         elif command.startswith("pip install "):
-            extra = re.fullmatch(r"pip install '\.\[(\w+)\]'", command).group(1)
+            # an extra's requirement, as the pyproject names it (outside a checkout there is
+            # no '.[extra]' to install)
+            requirement = re.fullmatch(r"pip install '(\w+)(>=[\d.]+)'", command)
             pyproject = (ROOT / "pyproject.toml").read_text()
-            assert re.search(rf"^{extra} = \[", pyproject, flags=re.M), command
-            __import__(extra)  # the dev install this suite runs in holds every extra
+            assert re.search(rf'^\w+ = \["{requirement.group(1)}{requirement.group(2)}"\]',
+                             pyproject, flags=re.M), command
+            __import__(requirement.group(1))  # the dev install holds every extra
         elif command.startswith("quad-dob "):
             for pattern, replacement in BUDGETS:
                 command = re.sub(pattern, replacement, command)
@@ -145,7 +183,8 @@ def test_every_readme_command_runs(tmp_path, monkeypatch, no_ray_left_behind):
             monkeypatch.setattr(sys, "argv", [name, *arguments])
             getattr(importlib.import_module(name), name.rsplit(".", 1)[-1])()
         else:
-            pytest.fail(f"README command {command!r} is not one this test knows how to run")
+            pytest.fail(f"command {command!r} of the pages is not one this test knows how to "
+                        "run")
         ran.append(command)
     assert (tmp_path / "runs" / "direct" / "model.zip").is_file()
     assert (tmp_path / "flight.gif").is_file() and (tmp_path / "gusts.mp4").is_file()
