@@ -17,8 +17,10 @@ A package registers a controller in its ``pyproject.toml``::
     [project.entry-points."quad_dob_env.controllers"]
     my-pd = "my_package.control:MyPD"
 
-after which ``make_controller("my-pd")`` and ``--policies my-pd`` find it. A built-in name
-cannot be shadowed: such an entry point is skipped with a warning.
+after which ``make_controller("my-pd")`` and ``--policies my-pd`` find it. No entry point
+can take a name that already means something (``RESERVED``: a built-in controller, the
+shipped policy ``residual``, or any name with a colon, the form of ``py:``, ``ALGO:PATH``
+and the presets): such an entry point is skipped with a warning.
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ from quad_dob_env.params import VehicleParams
 
 ENTRY_POINT_GROUP = "quad_dob_env.controllers"
 PY_PREFIX = "py:"
+# names a policy spec already gives a meaning to, besides the built-in controllers
+RESERVED_POLICY_NAMES = ("residual",)
 # a ``Name(**gains)`` class or a ``name(vehicle, **gains)`` function
 ControllerFactory = Callable[..., Controller]
 
@@ -46,14 +50,17 @@ def is_py_spec(name: str) -> bool:
 
 def installed_controllers(builtin: Iterable[str]) -> dict[str, metadata.EntryPoint]:
     """The controllers installed packages register, by name; one that takes a ``builtin``
-    name (or a ``py:`` one) is left out with a warning naming its package."""
-    reserved = set(builtin)
+    name, ``residual`` or a name with a colon is left out with a warning naming its
+    package."""
+    reserved = {*builtin, *RESERVED_POLICY_NAMES}
     found: dict[str, metadata.EntryPoint] = {}
     for entry in metadata.entry_points(group=ENTRY_POINT_GROUP):
-        if entry.name in reserved or is_py_spec(entry.name):
+        if entry.name in reserved or ":" in entry.name:
             package = entry.dist.name if entry.dist is not None else "an installed package"
             warnings.warn(f"{package} registers a controller named {entry.name!r} "
-                          f"({entry.value}); that name is the built-in one's, which is used",
+                          f"({entry.value}); that name already means something here "
+                          "(a built-in controller, the shipped policy, or a name:with colon), "
+                          "which is kept: the entry point is skipped",
                           RuntimeWarning, stacklevel=3)
             continue
         found.setdefault(entry.name, entry)
@@ -73,6 +80,9 @@ def load_py_spec(spec: str) -> Any:
     except ImportError as error:
         raise ValueError(f"{spec!r}: cannot import module {module_name!r} ({error}); is its "
                          "package installed, or its folder on PYTHONPATH?") from None
+    except Exception as error:  # the module's own code failed: a SyntaxError, a raise, ...
+        raise ValueError(f"{spec!r}: importing module {module_name!r} failed: "
+                         f"{type(error).__name__}: {error}") from error
     found: Any = module
     for part in attribute.split("."):
         if not hasattr(found, part):

@@ -36,6 +36,7 @@ def test_evaluation_json_is_valid_against_its_schema_and_carries_each_rows_prove
     pid = next(row for row in alice["rows"] if row["policy"] == "pid")
     assert pid["provenance"] == {
         "project_version": alice["project"]["version"], "policy_spec": "pid",
+        "policy_fingerprint": None,
         "scenario": "hover-step-force", "scenario_options": {"benchmark": "v2"},
         "benchmark": "v2", "vehicle": "paper", "sensing": "mocap", "seeds": [0, 1, 2],
         "env": {"entry_point": "quad_dob_composition:ResidualVectorEnv", "id": None,
@@ -78,18 +79,64 @@ def test_merged_leaderboard_keeps_benchmarks_apart_and_says_where_machines_agree
                                 ("carol", carol)])
     v1, v2 = board.split("## Benchmark v2")
     assert "## Benchmark v1" in v1 and "| bob |" in v1 and "alice" not in v1
-    assert "bob" not in v2
-    pid = [line for line in v2.splitlines() if "| pid |" in line]
+    assert "bob" not in v2 and "### hover-step-force: vehicle paper, sensing mocap" in v2
+    pid = [line for line in v2.splitlines() if line.startswith("| pid |")]
     assert "differs from carol" in pid[0] and "differs from alice" in pid[1]
-    ndob = [line for line in v2.splitlines() if "| geometric-ndob:tuned |" in line]
+    ndob = [line for line in v2.splitlines() if line.startswith("| geometric-ndob:tuned |")]
     assert "agrees with carol" in ndob[0] and "aarch64" in ndob[1]
+
+
+def test_rows_flown_another_way_are_never_ranked_or_matched_together(runs):
+    """Another vehicle, another sensing preset, other scenario options, another model
+    under the same spec or another project version: each its own table, or no match."""
+    alice = read_document(runs["alice"])
+    dave = copy.deepcopy(alice)
+    for row in dave["rows"]:
+        row["provenance"]["sensing"] = "ideal"
+        row["provenance"]["scenario_options"] = {"benchmark": "v2", "sensing": "ideal"}
+    erin = copy.deepcopy(alice)
+    for row in erin["rows"]:
+        row["provenance"]["policy_fingerprint"] = "0" * 64  # another file under that spec
+    board = merged_leaderboard([("alice", alice), ("dave", dave), ("erin", erin)])
+    tables = board.split("### ")[1:]
+    assert len(tables) == 2 and "sensing ideal, options {\"sensing\": \"ideal\"}" in tables[1]
+    assert "dave" not in tables[0] and "alice" not in tables[1]
+    assert "agrees" not in board and "differs" not in board  # erin's model is not alice's
+    frank = copy.deepcopy(alice)
+    frank["project"]["version"] = "0.2.0"
+    assert "agrees" not in merged_leaderboard([("alice", alice), ("frank", frank)])
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda row: row.update(crashes=7), "at rows/0: 7 crashes of 3 flights"),
+    (lambda row: row.update(rms_position_settled_low=row["rms_position_settled_high"] + 1),
+     "at rows/0: its interval"),
+    (lambda row: row.update(scenario="hover-calm"),
+     "at rows/0: scenario 'hover-calm' but provenance.scenario 'hover-step-force'"),
+    (lambda row: row.update(policy="pid | ## Benchmark v9"), r"at rows/0/policy: .* does not "
+                                                             r"match"),
+])
+def test_a_file_that_passes_field_by_field_but_does_not_hold_together_is_refused(
+        runs, tmp_path, change, message):
+    document = json.loads(runs["alice"].read_text())
+    change(document["rows"][0])
+    path = tmp_path / "edited.json"
+    path.write_text(json.dumps(document))
+    with pytest.raises(ValueError, match=message):
+        read_document(path)
 
 
 def test_quad_dob_leaderboard_merges_files_and_refuses_a_bad_one(runs, tmp_path, capsys):
     out = tmp_path / "board.md"
     assert main(["leaderboard", str(runs["alice"]), str(runs["bob"]), "--out", str(out)]) == 0
     assert out.read_text() == capsys.readouterr().out
-    assert "| hover-step-force | pid | bob | 0-2 |" in out.read_text()
+    assert "| pid | bob | 0-2 |" in out.read_text()
+    with pytest.raises(SystemExit):
+        main(["leaderboard", str(runs["alice"]), str(runs["alice"])])
+    assert "evaluation.json is given twice" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--json", "--merge", str(runs["alice"])])
+    assert "--merge writes leaderboard-merged.md into --out" in capsys.readouterr().err
     (tmp_path / "not.json").write_text("{}")
     with pytest.raises(SystemExit):
         main(["leaderboard", str(tmp_path / "not.json")])

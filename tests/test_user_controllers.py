@@ -99,7 +99,9 @@ def test_check_controller_names_what_a_broken_controller_gets_wrong(outside):
     _, packages = outside
     (packages / "broken.py").write_text('''
 import numpy as np
-from quad_dob_baselines import Controller
+from quad_dob_baselines import Controller, NonlinearDisturbanceObserver, make_controller
+from quad_dob_baselines.geometric import GeometricController
+from quad_dob_env.params import get_vehicle
 
 class MixesTheBatch(Controller):
     def compute(self, time, state, reference):
@@ -116,30 +118,59 @@ class WritesState(Controller):
         state.position -= reference.position
         return np.full(self.n, 1.0), np.zeros((self.n, 3))
 
+class Transposed(Controller):
+    def compute(self, time, state, reference):
+        return np.full(self.n, self.vehicle.hover_thrust), np.zeros((3, self.n))
+
+class ForgetsEveryone(GeometricController):
+    """geometric + NDOB whose restart of some vehicles wipes every vehicle's estimate"""
+    has_inner_law = False
+    def __init__(self):
+        super().__init__(observer=NonlinearDisturbanceObserver.from_rates(
+            40, 5, get_vehicle("paper")))
+    def reset(self, num_vehicles, vehicle, dt, indices=None, actuation="rotors"):
+        super().reset(num_vehicles, vehicle, dt, None, actuation)
+
+def dead_gain(vehicle, kx=1.0):
+    return make_controller("pid", vehicle)  # kx goes nowhere
+dead_gain.tunable_gains = {"kx": 1.0}
+
 class NotAController:
     pass
 ''')
+    (packages / "syntax_error.py").write_text("def broken(:\n")
     sys.path.insert(0, str(packages))
     try:
         mixes = check_controller("py:broken:MixesTheBatch")
         assert any("depend on its own rows only" in p for p in mixes), mixes
         assert any("strayed" in p or "ended early" in p for p in mixes), mixes
         shape = check_controller("py:broken:WrongShape")
-        assert shape == ["py:broken:WrongShape: compute returned thrust (3, 1) and moment (3,) "
-                         "for 3 vehicles; the interface wants (3,) and (3, 3)"]
+        assert shape == ["py:broken:WrongShape: compute returned thrust (4, 1) and moment (3,) "
+                         "for 4 vehicles; the interface wants (4,) and (4, 3)"]
+        assert "moment (3, 4) for 4 vehicles" in check_controller("py:broken:Transposed")[0]
+        assert check_controller("py:broken:ForgetsEveryone") == [
+            "py:broken:ForgetsEveryone: reset(indices=[1]) changed the next command of "
+            "vehicles 0, 2 and 3 too: a restart must clear the state of the given rows only"]
+        assert check_controller("py:broken:dead_gain") == [
+            "py:broken:dead_gain declares tunable gain 'kx', but kx=1.5 flies the first 100 "
+            "steps exactly as kx=1: the tuning would search a gain that does nothing (is it "
+            "passed on to the law?)"]
+        assert "importing module 'syntax_error' failed: SyntaxError" in \
+            check_controller("py:syntax_error:X")[0]
         assert any("wrote into state.position" in p
                    for p in check_controller("py:broken:WritesState"))
         assert "does not derive from quad_dob_baselines.Controller" in \
             check_controller("py:broken:NotAController")[0]
-        assert "has no 'Missing'; it defines MixesTheBatch, NotAController, WritesState, " \
-            "WrongShape" in \
+        assert "has no 'Missing'; it defines ForgetsEveryone, MixesTheBatch, NotAController, " \
+            "Transposed, WritesState, WrongShape, dead_gain" in \
             check_controller("py:broken:Missing")[0]
         assert "cannot import module 'not_there'" in check_controller("py:not_there:X")[0]
         sloppy = check_controller("py:example_pd.controller:HoverPD")
         assert sloppy == []  # the example takes its gains by name and refuses others
     finally:
         sys.path.remove(str(packages))
-        for name in [m for m in sys.modules if m.startswith(("broken", "example_pd"))]:
+        for name in [m for m in sys.modules
+                     if m.startswith(("broken", "example_pd", "syntax_error"))]:
             del sys.modules[name]
     for builtin in ("geometric-ndob:tuned", "indi", "pid"):
         assert check_controller(builtin) == []
@@ -154,20 +185,31 @@ def test_a_bad_user_name_is_named_with_what_is_allowed():
         make_policy("sac")
 
 
-def _installed(packages: Path, entries: dict[str, str]) -> None:
-    """What ``pip install`` leaves for importlib.metadata: a dist-info with entry points."""
-    info = packages / "quad_dob_example_pd-0.1.0.dist-info"
+def _installed(packages: Path, extra: dict[str, str]) -> dict[str, str]:
+    """What ``pip install examples/byo_controller`` leaves for importlib.metadata: a
+    dist-info with the entry points its pyproject.toml declares (and ``extra`` ones);
+    those of the pyproject."""
+    import tomllib
+
+    project = tomllib.loads((EXAMPLE / "pyproject.toml").read_text())["project"]
+    declared = project["entry-points"]["quad_dob_env.controllers"]
+    info = packages / f"{project['name'].replace('-', '_')}-{project['version']}.dist-info"
     info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: quad-dob-example-pd\n"
-                                   "Version: 0.1.0\n")
-    (info / "entry_points.txt").write_text(
-        "[quad_dob_env.controllers]\n" + "".join(f"{k} = {v}\n" for k, v in entries.items()))
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {project['name']}\n"
+                                   f"Version: {project['version']}\n")
+    (info / "entry_points.txt").write_text("[quad_dob_env.controllers]\n" + "".join(
+        f"{k} = {v}\n" for k, v in {**declared, **extra}.items()))
+    return declared
 
 
 def test_an_installed_package_registers_a_controller_by_name_but_cannot_shadow_one(outside):
     work, packages = outside
-    _installed(packages, {"example-pd": "example_pd.controller:HoverPD",
-                          "pid": "example_pd.controller:HoverPD"})
+    declared = _installed(packages, {"pid": "example_pd.controller:HoverPD",
+                                     "residual": "example_pd.controller:HoverPD",
+                                     "ppo:runs/x": "example_pd.controller:HoverPD"})
+    assert declared == {"example-pd": "example_pd.controller:HoverPD"}
+    toml = (EXAMPLE.parents[1] / "docs" / "your-controller.md").read_text()
+    assert 'example-pd = "example_pd.controller:HoverPD"' in toml  # the page shows this file
     script = ("import warnings\n"
               "from quad_dob_baselines import make_controller, controller_names\n"
               "with warnings.catch_warnings(record=True) as caught:\n"
@@ -175,14 +217,19 @@ def test_an_installed_package_registers_a_controller_by_name_but_cannot_shadow_o
               "    found = make_controller('example-pd', 'paper', 'v2')\n"
               "    builtin = make_controller('pid')\n"
               "    names = controller_names()\n"
+              "    from quad_dob_training.policies import make_policy\n"
+              "    shipped = make_policy('residual')\n"
               "print(type(found).__name__, found.name, type(builtin).__name__)\n"
-              "print('example-pd' in names, names.count('pid'))\n"
-              "print([str(w.message) for w in caught][0])\n")
+              "print('example-pd' in names, names.count('pid'), 'residual' in names,\n"
+              "      shipped.model is not None)\n"
+              "for w in caught: print(w.message)\n")
     done = _run([sys.executable, "-c", script], work, packages)
     assert done.returncode == 0, done.stderr[-3000:]
-    first, second, warning = done.stdout.splitlines()[:3]
-    assert first == "HoverPD example-pd CascadedPID" and second == "True 1"
-    assert "quad-dob-example-pd registers a controller named 'pid'" in warning
+    first, second, *warnings = done.stdout.splitlines()
+    assert first == "HoverPD example-pd CascadedPID" and second == "True 1 False True"
+    for taken in ("pid", "residual", "ppo:runs/x"):
+        assert any(f"quad-dob-example-pd registers a controller named {taken!r}" in w
+                   for w in warnings), (taken, warnings)
     evaluated = _run([str(CONSOLE), "evaluate", "--policies", "example-pd", "--scenarios",
                       "hover-calm", "--seeds", "2", "--baseline", "", "--json"], work, packages)
     assert evaluated.returncode == 0, evaluated.stderr[-3000:]
@@ -211,3 +258,31 @@ def test_sac_and_td3_zips_evaluate_by_their_prefix(algo, tmp_path, capsys):
     assert np.isfinite(rows[0]["rms_position_settled_mean"])
     with pytest.raises(ValueError, match=rf"trained with {algo}.*name it {algo}:"):
         make_policy(f"ppo:{run}")
+
+
+def test_tune_refuses_a_declared_bandwidth_above_the_cap_and_keeps_small_gains(outside):
+    from quad_dob_training import tune
+
+    _, packages = outside
+    (packages / "declared.py").write_text('''
+from typing import ClassVar
+from quad_dob_baselines import GeometricController
+
+class FastFilter(GeometricController):
+    tunable_gains: ClassVar[dict[str, float]] = {"kv_per_mass": 5.6, "bandwidth": 80.0}
+    estimator_bandwidths: ClassVar[tuple[str, ...]] = ("bandwidth",)
+
+class TinyGain(GeometricController):
+    tunable_gains: ClassVar[dict[str, float]] = {"leak": 2e-7}
+''')
+    sys.path.insert(0, str(packages))
+    try:
+        with pytest.raises(ValueError, match=r"starts estimator bandwidth 'bandwidth' at 80 "
+                                             r"rad/s, above the cap of 40"):
+            tune.start_gains("py:declared:FastFilter")
+        assert tune.start_gains("py:declared:TinyGain") == {"leak": 2e-7}
+        assert tune.searched_gains("py:declared:TinyGain") == ("leak",)
+        assert [tune._rounded(2e-7 * f) for f in tune.FACTORS] == [1e-7, 1.4e-7, 2.8e-7, 4e-7]
+    finally:
+        sys.path.remove(str(packages))
+        sys.modules.pop("declared", None)

@@ -71,6 +71,9 @@ def _evaluate(args: argparse.Namespace) -> int:
 
     if not args.json:
         _writable_folder(args.out, "--out")
+    elif args.merge:
+        raise ValueError("--merge writes leaderboard-merged.md into --out, and --json writes "
+                         "nothing: drop one (quad-dob leaderboard merges files alone)")
     options = _key_values(args.scenario_option or [], "--scenario-option")
     if args.benchmark is not None and options.get("benchmark", args.benchmark) != args.benchmark:
         raise ValueError(f"--benchmark {args.benchmark} and --scenario-option "

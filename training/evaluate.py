@@ -138,7 +138,8 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
             row = _row(scenario_name, policy.name, seeds, metrics[spec], baseline, reference)
             row["distinct_flights"] = distinct[spec]
             row["gains"] = _gains_used(policy, scenario)
-            row.update(policy_spec=spec, benchmark=scenario.benchmark,
+            row.update(policy_spec=spec, policy_fingerprint=policy.fingerprint or "",
+                       benchmark=scenario.benchmark,
                        vehicle=scenario.vehicle.name,
                        sensing=getattr(scenario.sensing, "name", None) or "ideal",
                        env_entry_point=("quad_dob_composition:ResidualVectorEnv"

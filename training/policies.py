@@ -55,6 +55,7 @@ from quad_dob_training.model_files import (
     SHIPPED_RESIDUAL_CONFIG_SHA256,
     SHIPPED_RESIDUAL_SHA256,
     load_model,
+    sha256,
 )
 from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memory
 
@@ -72,6 +73,9 @@ class Policy:
     # the benchmark whose gains a residual model's base was trained with (None: the
     # scenario's own, for a controller flown alone)
     base_benchmark: str | None = None
+    # sha256 of what a result names beyond the project's own code: the model file, or a
+    # py: controller's module (None: a built-in controller, named by the project version)
+    fingerprint: str | None = None
 
     def act(self, observations: NDArray[np.float32]) -> NDArray:
         """Deterministic actions for (N, obs) observations, normalised as in training."""
@@ -102,13 +106,14 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
     policy is always loaded checked and without unpickling."""
     kind, _, path = spec.partition(":")
     if is_controller_name(spec):
-        user_controller(spec)  # a py: module that does not import fails here, named
-        return Policy(spec, base=spec)
+        user = user_controller(spec)  # a py: module that does not import fails here, named
+        return Policy(spec, base=spec, fingerprint=None if user is None else
+                      _source_sha256(user[1]))
     if kind == "residual" and not path:
         model, config = load_model(SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256,
                                    expected_config_sha256=SHIPPED_RESIDUAL_CONFIG_SHA256)
         return Policy("residual", config["base_controller"], model, config,
-                      trained_benchmark(config))
+                      trained_benchmark(config), SHIPPED_RESIDUAL_SHA256)
     if (kind in ALGORITHMS or kind == "residual") and path:
         model, config = load_model(path, trust_pickle=trust_pickle)
         mode, algo = config.get("mode"), config.get("algo", "ppo")
@@ -119,11 +124,24 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
             raise ValueError(f"{spec!r}: the model at {path} was trained with {algo} (its "
                              f"config says so), not {kind}: name it {algo}:{path}")
         base = config.get("base_controller") if mode == "residual" else None
+        zip_path = Path(path) / "model.zip" if Path(path).is_dir() else Path(path)
         return Policy(f"{kind}:{_short_name(Path(path))}", base, model, config,
-                      trained_benchmark(config) if base is not None else None)
+                      trained_benchmark(config) if base is not None else None,
+                      sha256(zip_path))
     raise unknown_name_error("policy", spec, [
         *controller_names(), "py:package.module:Name",
         *(f"{algo}:PATH" for algo in ALGORITHMS), "residual", "residual:PATH"])
+
+
+def _source_sha256(found: object) -> str | None:
+    """sha256 of the file a user's controller is defined in (None if it has none)."""
+    import inspect
+
+    try:
+        source = inspect.getsourcefile(found)
+    except TypeError:
+        return None
+    return sha256(Path(source)) if source else None
 
 
 def trained_benchmark(config: dict) -> str:

@@ -10,11 +10,13 @@ library versions it ran on. ``schemas/evaluation.schema.json`` is its JSON Schem
 named with the field that is wrong.
 
 ``merged_leaderboard`` puts the rows of files from different users and machines side by
-side, one table per benchmark version: rows of v1 and v2 are never compared, since the same
-scenario name flies a different loop in each. Where two files hold the same policy on the
-same scenario, benchmark and seeds, the table says whether their 95 % intervals of the RMS
-position error overlap: scores from two machines should agree within their intervals,
-though not bit for bit.
+side, one section per benchmark version and one table per flown configuration (scenario,
+vehicle, sensing preset and scenario options): rows of v1 and v2, or of a scenario flown
+with other options, are never ranked together, since the same scenario name then flies a
+different loop. Where two files hold the same policy (the same spec and fingerprint: a
+model file's or a ``py:`` module's sha256) on the same configuration, seeds and project
+version, the table says whether their 95 % intervals of the RMS position error overlap:
+scores from two machines should agree within their intervals, though not bit for bit.
 """
 
 from __future__ import annotations
@@ -31,8 +33,8 @@ SCHEMA_NAME = "quad_dob_env.evaluation"
 SCHEMA_VERSION = 1
 SCHEMA_PATH = Path(__file__).parent / "schemas" / "evaluation.schema.json"
 # the per-row columns the provenance takes out of the flat row
-PROVENANCE_KEYS = ("policy_spec", "benchmark", "vehicle", "sensing", "env_entry_point",
-                   "env_id")
+PROVENANCE_KEYS = ("policy_spec", "policy_fingerprint", "benchmark", "vehicle", "sensing",
+                   "env_entry_point", "env_id")
 
 
 def machine() -> dict[str, str]:
@@ -59,6 +61,7 @@ def results_document(rows: list[dict], seeds: list[int], scenario_options: dict[
         documented.append({**scores, "provenance": {
             "project_version": __version__,
             "policy_spec": row["policy_spec"],
+            "policy_fingerprint": row.get("policy_fingerprint") or None,
             "scenario": row["scenario"],
             "scenario_options": {k: _plain(v) for k, v in scenario_options.items()},
             "benchmark": row["benchmark"], "vehicle": row["vehicle"],
@@ -107,6 +110,19 @@ def validate(document: Any, source: str) -> None:
         where = "/".join(str(part) for part in error.absolute_path) or "the top level"
         raise ValueError(f"{source} is not a valid {SCHEMA_NAME} file: at {where}: "
                          f"{error.message}")
+    for index, row in enumerate(document["rows"]):  # what one field's schema cannot say
+        key = "rms_position_settled"
+        broken = (f"{row['crashes']} crashes of {row['flights']} flights"
+                  if row["crashes"] > row["flights"] else
+                  f"its interval [{row[f'{key}_low']}, {row[f'{key}_high']}] does not hold its "
+                  f"mean {row[f'{key}_mean']}"
+                  if not row[f"{key}_low"] <= row[f"{key}_mean"] <= row[f"{key}_high"] else
+                  f"scenario {row['scenario']!r} but provenance.scenario "
+                  f"{row['provenance']['scenario']!r}"
+                  if row["scenario"] != row["provenance"]["scenario"] else None)
+        if broken:
+            raise ValueError(f"{source} is not a valid {SCHEMA_NAME} file: at rows/{index}: "
+                             f"{broken}")
 
 
 def read_document(path: Path) -> dict[str, Any]:
@@ -120,34 +136,55 @@ def read_document(path: Path) -> dict[str, Any]:
     return document
 
 
+def configuration(row: dict) -> tuple[str, str, str, str]:
+    """What a row's score depends on besides the policy and seeds: scenario, vehicle,
+    sensing preset and the scenario options (the benchmark version apart)."""
+    provenance = row["provenance"]
+    options = {k: v for k, v in provenance["scenario_options"].items() if k != "benchmark"}
+    return (provenance["scenario"], provenance["vehicle"], provenance["sensing"],
+            json.dumps(options, sort_keys=True))
+
+
 def merged_leaderboard(sources: list[tuple[str, dict[str, Any]]]) -> str:
-    """Markdown: per benchmark version, per scenario, every (source, row) sorted by RMS
-    position error, with the seeds, the crash rate, the project version and the machine; a
-    policy flown on the same scenario and seeds in two sources is marked with whether the
-    sources agree (95 % intervals overlap)."""
-    entries = [(label, document, row) for label, document in sources
+    """Markdown: per benchmark version, per configuration (``configuration``), every
+    (source, row) sorted by RMS position error, with the seeds, the crash rate, the project
+    version and the machine; the same policy flown on the same configuration, seeds and
+    project version in two sources is marked with whether they agree (95 % intervals
+    overlap)."""
+    entries = [(_cell(label), document, row) for label, document in sources
                for row in document["rows"]]
     lines: list[str] = []
     for benchmark in sorted({row["provenance"]["benchmark"] for _, _, row in entries}):
         mine = [e for e in entries if e[2]["provenance"]["benchmark"] == benchmark]
-        lines += [f"## Benchmark {benchmark}", "",
-                  "| scenario | policy | source | seeds | RMS ‖e_x‖ [m] (95 % CI) | crashed | "
-                  "project | machine | across sources |", "|" + "---|" * 9]
-        for scenario in dict.fromkeys(e[2]["scenario"] for e in mine):
-            rows = sorted((e for e in mine if e[2]["scenario"] == scenario),
+        lines += [f"## Benchmark {benchmark}", ""]
+        for flown in dict.fromkeys(configuration(e[2]) for e in mine):
+            scenario, vehicle, sensing, options = flown
+            lines += [f"### {_cell(scenario)}: vehicle {_cell(vehicle)}, sensing "
+                      f"{_cell(sensing)}" + ("" if options == "{}" else
+                                             f", options {_cell(options)}"), "",
+                      "| policy | source | seeds | RMS ‖e_x‖ [m] (95 % CI) | crashed | "
+                      "project | machine | across sources |", "|" + "---|" * 8]
+            rows = sorted((e for e in mine if configuration(e[2]) == flown),
                           key=lambda e: e[2]["rms_position_settled_mean"])
             for label, document, row in rows:
                 seeds = row["provenance"]["seeds"]
                 lines.append(
-                    f"| {scenario} | {row['policy']} | {label} | {_seed_text(seeds)} | "
+                    f"| {_cell(row['policy'])} | {label} | {_seed_text(seeds)} | "
                     f"{row['rms_position_settled_mean']:.4f} "
                     f"[{row['rms_position_settled_low']:.4f}, "
                     f"{row['rms_position_settled_high']:.4f}] | "
-                    f"{row['crashes']}/{row['flights']} | {document['project']['version']} | "
-                    f"{document['machine']['processor']}, numpy "
-                    f"{document['machine']['numpy']} | {_agreement(row, label, rows)} |")
-        lines.append("")
+                    f"{row['crashes']}/{row['flights']} | "
+                    f"{_cell(document['project']['version'])} | "
+                    f"{_cell(document['machine']['processor'])}, numpy "
+                    f"{_cell(document['machine']['numpy'])} | "
+                    f"{_agreement(row, label, document, rows)} |")
+            lines.append("")
     return "\n".join(lines).rstrip() + "\n"
+
+
+def _cell(text: object) -> str:
+    """Text for a Markdown table cell from another user's file: one line, pipes escaped."""
+    return " ".join(str(text).split()).replace("|", "\\|")
 
 
 def _seed_text(seeds: list[int]) -> str:
@@ -156,15 +193,21 @@ def _seed_text(seeds: list[int]) -> str:
     return f"{len(seeds)} seeds"
 
 
-def _agreement(row: dict, label: str, rows: list[tuple[str, dict, dict]]) -> str:
-    """Against the same policy spec and seeds in the other sources: "agrees with B" when
-    the two 95 % intervals overlap, "differs from B" when not; "—" when no other source
-    flew it."""
-    key = (row["provenance"]["policy_spec"], tuple(row["provenance"]["seeds"]))
+def _same_run(row: dict, document: dict) -> tuple:
+    provenance = row["provenance"]
+    return (provenance["policy_spec"], provenance.get("policy_fingerprint"),
+            tuple(provenance["seeds"]), document["project"]["version"])
+
+
+def _agreement(row: dict, label: str, document: dict,
+               rows: list[tuple[str, dict, dict]]) -> str:
+    """Against the same policy (spec and fingerprint), seeds and project version in the
+    other sources: "agrees with B" when the two 95 % intervals overlap, "differs from B"
+    when not; "—" when no other source flew it."""
+    key = _same_run(row, document)
     verdicts = []
-    for other_label, _, other in rows:
-        if other_label == label or (other["provenance"]["policy_spec"],
-                                    tuple(other["provenance"]["seeds"])) != key:
+    for other_label, other_document, other in rows:
+        if other_label == label or _same_run(other, other_document) != key:
             continue
         overlap = (row["rms_position_settled_low"] <= other["rms_position_settled_high"]
                    and other["rms_position_settled_low"] <= row["rms_position_settled_high"])
@@ -175,6 +218,11 @@ def _agreement(row: dict, label: str, rows: list[tuple[str, dict, dict]]) -> str
 def source_labels(paths: list[Path]) -> list[str]:
     """Short, distinct labels for merged files: the file's folder name (``results/alice/
     evaluation.json`` -> ``alice``), the whole path where two would be the same."""
+    resolved = [Path(path).resolve() for path in paths]
+    twice = [str(path) for path, where in zip(paths, resolved, strict=True)
+             if resolved.count(where) > 1]
+    if twice:
+        raise ValueError(f"{twice[0]} is given twice: a leaderboard merges each file once")
     labels = [Path(path).parent.name or Path(path).stem for path in paths]
     return [label if labels.count(label) == 1 else str(path)
             for label, path in zip(labels, paths, strict=True)]

@@ -152,13 +152,17 @@ START_V2 = {"geometric-ndob:tuned": dict(TUNED_OBSERVER_RATES)}
 
 
 def declared(controller: str) -> tuple[dict[str, float], tuple[str, ...]] | None:
-    """A user controller's ``tunable_gains`` and ``estimator_bandwidths``
-    (``quad_dob_baselines.plugins``); None for a built-in one. One that declares no gains
-    cannot be tuned, and is told how to declare them."""
+    """A user controller's ``tunable_gains`` and ``estimator_bandwidths`` (``plugins``),
+    checked for tuning; None for a built-in one."""
     user = user_controller(controller)
     if user is None:
         return None
     gains, bandwidths = plugins.declared_gains(user[1], controller)
+    above = [name for name in bandwidths if gains[name] > BANDWIDTH_CAP]
+    if above:
+        raise ValueError(f"quad-dob tune: {controller!r} starts estimator bandwidth "
+                         f"{above[0]!r} at {gains[above[0]]:g} rad/s, above the cap of "
+                         f"{BANDWIDTH_CAP:g} every estimator is tuned under")
     if not gains:
         raise ValueError(f"quad-dob tune: {controller!r} declares no tunable_gains; give its "
                          "class (or function) a tunable_gains = {'gain': default, ...} "
@@ -291,7 +295,7 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
         for name in searched:
             start = gains[name]
             for factor in FACTORS:
-                candidate = {**gains, name: round(start * factor, 6)}
+                candidate = {**gains, name: _rounded(start * factor)}
                 if name in caps and candidate[name] > caps[name]:
                     continue  # v1's cap: a tenth of the sampling rate
                 value = trial(candidate, best)
@@ -305,6 +309,11 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
         log(f"{controller}: no admissible set found; the best loses {best[0]} flights under "
             f"the margin")
     return gains, history
+
+
+def _rounded(value: float) -> float:
+    """6 decimals, or 6 significant digits below 1e-3 (else a small gain rounds to 0)."""
+    return round(value, 6) if abs(value) >= 1e-3 else float(f"{value:.6g}")
 
 
 def _wins(value: tuple[int, float], best: tuple[int, float], is_rate: bool,
