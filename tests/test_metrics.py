@@ -98,3 +98,66 @@ def test_evaluation_rows_carry_intervals_and_paired_differences():
     assert plain["rms_position_settled_diff_low"] > 0
     table = markdown_table(rows)
     assert "Δ RMS ‖e_x‖ vs geometric-ndob:tuned" in table and "RMS tilt" in table
+
+
+def test_the_command_rate_of_a_sinusoidal_rotor_dither_is_its_discrete_derivatives_rms():
+    """f_i = c + a sin(ω t + φ_i) sampled every dt: each difference is
+    2 a sin(ω dt / 2) cos(...), so over whole periods the RMS rate is √2 a sin(ω dt/2) / dt
+    (a ω / √2 as dt → 0): the metric is the RMS of the rotor commands' rate, every rotor
+    alike, over the settled steps only."""
+    from dataclasses import replace
+
+    from quad_dob_env import make_scenario
+    from quad_dob_training.metrics import flight_metrics
+    from quad_dob_training.policies import Policy, fly_policy
+
+    (flight,) = fly_policy(Policy("pid", "pid"), make_scenario("hover-calm"), [0])
+    dt, amplitude, omega = flight.dt, 0.3, 2 * np.pi * 4.0  # 4 Hz, 100 steps a second
+    time = flight.time
+    dither = 2.0 + amplitude * np.sin(omega * time[:, None] + np.arange(4) * 0.7)
+    dither[time < flight.settle_time] += 50.0 * time[time < flight.settle_time, None]  # unseen
+    rated = replace(flight, requested_rotor_thrusts=dither)
+    expected = np.sqrt(2) * amplitude * np.sin(omega * dt / 2) / dt
+    assert flight_metrics(rated)["rms_command_rate"] == pytest.approx(expected, rel=2e-3)
+    assert flight_metrics(replace(flight, actuation="wrench"))["rms_command_rate"] is None
+    # the requested rotor thrusts are the command flown, through the allocation: their
+    # collective is the requested thrust, and once settled (v1: no motor lag, nothing
+    # saturated) their moment is the moment the core applied
+    vehicle = make_scenario("hover-calm").vehicle
+    wrench = flight.requested_rotor_thrusts @ vehicle.allocation_matrix.T
+    np.testing.assert_allclose(wrench[:, 0], flight.requested_thrust, rtol=1e-12)
+    settled = time >= flight.settle_time
+    np.testing.assert_allclose(wrench[settled, 1:], flight.applied_moment[settled], atol=1e-9)
+
+
+def test_a_residuals_command_rate_counts_its_own_dither():
+    """A residual that alternates its thrust command each step: the command rate reported
+    for it is the alternation's, far above its base's (the base alone does not dither)."""
+    from quad_dob_composition import make_vector_env
+    from quad_dob_env import make_scenario
+    from quad_dob_training.metrics import flight_metrics
+    from quad_dob_training.policies import Policy, fly_policy
+
+    class Alternating:
+        def __init__(self, env):
+            self.observation_space = env.single_observation_space
+            self.action_space = env.single_action_space
+            self.sign = 1.0
+
+        def predict(self, observations, deterministic=True):
+            self.sign = -self.sign
+            actions = np.zeros((len(observations), 4))
+            actions[:, 0] = 0.5 * self.sign
+            return actions, None
+
+    scenario = make_scenario("hover-calm")
+    base = fly_policy(Policy("base", "geometric-ndob:tuned"), scenario, [0])[0]
+    env = make_vector_env(1, scenario, base_controller="geometric-ndob:tuned")
+    thrust_range = env.residual.residual_range[0]
+    dithered = Policy("dither", "geometric-ndob:tuned", Alternating(env),
+                      {"env_kwargs": {}})
+    flight = fly_policy(dithered, scenario, [0])[0]
+    rate, base_rate = (flight_metrics(f)["rms_command_rate"] for f in (flight, base))
+    # each step the collective flips by 2 · 0.5 · range: a quarter of it on each rotor
+    expected = 2 * 0.5 * thrust_range / 4 / scenario.dt
+    assert rate == pytest.approx(expected, rel=0.05) and base_rate < 0.05 * rate

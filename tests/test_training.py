@@ -220,3 +220,11 @@ def test_evaluation_rows_score_the_weights_of_their_own_timesteps_and_never_repe
     flights = fly_policy(final, make_scenario("hover-calm"), EVAL_SEEDS)
     scored = float(np.mean([flight_metrics(f)["rms_position_settled"] for f in flights]))
     assert float(rows[-1]["rms_position"]) == pytest.approx(scored, rel=1e-12)
+
+
+def test_residual_v1_names_the_shipped_v1_policy_so_v1_tables_keep_reproducing():
+    shipped, pinned = make_policy("residual"), make_policy("residual:v1")
+    assert pinned.name == "residual:v1" and pinned.base == shipped.base
+    assert pinned.fingerprint == shipped.fingerprint and pinned.base_benchmark == "v1"
+    first, second = shipped.model.policy.state_dict(), pinned.model.policy.state_dict()
+    assert all(np.array_equal(first[key].numpy(), second[key].numpy()) for key in first)

@@ -30,6 +30,7 @@ from quad_dob_env import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.margins import check_grid, delay_margin
 from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.plots import evaluation_bars
 from quad_dob_training.policies import fly_policy, make_policy
 from quad_dob_training.report import write_report
 from quad_dob_training.results import (
@@ -187,6 +188,12 @@ def _row(scenario: str, policy: str, seeds: list[int], metrics: list[dict],
     for key in ESTIMATOR_SCORES:
         values = np.array([m.get(key, np.nan) for m in metrics], dtype=float)
         row[f"{key}_mean"] = float(values.mean())
+    # the rotor command's RMS rate [N/s] (metrics._command_rate); none under wrench actuation
+    rates = [m["rms_command_rate"] for m in metrics]
+    if all(rate is not None for rate in rates):
+        interval = bootstrap_mean(np.array(rates, dtype=float))
+        row["rms_command_rate_mean"] = interval.mean
+        row["rms_command_rate_low"], row["rms_command_rate_high"] = interval.low, interval.high
     crashes = bootstrap_mean(np.array([m["crashed"] for m in metrics], dtype=float))
     row["crash_rate"] = row["crash_rate_mean"] = crashes.mean
     row["crash_rate_low"], row["crash_rate_high"] = crashes.low, crashes.high
@@ -209,7 +216,7 @@ def write_tables(rows: list[dict], out: Path) -> None:
         writer.writeheader()
         writer.writerows(rows)
     (out / "evaluation.md").write_text(markdown_table(rows) + "\n")
-    _bar_plot(rows, out / "evaluation.png")
+    evaluation_bars(rows, out / "evaluation.png")
 
 
 def markdown_table(rows: list[dict]) -> str:
@@ -219,7 +226,8 @@ def markdown_table(rows: list[dict]) -> str:
     row whose seeds fly one distinct flight says so instead of a zero-width spread."""
     baseline = rows[0].get("baseline") if rows else ""
     margins = any("delay_margin_text" in row for row in rows)
-    header = ["scenario", "policy", *(label for _, label in SCORES), "crashed",
+    header = ["scenario", "policy", *(label for _, label in SCORES), "command rate [N/s]",
+              "crashed",
               "distinct flights", "estimate RMS ‖x̂-x‖ [m], ∠(R̂, R) [rad]"]
     if margins:
         header.append("delay margin")
@@ -231,7 +239,9 @@ def markdown_table(rows: list[dict]) -> str:
         scores = [f"{row[f'{key}_mean']:.4f}" + (" (one flight)" if single else
                                                   f" ± {row[f'{key}_std']:.4f}")
                   for key, _ in SCORES]
-        cells = [row["scenario"], row["policy"], *scores, f"{row['crashes']}/{row['flights']}",
+        rate = row.get("rms_command_rate_mean")
+        cells = [row["scenario"], row["policy"], *scores,
+                 "—" if rate is None else f"{rate:.1f}", f"{row['crashes']}/{row['flights']}",
                  str(row.get("distinct_flights", "")),
                  f"{row.get('rms_estimate_position_settled_mean', 0.0):.4f}, "
                  f"{row.get('rms_estimate_attitude_settled_mean', 0.0):.4f}"]
@@ -304,31 +314,6 @@ def _difference_cell(row: dict, baseline: str) -> str:
     mark = "" if (row[f"{key}_diff_low"] > 0 or row[f"{key}_diff_high"] < 0) else " (n.s.)"
     return (f"{relative:+.0%}: {row[f'{key}_diff_mean']:+.4f} "
             f"[{row[f'{key}_diff_low']:+.4f}, {row[f'{key}_diff_high']:+.4f}]{mark}")
-
-
-def _bar_plot(rows: list[dict], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    scenarios = list(dict.fromkeys(row["scenario"] for row in rows))
-    policies = list(dict.fromkeys(row["policy"] for row in rows))
-    figure, axis = plt.subplots(figsize=(1.6 + 1.4 * len(scenarios) * len(policies) / 2, 3.6))
-    width = 0.8 / len(policies)
-    for j, policy in enumerate(policies):
-        mine = {row["scenario"]: row for row in rows if row["policy"] == policy}
-        x = np.arange(len(scenarios)) + (j - (len(policies) - 1) / 2) * width
-        means = np.array([mine[s]["rms_position_settled_mean"] for s in scenarios])
-        intervals = np.array([[mine[s]["rms_position_settled_low"],
-                               mine[s]["rms_position_settled_high"]] for s in scenarios])
-        axis.bar(x, means, width, yerr=np.abs(intervals.T - means), capsize=3, label=policy)
-    axis.set_xticks(np.arange(len(scenarios)), scenarios)
-    axis.set_ylabel("RMS position error, t ≥ 2 s [m]\n(mean, 95 % CI over seeds)")
-    axis.legend(fontsize=8)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
 
 
 def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,

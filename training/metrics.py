@@ -45,6 +45,18 @@ def _rms(values: NDArray, axis: int = 0) -> NDArray:
     return np.sqrt(np.mean(np.square(values), axis=axis))
 
 
+def _command_rate(flight: Flight, settled: NDArray) -> float | None:
+    """RMS rate of change of the commanded rotor thrusts [N/s] over the settled steps, every
+    rotor alike: sqrt(mean((Δf_i / dt)²)); None for a wrench-actuated flight (no rotor is
+    commanded) or one of a single step. A dither of amplitude a at frequency ω adds about
+    a ω / √2 per rotor: the figure that shows a policy buying precision with chatter."""
+    if flight.actuation != "rotors" or len(flight.time) < 2:
+        return None
+    rates = np.diff(flight.requested_rotor_thrusts, axis=0) / flight.dt
+    settled_rates = rates[settled[1:] & settled[:-1]]  # both ends settled
+    return float(np.sqrt(np.mean(np.square(settled_rates)))) if len(settled_rates) else None
+
+
 def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
     """RMS position error (norm and per axis), RMS attitude errors (geodesic, tilt, heading;
     roll, pitch, yaw for the paper's table), the same after the scenario's settle time (2 s
@@ -81,6 +93,7 @@ def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
         # None (shown as "—") for controllers that estimate nothing
         "final_estimate_error": float(estimate_error[-1]) if has_observer else None,
         "peak_thrust": float(flight.requested_thrust.max()),
+        "rms_command_rate": _command_rate(flight, settled),
         # control effort: RMS of the applied collective thrust and moment norm
         "rms_thrust": float(_rms(flight.applied_thrust)),
         "rms_moment": (float(_rms(np.linalg.norm(flight.applied_moment, axis=1)))

@@ -105,3 +105,25 @@ def scenario_figures(flights: list[Flight], out_dir: Path) -> list[Path]:
     ax.legend(fontsize=6, ncol=2)
     written.append(_save(fig, out_dir / f"{scenario}_thrust.png"))
     return written
+
+
+def evaluation_bars(rows: list[dict], path: Path) -> None:
+    """``quad-dob evaluate``'s bars: each policy's RMS position error per scenario with its
+    95 % interval."""
+    scenarios = list(dict.fromkeys(row["scenario"] for row in rows))
+    policies = list(dict.fromkeys(row["policy"] for row in rows))
+    figure, axis = plt.subplots(figsize=(1.6 + 1.4 * len(scenarios) * len(policies) / 2, 3.6))
+    width = 0.8 / len(policies)
+    for j, policy in enumerate(policies):
+        mine = {row["scenario"]: row for row in rows if row["policy"] == policy}
+        x = np.arange(len(scenarios)) + (j - (len(policies) - 1) / 2) * width
+        means = np.array([mine[s]["rms_position_settled_mean"] for s in scenarios])
+        intervals = np.array([[mine[s]["rms_position_settled_low"],
+                               mine[s]["rms_position_settled_high"]] for s in scenarios])
+        axis.bar(x, means, width, yerr=np.abs(intervals.T - means), capsize=3, label=policy)
+    axis.set_xticks(np.arange(len(scenarios)), scenarios)
+    axis.set_ylabel("RMS position error, t ≥ 2 s [m]\n(mean, 95 % CI over seeds)")
+    axis.legend(fontsize=8)
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)

@@ -9,6 +9,7 @@ A policy is what ``quad-dob evaluate --policies`` names:
 | ``ppo:PATH``        | a PPO model from ``quad-dob train``, direct or residual as its   |
 |                     | config says; ``sac:PATH``, ``td3:PATH`` the same for SAC, TD3    |
 | ``residual``        | the shipped residual policy (``training/pretrained``) on its base|
+| ``residual:v1``     | the same policy, by the benchmark it was trained in              |
 | ``residual:PATH``   | a residual model from ``quad-dob train --mode residual``         |
 
 The shipped policy's zip and its config (base controller, env options, observation
@@ -109,10 +110,12 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
         user = user_controller(spec)  # a py: module that does not import fails here, named
         return Policy(spec, base=spec, fingerprint=None if user is None else
                       _source_sha256(user[1]))
-    if kind == "residual" and not path:
+    if kind == "residual" and path in ("", "v1"):
+        # the shipped policy, trained in v1's loop; residual:v1 keeps naming it once a
+        # policy trained in v2's loop ships as residual
         model, config = load_model(SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256,
                                    expected_config_sha256=SHIPPED_RESIDUAL_CONFIG_SHA256)
-        return Policy("residual", config["base_controller"], model, config,
+        return Policy(spec, config["base_controller"], model, config,
                       trained_benchmark(config), SHIPPED_RESIDUAL_SHA256)
     if (kind in ALGORITHMS or kind == "residual") and path:
         model, config = load_model(path, trust_pickle=trust_pickle)
@@ -130,7 +133,7 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
                       sha256(zip_path))
     raise unknown_name_error("policy", spec, [
         *controller_names(), "py:package.module:Name",
-        *(f"{algo}:PATH" for algo in ALGORITHMS), "residual", "residual:PATH"])
+        *(f"{algo}:PATH" for algo in ALGORITHMS), "residual", "residual:v1", "residual:PATH"])
 
 
 def _source_sha256(found: object) -> str | None:
@@ -194,19 +197,23 @@ def fly_policy(policy: Policy, scenario: Scenario, seeds: list[int]) -> list[Fli
         actions = np.zeros((n, 4)) if policy.model is None else policy.act(obs)
         state, reference = core.state.copy(), core.reference
         measured = core.measurement.estimate.copy()  # what the policy flies on, before it
+        # the base moment this step's command adds to (the plan overwrites it in the step)
+        planned = None if residual is None or planned_in_step else residual.base_moment.copy()
         if not planned_in_step:
             desired, estimates = _diagnostics(core, residual, zeros)
         obs, _, terminated, truncated, _ = env.step(actions)
         if planned_in_step:
             desired, estimates = _diagnostics(core, residual, zeros)
-        requested = (residual.requested_thrust if residual is not None
-                     else core.action_map.to_command(actions)[0])
+        requested, requested_moment = (residual.requested_command(planned)
+                                       if residual is not None
+                                       else core.action_map.to_command(actions))
         if not recorder.add(
                 state, terminated | truncated, core.termination_reason,
                 time=core.time - scenario.dt, reference_position=reference.position,
                 reference_velocity=reference.velocity,
                 reference_acceleration=reference.acceleration, desired_rotation=desired,
-                requested_thrust=requested, applied_thrust=core.applied.thrust,
+                requested_thrust=requested, requested_moment=requested_moment,
+                applied_thrust=core.applied.thrust,
                 applied_moment=core.applied.moment, disturbance_force=core.disturbance_force,
                 disturbance_torque=core.disturbance_torque, force_estimate=estimates[0],
                 torque_estimate=estimates[1], estimated_position=measured.position,

@@ -42,6 +42,9 @@ class Flight:
     reference_acceleration: NDArray
     desired_rotation: NDArray
     requested_thrust: NDArray
+    # the four rotor thrusts the command asked for, before the actuators' limits [N]: the
+    # allocation's inverse of the requested thrust and moment (T, 4)
+    requested_rotor_thrusts: NDArray
     applied_thrust: NDArray
     disturbance_force: NDArray
     disturbance_torque: NDArray
@@ -55,19 +58,21 @@ class Flight:
     estimated_rotation: NDArray | None = None
     extra: dict = field(default_factory=dict)
     settle_time: float = 2.0  # [s] the scenario's: the settled scores skip t < this
+    actuation: str = "rotors"  # the scenario's: "wrench" flies no rotor command
 
 
 # what FlightRecorder keeps each step, field by field: values per vehicle and step
 RECORDED_WIDTHS = {"time": 1, "position": 3, "velocity": 3, "acceleration": 3, "rotation": 9,
                    "reference_position": 3, "reference_velocity": 3,
                    "reference_acceleration": 3, "desired_rotation": 9, "requested_thrust": 1,
-                   "applied_thrust": 1, "disturbance_force": 3, "disturbance_torque": 3,
+                   "requested_rotor_thrusts": 4, "applied_thrust": 1, "disturbance_force": 3,
+                   "disturbance_torque": 3,
                    "force_estimate": 3, "torque_estimate": 3, "applied_moment": 3,
                    "estimated_position": 3, "estimated_velocity": 3, "estimated_rotation": 9}
 _RECORDED = tuple(RECORDED_WIDTHS)
 # The bytes one vehicle's step costs: each field is its own small array in a list (an
 # ndarray's header, 112 B measured with tracemalloc, rounded up; the list's slot), and
-# flights() stacks a copy of the data before the lists go: 3,688 B.
+# flights() stacks a copy of the data before the lists go: 3,888 B.
 ARRAY_BYTES = 128
 RECORD_BYTES_PER_STEP = sum(ARRAY_BYTES + 8 + 2 * 8 * width
                             for width in RECORDED_WIDTHS.values())
@@ -94,9 +99,10 @@ class FlightRecorder:
         self._gravity = np.array([0.0, 0.0, vehicle.gravity])
 
     def add(self, state: VehicleState, ended: NDArray[np.bool_], reason: Callable[[int], str],
-            **record: NDArray) -> bool:
+            requested_moment: NDArray, **record: NDArray) -> bool:
         """Keep one step of the vehicles still flying (``record``: the other ``_RECORDED``
-        fields, (N, ...) each; the ``estimated_`` ones default to the true state);
+        fields, (N, ...) each; the ``estimated_`` ones default to the true state;
+        ``requested_moment`` with ``requested_thrust`` gives the rotor command);
         ``ended`` marks whose episode this step ended, and ``reason(i)`` says why. Returns
         whether any vehicle still flies."""
         for name in ("position", "velocity", "rotation"):
@@ -107,6 +113,8 @@ class FlightRecorder:
             - self._gravity
         record.update(position=state.position, velocity=state.velocity,
                       rotation=state.rotation)
+        wrench = np.column_stack([record["requested_thrust"], requested_moment])
+        record["requested_rotor_thrusts"] = wrench @ self.vehicle.mixer_matrix.T
         for i in np.flatnonzero(self.flying):
             for key in _RECORDED:
                 self.rows[i][key].append(np.array(record[key][i], copy=True))
@@ -120,7 +128,8 @@ class FlightRecorder:
         return [Flight(scenario=scenario.name, controller=controller, dt=dt,
                        thrust_limit=self.vehicle.max_total_thrust,
                        **{key: np.array(values) for key, values in row.items()},
-                       termination_reason=reason, settle_time=scenario.settle_time)
+                       termination_reason=reason, settle_time=scenario.settle_time,
+                       actuation=scenario.actuation)
                 for scenario, row, reason in zip(scenarios, self.rows, self.reasons,
                                                  strict=True)]
 
@@ -199,7 +208,8 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
                 reference_velocity=reference.velocity,
                 reference_acceleration=reference.acceleration,
                 desired_rotation=diagnostics["desired_rotation"], requested_thrust=thrust,
-                applied_thrust=applied_thrust, applied_moment=applied_moment,
+                requested_moment=moment, applied_thrust=applied_thrust,
+                applied_moment=applied_moment,
                 disturbance_force=np.concatenate([core.disturbance_force for core in cores]),
                 disturbance_torque=np.concatenate([core.disturbance_torque for core in cores]),
                 force_estimate=diagnostics.get("force_estimate", zeros),

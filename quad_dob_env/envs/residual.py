@@ -311,10 +311,13 @@ class ResidualCommand:
             core.reference_row, core.action_map.inverse, self._base_action, self._body_errors,
             self.extra_observation)
 
-    def requested_command(self) -> tuple[NDArray, NDArray]:
+    def requested_command(self, base_moment: NDArray | None = None
+                          ) -> tuple[NDArray, NDArray]:
         """The thrust (N,) and moments (N, 3) of the last ``command``, base plus residual,
-        before the actuators' limits."""
-        moment = self.base_moment.copy()
+        before the actuators' limits. ``base_moment``: the base's moment that command
+        added to (after a step the plan holds the next step's base; the acceleration
+        mode's base runs within the step, so it is the one held)."""
+        moment = (self.base_moment if base_moment is None else base_moment).copy()
         moment[:, 2] += self._residual[:, 3] * self.residual_range[3]
         if self.residual_mode == "thrust_moments":
             moment[:, :2] += self._residual[:, 1:3] * self.residual_range[1:3]
