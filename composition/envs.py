@@ -20,7 +20,8 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
                       moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
                       authority_gate: float | None = None,
                       residual_mode: str = "thrust_moments", acceleration_scale: float = 3.0,
-                      vertical_floor: float = 0.5, **env_kwargs: Any) -> ResidualActionWrapper:
+                      vertical_floor: float = 0.5, residual_rate_weight: float = 0.0,
+                      **env_kwargs: Any) -> ResidualActionWrapper:
     """``ResidualActionWrapper(QuadrotorEnv(**env_kwargs))`` flown by ``base_controller``
     (a name or a controller), the env's own effort term off."""
     env_kwargs.setdefault("reward_effort_weight", 0.0)
@@ -29,7 +30,8 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
     base = make_base(base_controller, core.vehicle, core.scenario.benchmark)
     return ResidualActionWrapper(env, base, thrust_scale, moment_scale, residual_effort_weight,
                                  authority_gate, residual_mode, acceleration_scale,
-                                 vertical_floor, attitude_loop=AttitudeLoop.install)
+                                 vertical_floor, attitude_loop=AttitudeLoop.install,
+                                 residual_rate_weight=residual_rate_weight)
 
 
 class ResidualVectorEnv(QuadrotorVectorEnv):

@@ -96,6 +96,8 @@ class UpdateArguments(NamedTuple):
     clipped: NDArray  # the residual clipped to [-1, 1]
     core_rewards: NDArray
     effort_weight: float
+    rate_weight: float
+    previous: NDArray  # the residual of the step before, (N, 4)
     rewards: NDArray
     applied_thrust: NDArray
     applied_moment: NDArray
@@ -141,7 +143,8 @@ def plan_kernel(indices, position, velocity, rotation, angular_velocity, referen
 
 @njit(cache=True, nogil=True)
 def remember_state(start, stop, velocity_before, body_z_before, rate_before, alpha,
-                   rotational_alpha, clipped, core_rewards, effort_weight, rewards,
+                   rotational_alpha, clipped, core_rewards, effort_weight, rate_weight,
+                   previous, rewards,
                    applied_thrust, applied_moment, position, velocity, rotation,
                    angular_velocity, *rest):
     """The state before the step, which the observer's update needs. Called with
@@ -156,13 +159,15 @@ def remember_state(start, stop, velocity_before, body_z_before, rate_before, alp
 @njit(cache=True, nogil=True)
 def reward_and_observer_update(start, stop, velocity_before, body_z_before, rate_before, alpha,
                                rotational_alpha, clipped, core_rewards, effort_weight,
-                               rewards, applied_thrust, applied_moment, position, velocity,
-                               rotation, angular_velocity, reference, reference_row, mass,
-                               gravity, inertia, gains, has_observer, observer_gain,
-                               observer_rotational_gain, z_force, z_torque, *rest):
+                               rate_weight, previous, rewards, applied_thrust,
+                               applied_moment, position, velocity, rotation, angular_velocity,
+                               reference, reference_row, mass, gravity, inertia, gains,
+                               has_observer, observer_gain, observer_rotational_gain, z_force,
+                               z_torque, *rest):
     """After the physics step: the residual's reward, and each observer advanced with what
     was applied. Called with ``*(UpdateArguments + PlanArguments)``."""
-    residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rewards)
+    residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rate_weight,
+                           previous, rewards)
     if has_observer:
         inertia_entries = matrix_entries(inertia)
         km = matrix_entries(observer_rotational_gain)
@@ -245,7 +250,9 @@ class FusedResidualStep:
             velocity_before=velocity_before, body_z_before=body_z_before,
             rate_before=rate_before, alpha=alpha, rotational_alpha=rotational_alpha,
             clipped=self._clipped, core_rewards=core.rewards,
-            effort_weight=float(command.effort_weight), rewards=command.rewards,
+            effort_weight=float(command.effort_weight),
+            rate_weight=float(command.rate_weight), previous=command.previous_residual,
+            rewards=command.rewards,
             applied_thrust=core.applied.thrust, applied_moment=core.applied.moment)
         self._arguments = (flown, self._actions, tuple(core.step_arguments()), tuple(update),
                            tuple(self._plan_arguments()))

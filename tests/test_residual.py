@@ -300,3 +300,33 @@ def test_a_residual_id_without_a_base_is_refused_in_every_way_it_is_built():
                      vectorization_mode="vector_entry_point", base_controller=None)
     with pytest.raises(ValueError):
         gym.make("QuadDOB/HoverResidual-v1", base_controller=None)
+
+
+@pytest.mark.parametrize(("base", "benchmark"), [("geometric-ndob:tuned", "v1"),  # fused
+                                                 ("pid", "v1"), ("indi", "v2")])  # stages
+def test_the_rate_penalty_is_the_mean_squared_change_of_the_residual_from_the_step_before(
+        base, benchmark):
+    """reward(w) = reward(0) - w · mean((a_t - a_{t-1})²), a_{-1} = 0 at an episode's start,
+    in the compiled pass and in the stages alike; the flight itself does not change."""
+    from quad_dob_composition import make_vector_env
+    from quad_dob_env import make_scenario
+
+    scenario = make_scenario("gusty-hover", benchmark=benchmark)
+    weight = 0.7
+    penalised, plain = (make_vector_env(3, scenario, base_controller=base,
+                                        residual_rate_weight=w) for w in (weight, 0.0))
+    rng = np.random.default_rng(4)
+    for _episode in range(2):  # the second starts again from a_{-1} = 0
+        for env in (penalised, plain):
+            env.reset(seed=[1, 2, 3])
+        previous = np.zeros((3, 4))
+        for _ in range(25):
+            action = rng.uniform(-1, 1, (3, 4))
+            obs_a, reward_a, *_ = penalised.step(action)
+            obs_b, reward_b, *_ = plain.step(action)
+            np.testing.assert_array_equal(obs_a, obs_b)
+            expected = weight * np.mean((action - previous) ** 2, axis=1)
+            np.testing.assert_allclose(reward_b - reward_a, expected, rtol=1e-12, atol=1e-15)
+            previous = action
+    with pytest.raises(ValueError, match="residual_rate_weight"):
+        make_vector_env(1, scenario, base_controller=base, residual_rate_weight=-1.0)

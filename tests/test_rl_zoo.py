@@ -48,6 +48,13 @@ def test_quad_dob_train_reads_every_entry_of_the_same_files(algo):
         if "Residual" in env_id:
             assert config["base_controller"] == "geometric-ndob:tuned"
     assert Path(HYPERPARAMS / f"{algo}.yml").is_file()
+    import yaml
+
+    for env_id in yaml.safe_load((HYPERPARAMS / f"{algo}.yml").read_text()):
+        if env_id in quad_dob_env.ENV_IDS_V2:  # a v2 entry is held to the same schema
+            config = resolve_config(algo, "residual" if "Residual" in env_id else "direct",
+                                    env_id, None, None, None, 0)
+            assert config["env_kwargs"]["benchmark"] == "v2"
 
 
 def test_rl_zoo3_optimize_runs_its_trial_and_writes_its_report(tmp_path, monkeypatch):

@@ -228,3 +228,30 @@ def test_residual_v1_names_the_shipped_v1_policy_so_v1_tables_keep_reproducing()
     assert pinned.fingerprint == shipped.fingerprint and pinned.base_benchmark == "v1"
     first, second = shipped.model.policy.state_dict(), pinned.model.policy.state_dict()
     assert all(np.array_equal(first[key].numpy(), second[key].numpy()) for key in first)
+
+
+def test_a_v2_id_trains_and_is_evaluated_during_training_in_v2s_loop(tmp_path):
+    """quad-dob train takes the -v2 ids: the run's env and its evaluations against the base
+    fly Benchmark v2's loop (sensing, inner loop, motors), the base at v2's gains."""
+    import yaml
+
+    from quad_dob_training.baseline_evaluation import BaselineEvaluation
+    from quad_dob_training.run_config import HYPERPARAMS
+
+    # a v2 entry as a user's --conf-file gives it: the v1 id's hyperparameters
+    table = yaml.safe_load((HYPERPARAMS / "ppo.yml").read_text())
+    conf = tmp_path / "ppo.yml"
+    conf.write_text(yaml.safe_dump({"QuadDOB/HoverResidual-v2":
+                                    table["QuadDOB/HoverResidual-v1"]}))
+    config = resolve_config("ppo", "residual", "QuadDOB/HoverResidual-v2", None, 256, 8, 3,
+                            hyperparams=conf)
+    assert config["env_kwargs"]["benchmark"] == "v2"
+    evaluation = BaselineEvaluation(config, tmp_path, 10**9)
+    assert evaluation._scenario.benchmark == "v2" and evaluation._scenario.inner_rate > 0
+    config["algo_kwargs"].update(n_steps=32, batch_size=64, n_epochs=1)
+    run = tmp_path / "run"
+    train(config, run, evaluate_every=10**9, progress_bar=False)
+    policy = make_policy(f"residual:{run}")
+    assert policy.base_benchmark == "v2"
+    with pytest.raises(ValueError, match=r"env id 'QuadDOB/Hover-v3'.*QuadDOB/Hover-v2"):
+        resolve_config("ppo", "direct", "QuadDOB/Hover-v3", None, 10, 1, 0)

@@ -22,6 +22,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecNormalize
 
 import quad_dob_env
+from quad_dob_env.benchmark import scenario_options_for
 from quad_dob_training.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy
 from quad_dob_training.run_folder import save_model, write_text_atomically
@@ -59,7 +60,13 @@ class BaselineEvaluation(BaseCallback):
         self.rows: list[dict[str, Any]] = []
         self.first_better: str | None = None  # when the policy first beat the base
         self._started = 0.0
-        self._scenario = quad_dob_env.make_scenario(config["env_kwargs"]["scenario"])
+        # in the loop the policy trains in (a -v2 id's benchmark), on the scenario as named:
+        # options that widen the training distribution (a start spread) are not the task
+        env_kwargs = config["env_kwargs"]
+        benchmark = (env_kwargs.get("scenario_options") or {}).get(
+            "benchmark", env_kwargs.get("benchmark"))
+        self._scenario = quad_dob_env.make_scenario(
+            env_kwargs["scenario"], **scenario_options_for(None, benchmark))
         self.base_scores = None
         if config["base_controller"]:
             self.base_scores = self._score(Policy(config["base_controller"],

@@ -99,12 +99,13 @@ def resolve_config(algo: str, mode: str, env_id: str, scenario: str | None,
         raise unknown_name_error("algorithm", algo, ALGORITHMS)
     if mode not in MODES:
         raise unknown_name_error("mode", mode, MODES)
-    if env_id not in quad_dob_env.ENV_IDS:
-        raise unknown_name_error("env id", env_id, quad_dob_env.ENV_IDS)
+    env_ids = {**quad_dob_env.ENV_IDS, **quad_dob_env.ENV_IDS_V2}
+    if env_id not in env_ids:
+        raise unknown_name_error("env id", env_id, env_ids)
     residual_id = "Residual" in env_id
     if (mode == "residual") != residual_id:
         raise ValueError(f"mode {mode!r} does not fit env {env_id!r}: residual training takes "
-                         "a ...Residual-v1 id, direct training the others")
+                         "a ...Residual id, direct training the others")
     hyperparams = Path(hyperparams or HYPERPARAMS / f"{algo}.yml")
     table = yaml.safe_load(hyperparams.read_text())
     if env_id not in table:

@@ -56,7 +56,11 @@ The body-frame errors are there because the residual acts through body moments: 
 a correction is nearly linear in what the policy sees, whatever the heading.
 
 Reward: the env's reward (built with no effort term) minus
-``residual_effort_weight · mean(a²)``, so only the policy's own effort is penalised.
+``residual_effort_weight · mean(a²)``, so only the policy's own effort is penalised, and
+minus ``residual_rate_weight · mean((a - a_prev)²)`` (0 by default), a_prev the residual of
+the step before (zero at an episode's start): a penalty on the residual's rate of change,
+so a policy pays for the step-to-step dither that latency and slow motors turn into
+oscillation.
 """
 
 from __future__ import annotations
@@ -113,7 +117,8 @@ class ResidualCommand:
                  fused_pass: Callable[[ResidualCommand], Any] | None = None,
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
-                 attitude_loop: Callable[[QuadrotorBatch, Any], Any] | None = None) -> None:
+                 attitude_loop: Callable[[QuadrotorBatch, Any], Any] | None = None,
+                 residual_rate_weight: float = 0.0) -> None:
         if core.action_map.rate_loop is not None:
             raise ValueError("a residual adds to its base's thrust and moments: "
                              "action_mode='thrust_rates' is for direct control only")
@@ -139,6 +144,7 @@ class ResidualCommand:
             raise ValueError(f"residual thrust_scale and moment_scale are fractions of the "
                              f"limits in (0, 1], got {thrust_scale}, {moment_scale}")
         self.effort_weight = as_finite(residual_effort_weight, "residual_effort_weight", 0.0)
+        self.rate_weight = as_finite(residual_rate_weight, "residual_rate_weight", 0.0)
         vehicle, limit = core.vehicle, core.actuator.moment_limit
         self.residual_range = np.concatenate([[self.thrust_scale * vehicle.max_total_thrust],
                                                self.moment_scale * limit])
@@ -154,6 +160,7 @@ class ResidualCommand:
         self._state_before = None
         self.force_estimate, self.torque_estimate = np.zeros((n, 3)), np.zeros((n, 3))
         self._residual = np.zeros((n, 4))
+        self.previous_residual = np.zeros((n, 4))  # the residual flown the step before
         self._started = False
         by_acceleration = residual_mode == "acceleration"
         # the compiled pass reads the true state (for the identity sensing only) and flies the
@@ -188,6 +195,7 @@ class ResidualCommand:
             self.controller.reset(core.n, core.vehicle, core.scenario.dt, indices,
                                   actuation=core.scenario.actuation)
         self.rewards[indices] = 0.0
+        self.previous_residual[indices] = 0.0  # an episode starts from the base alone
         if self.residual_mode == "acceleration":
             # the base runs in ``command``: until a vehicle's first one it shows hover, no
             # residual and no estimate
@@ -284,6 +292,7 @@ class ResidualCommand:
         self.controller.applied(self._state_before, core.applied.thrust, core.applied.moment)
         self.rewards = np.empty(core.n)  # a new array: the one handed out stays as it was
         residual_reward_kernel(0, core.n, self._residual, core.rewards, self.effort_weight,
+                               self.rate_weight, self.previous_residual,
                                self.rewards)
 
     def plan(self) -> None:

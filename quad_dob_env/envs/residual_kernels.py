@@ -38,13 +38,20 @@ def residual_command_kernel(start, stop, residual, residual_range, base_thrust, 
 
 
 @njit(cache=True)
-def residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rewards):
-    """The env's reward minus ``effort_weight · mean(residual²)``."""
+def residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rate_weight,
+                           previous, rewards):
+    """The env's reward minus ``effort_weight · mean(a²)`` and ``rate_weight ·
+    mean((a - a_prev)²)``, a the residual flown and a_prev the step before's (zero at an
+    episode's start); ``previous`` then holds a."""
     for i in range(start, stop):
         effort = 0.0
+        rate = 0.0
         for k in range(4):
             effort += clipped[i, k] * clipped[i, k]
-        rewards[i] = core_rewards[i] - effort_weight * (effort / 4.0)
+            change = clipped[i, k] - previous[i, k]
+            rate += change * change
+            previous[i, k] = clipped[i, k]
+        rewards[i] = core_rewards[i] - effort_weight * (effort / 4.0) - rate_weight * (rate / 4.0)
 
 
 @njit(cache=True, inline="always")
