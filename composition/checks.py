@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from quad_dob_baselines import CONTROLLERS, Controller, make_controller, plugins
+from quad_dob_baselines import Controller, make_controller, plugins, user_controller
 from quad_dob_composition.envs import make_vector_env
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.scenarios import make_scenario
@@ -81,7 +81,7 @@ def _gain_problems(controller: str | Any, spec: str, build: Callable[[dict], Con
     changing the first ``GAIN_STEPS`` of flight; a made-up gain refused."""
     found = controller
     if isinstance(controller, str):
-        user = plugins.resolve(controller, CONTROLLERS)
+        user = user_controller(controller)
         found = user[1] if user is not None else None
     if found is None:
         return []
@@ -117,17 +117,17 @@ def _gain_problems(controller: str | Any, spec: str, build: Callable[[dict], Con
     return problems
 
 
-def _first_states(scenario: Any, seeds: tuple[int, ...]) -> tuple[Any, Any]:
-    """A batch core at its first step, flown by the geometric controller (only its
+def _first_step(scenario: Any, seeds: tuple[int, ...]) -> Any:
+    """A batch env at its first step, flown by the geometric controller (only its core's
     readings and reference are used)."""
     env = make_vector_env(len(seeds), scenario, base_controller="geometric")
     env.reset(seed=list(seeds))
-    return env.core, env
+    return env
 
 
 def _command_problems(build: Callable[[dict], Controller], spec: str, scenario: Any
                       ) -> list[str]:
-    core, _ = _first_states(scenario, BATCH_SEEDS)
+    core = _first_step(scenario, BATCH_SEEDS).core
     n = len(BATCH_SEEDS)
     state, reference = core.measurement.copy(), core.reference
     before = state.copy()

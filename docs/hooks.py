@@ -20,13 +20,6 @@ from pathlib import Path
 
 DOCS = Path(__file__).parent
 
-ENTRY_POINTS = {
-    False: ("quad_dob_env.envs:QuadrotorEnv", "quad_dob_env.envs:QuadrotorVectorEnv"),
-    True: ("quad_dob_composition.envs:make_residual_env",
-           "quad_dob_composition.envs:ResidualVectorEnv"),
-}
-
-
 def page_name(env_id: str) -> str:
     return f"environments/{env_id.replace('/', '-')}.md"
 
@@ -78,7 +71,8 @@ def env_page(env_id: str) -> str:
     family = env_id.rsplit("-", 1)[0]
     other = f"{family}-{'v1' if version == 'v2' else 'v2'}"
     known = {*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2}
-    entry, vector = ENTRY_POINTS[residual]
+    spec = gym.spec(env_id)  # the entry points as registered
+    entry, vector = spec.entry_point, spec.vector_entry_point
     rows = [
         ("made by", f"`gym.make(\"{env_id}\")`; N vehicles: `gym.make_vec(\"{env_id}\", "
                     "num_envs=N, vectorization_mode=\"vector_entry_point\")`"),
