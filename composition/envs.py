@@ -21,6 +21,7 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
                       authority_gate: float | None = None,
                       residual_mode: str = "thrust_moments", acceleration_scale: float = 3.0,
                       vertical_floor: float = 0.5, residual_rate_weight: float = 0.0,
+                      authority_signal: str = "force",
                       **env_kwargs: Any) -> ResidualActionWrapper:
     """``ResidualActionWrapper(QuadrotorEnv(**env_kwargs))`` flown by ``base_controller``
     (a name or a controller), the env's own effort term off."""
@@ -31,7 +32,8 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
     return ResidualActionWrapper(env, base, thrust_scale, moment_scale, residual_effort_weight,
                                  authority_gate, residual_mode, acceleration_scale,
                                  vertical_floor, attitude_loop=AttitudeLoop.install,
-                                 residual_rate_weight=residual_rate_weight)
+                                 residual_rate_weight=residual_rate_weight,
+                                 authority_signal=authority_signal)
 
 
 class ResidualVectorEnv(QuadrotorVectorEnv):

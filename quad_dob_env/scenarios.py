@@ -227,6 +227,11 @@ def _takeoff_landing_wind(*, vehicle: str | VehicleParams = "paper", wind: str =
 
 TRACK_DURATION = 10.0  # [s] an episode of the reference families
 TRAINING_KINDS = ("circle", "sinusoids", "hover", "helix", "landing")  # lemniscates held out
+# Issue 29's held-out families: pools drawn from this seed, far from training's pool 0 and
+# the lemniscates' pool 1, and never used to choose a recipe: ``heldout-tracks`` new
+# references of the training kinds, ``heldout-hops`` a kind no training family holds
+HELD_OUT_POOL_SEED = 20_261_203
+HELD_OUT_POOL_COUNT = 60
 
 
 def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRAINING_KINDS,
@@ -316,6 +321,11 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
     # held out of training: another kind, another pool
     "random-lemniscates": lambda **kw: _random_tracks(
         kinds=("lemniscate",), pool_seed=1, count=32, name="random-lemniscates", **kw),
+    "heldout-tracks": lambda **kw: _random_tracks(
+        pool_seed=HELD_OUT_POOL_SEED, count=HELD_OUT_POOL_COUNT, name="heldout-tracks", **kw),
+    "heldout-hops": lambda **kw: _random_tracks(
+        kinds=("hops",), pool_seed=HELD_OUT_POOL_SEED, count=HELD_OUT_POOL_COUNT,
+        name="heldout-hops", **kw),
     **{f"figure8-wind-{speed:g}": functools.partial(_figure8_wind, wind_speed=speed)
        for speed in FIGURE8_WINDS},
 }
@@ -331,6 +341,7 @@ _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "takeoff-landing-wind": tuple(inspect.signature(_takeoff_landing_wind).parameters),
     "helix-force-torque": ("vehicle",),
     "random-tracks": ("vehicle", "wind_scale"), "random-lemniscates": ("vehicle", "wind_scale"),
+    "heldout-tracks": ("vehicle", "wind_scale"), "heldout-hops": ("vehicle", "wind_scale"),
     **{f"figure8-wind-{speed:g}": ("vehicle", "turbulence_intensity")
        for speed in FIGURE8_WINDS},
 }

@@ -222,6 +222,20 @@ def test_evaluation_rows_score_the_weights_of_their_own_timesteps_and_never_repe
     assert float(rows[-1]["rms_position"]) == pytest.approx(scored, rel=1e-12)
 
 
+def test_residual_v2_is_the_policy_trained_in_v2s_randomised_loop_and_flies_the_named_loop():
+    from quad_dob_env.scenarios import make_scenario
+    from quad_dob_training.policies import fly_policy
+
+    policy = make_policy("residual:v2")
+    assert policy.base_benchmark == "v2" and policy.base == "geometric-ndob:tuned"
+    trained = policy.config["env_kwargs"]
+    assert trained["authority_signal"] == "wind" and "loop_randomization" in trained
+    assert "loop_randomization" not in policy.env_kwargs()  # evaluation flies the named loop
+    flights = fly_policy(policy, make_scenario("gusty-hover", benchmark="v2", duration=3.0),
+                         [1, 2])
+    assert all(flight.termination_reason in ("", "time_limit") for flight in flights)
+
+
 def test_residual_v1_names_the_shipped_v1_policy_so_v1_tables_keep_reproducing():
     shipped, pinned = make_policy("residual"), make_policy("residual:v1")
     assert pinned.name == "residual:v1" and pinned.base == shipped.base

@@ -15,7 +15,6 @@ from pathlib import Path
 from quad_dob_training.cli_checks import (
     MAX_TIMESTEPS,
     _delay_grid,
-    _key_values,
     _names,
     _number_in,
     _positive_float,
@@ -24,6 +23,7 @@ from quad_dob_training.cli_checks import (
     _tuning_seeds,
     _writable_file,
     _writable_folder,
+    key_values,
 )
 from quad_dob_training.listing import ALGORITHMS, print_hyperparams
 from quad_dob_training.listing import main as list_main
@@ -74,7 +74,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     elif args.merge:
         raise ValueError("--merge writes leaderboard-merged.md into --out, and --json writes "
                          "nothing: drop one (quad-dob leaderboard merges files alone)")
-    options = _key_values(args.scenario_option or [], "--scenario-option")
+    options = key_values(args.scenario_option or [], "--scenario-option")
     if args.benchmark is not None and options.get("benchmark", args.benchmark) != args.benchmark:
         raise ValueError(f"--benchmark {args.benchmark} and --scenario-option "
                          f"benchmark={options['benchmark']} disagree: give one")

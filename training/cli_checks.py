@@ -20,7 +20,7 @@ def _names(text: str) -> list[str]:
     return [name.strip() for name in text.split(",") if name.strip()]
 
 
-def _key_values(pairs: list[str], option: str) -> dict[str, object]:
+def key_values(pairs: list[str], option: str) -> dict[str, object]:
     """``["dt=0.005", "wind=moderate"]`` -> ``{"dt": 0.005, "wind": "moderate"}``: each
     value a number as Python reads one (``1e-3`` too, which YAML 1.1 leaves a string), else
     parsed as YAML (``true``/``false``, lists, mappings; anything else stays text), here, so

@@ -70,6 +70,9 @@ SUITES = {
         "calm": ("hover-calm", "ground-effect-landing"),
         "forces": ("helix-force-torque", "hover-step-force"),
         "references": ("random-tracks", "random-lemniscates"),
+        # issue 29's held-out families: pools seeded apart from training's, one of them a
+        # kind no training family holds (quad_dob_env.scenarios.HELD_OUT_POOL_SEED)
+        "held-out": ("heldout-tracks", "heldout-hops"),
         "wind-tunnel": ("figure8-wind-0", "figure8-wind-4.2", "figure8-wind-8.5",
                         "figure8-wind-12.1"),
     },

@@ -39,8 +39,9 @@ def main() -> int:
     for (name, benchmark, vehicle), options in GAIN_SETS.items():
         gains = ", ".join(f"{key} {value:.4g}" for key, value in options.items())
         print(f"    {name:<27} {benchmark} {vehicle:<11} {gains}")
-    print("Policies: any controller, residual (the shipped policy; residual:v1 names it "
-          "too), residual:PATH, " + ", ".join(f"{algo}:PATH" for algo in ALGORITHMS))
+    print("Policies: any controller, residual (the shipped v1 policy; residual:v1 names it "
+          "too), residual:v2 (the shipped policy trained in v2's loop), residual:PATH, "
+          + ", ".join(f"{algo}:PATH" for algo in ALGORITHMS))
     print("Vehicles (every number and its source):")
     for name, sources in VEHICLE_SOURCES.items():
         vehicle = quad_dob_env.VEHICLES[name]

@@ -43,6 +43,7 @@ from quad_dob_env.memory import check_memory
 from quad_dob_env.validation import unknown_name_error
 from quad_dob_training.listing import ALGORITHMS
 from quad_dob_training.run_folder import zip_run_id
+from quad_dob_training.vec_env import env_options
 
 PRETRAINED = Path(__file__).parent / "pretrained"
 SHIPPED_RESIDUAL = PRETRAINED / "residual_random_tracks.zip"
@@ -50,6 +51,11 @@ SHIPPED_RESIDUAL = PRETRAINED / "residual_random_tracks.zip"
 # observation statistics: what the policy flies with), both checked before either is read
 SHIPPED_RESIDUAL_SHA256 = "e75e4b59ef3afc351ddd0338b92b0eef63d56328f909f2d2300c88d5b7db34e5"
 SHIPPED_RESIDUAL_CONFIG_SHA256 = "000896053c3fd23bf7ff3082e0c56301c6d8b1d93298bfb81e7049f1bd9aff52"
+# the policy trained in Benchmark v2's loop (issue 29's recipe, the median of its seeds),
+# ``residual:v2``; checked the same way
+SHIPPED_RESIDUAL_V2 = PRETRAINED / "residual_v2.zip"
+SHIPPED_RESIDUAL_V2_SHA256 = "c0f7170cc7ce16558161156c41a2c952214bbce5416d6484469ca3b1afabce41"
+SHIPPED_RESIDUAL_V2_CONFIG_SHA256 = "991bba1b92ffdefebbfc6bea5d9dd8192efc0fb859f9e7c330f1d2a59cc4ed06"
 TRUST_PICKLE_HINT = ("only if you made the file or trust where it came from, load it with "
                      "--trust-pickle (trust_pickle=True), which unpickles the zip's entries")
 
@@ -325,7 +331,7 @@ def _spaces(config: dict, data: dict, path: Path, config_path: Path) -> tuple[An
     """The observation and action spaces of the env the config trained in (one vehicle of
     it), checked against the shape and dtype the zip records for its spaces in plain
     text."""
-    options = dict(config.get("env_kwargs") or {})
+    options = env_options(config.get("env_kwargs") or {})
     if config.get("mode") == "residual" and config.get("base_controller") is not None:
         options.setdefault("base_controller", config["base_controller"])
     try:

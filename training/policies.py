@@ -10,11 +10,12 @@ A policy is what ``quad-dob evaluate --policies`` names:
 |                     | config says; ``sac:PATH``, ``td3:PATH`` the same for SAC, TD3    |
 | ``residual``        | the shipped residual policy (``training/pretrained``) on its base|
 | ``residual:v1``     | the same policy, by the benchmark it was trained in              |
+| ``residual:v2``     | the shipped policy trained in Benchmark v2's loop (issue 29)     |
 | ``residual:PATH``   | a residual model from ``quad-dob train --mode residual``         |
 
-The shipped policy's zip and its config (base controller, env options, observation
+The shipped policies' zips and their configs (base controller, env options, observation
 statistics) are checked against ``SHIPPED_RESIDUAL_SHA256`` and
-``SHIPPED_RESIDUAL_CONFIG_SHA256`` before either is read.
+``SHIPPED_RESIDUAL_CONFIG_SHA256`` (v2: ``SHIPPED_RESIDUAL_V2_*``) before either is read.
 
 Every policy flies in a ``QuadrotorVectorEnv`` with one vehicle per seed: a controller is
 the base of a residual env given zero residuals (which flies it exactly), a residual model
@@ -55,10 +56,14 @@ from quad_dob_training.model_files import (
     SHIPPED_RESIDUAL,
     SHIPPED_RESIDUAL_CONFIG_SHA256,
     SHIPPED_RESIDUAL_SHA256,
+    SHIPPED_RESIDUAL_V2,
+    SHIPPED_RESIDUAL_V2_CONFIG_SHA256,
+    SHIPPED_RESIDUAL_V2_SHA256,
     load_model,
     sha256,
 )
 from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memory
+from quad_dob_training.vec_env import env_options
 
 
 @dataclass
@@ -93,7 +98,7 @@ class Policy:
         """The env options the model was trained with (its spaces depend on them)."""
         if self.config is None:
             return {"base_controller": self.base}
-        options = dict(self.config.get("env_kwargs", {}))
+        options = env_options(self.config.get("env_kwargs", {}))
         options.pop("scenario", None)
         options["base_controller"] = self.base
         if self.base is not None and self.base_benchmark is not None:
@@ -117,6 +122,11 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
                                    expected_config_sha256=SHIPPED_RESIDUAL_CONFIG_SHA256)
         return Policy(spec, config["base_controller"], model, config,
                       trained_benchmark(config), SHIPPED_RESIDUAL_SHA256)
+    if kind == "residual" and path == "v2":
+        model, config = load_model(SHIPPED_RESIDUAL_V2, SHIPPED_RESIDUAL_V2_SHA256,
+                                   expected_config_sha256=SHIPPED_RESIDUAL_V2_CONFIG_SHA256)
+        return Policy(spec, config["base_controller"], model, config,
+                      trained_benchmark(config), SHIPPED_RESIDUAL_V2_SHA256)
     if (kind in ALGORITHMS or kind == "residual") and path:
         model, config = load_model(path, trust_pickle=trust_pickle)
         mode, algo = config.get("mode"), config.get("algo", "ppo")

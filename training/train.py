@@ -108,8 +108,12 @@ def _schedule(value: Any) -> Any:
 def make_vec_env(config: dict[str, Any]) -> Any:
     """The config's vehicles as an SB3 VecEnv (episode statistics included), behind
     ``VecNormalize`` when the config normalises."""
-    venv = VecMonitor(QuadrotorSB3VecEnv(config["n_envs"], seed=config["seed"],
-                                         **config["env_kwargs"]))
+    inner = QuadrotorSB3VecEnv(config["n_envs"], seed=config["seed"], **config["env_kwargs"])
+    if len(inner.loops) > 1:
+        print("loop groups: " + "; ".join(
+            f"{group.stop - group.start} vehicles {loop}"
+            for group, loop in zip(inner.groups, inner.loops, strict=True)), flush=True)
+    venv = VecMonitor(inner)
     if config["normalize"]:
         venv = VecNormalize(venv, gamma=config["algo_kwargs"].get("gamma", 0.99),
                             clip_obs=OBSERVATION_CLIP, **config["normalize"])
@@ -295,8 +299,9 @@ def _learn(start: RunStart, out: Path, progress_bar: bool) -> Any:
     print(message)
     with open(out / "train.log", "a") as log:
         log.write(message + "\n")
-        if evaluation.first_better:
-            log.write(evaluation.first_better + "\n")
+        for line in (evaluation.first_better, evaluation.first_beat_strongest):
+            if line:
+                log.write(line + "\n")
     plot_training_curve(out / "evaluations.csv", out / "training_curve.png")
     return model
 

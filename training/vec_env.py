@@ -5,10 +5,19 @@ is reset in the same step, the returned observation is the new episode's first, 
 last one goes in ``infos[i]["terminal_observation"]`` (``"TimeLimit.truncated"`` says
 whether it was the time limit). This adapter drives a ``QuadrotorVectorEnv``'s core that
 way, so ``PPO("MlpPolicy", QuadrotorSB3VecEnv(...))`` trains on N vehicles in one process.
+
+``loop_randomization`` randomises what one batch cannot vary per vehicle, the vehicle loop
+(sensing preset, extra latency, motor time constant) and the airframe, by splitting the N
+vehicles into ``groups``, each a vector env of its own loop, drawn from the ranges given
+(``draw_loops``); mass, inertia, drag, thrust coefficient and wind are drawn per vehicle by
+the scenario. It is a training option only: ``env_options`` drops it, so evaluation flies
+the named loop.
 """
 
 from __future__ import annotations
 
+import itertools
+import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -18,78 +27,176 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from quad_dob_composition import ResidualVectorEnv, make_vector_env
 from quad_dob_env.envs import QuadrotorVectorEnv
-from quad_dob_env.validation import checked_keywords
+from quad_dob_env.params import VEHICLES
+from quad_dob_env.scenarios import make_scenario
+from quad_dob_env.sensing import SENSING_PRESETS
+from quad_dob_env.validation import checked_keywords, unknown_name_error
+
+# the keys of ``loop_randomization``: the number of groups, the sensing presets and the
+# vehicles they cycle through, and (low, high) ranges of the scenario options drawn per group
+LOOP_RANDOMIZATION_KEYS = ("groups", "sensing", "vehicle", "extra_latency",
+                           "motor_time_constant_scale")
+TRAINING_ONLY_KEYS = ("loop_randomization",)
+
+
+def env_options(env_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """``env_kwargs`` without the options that only shape training (``loop_randomization``):
+    what builds the env a model flies in evaluation."""
+    return {key: value for key, value in env_kwargs.items() if key not in TRAINING_ONLY_KEYS}
+
+
+def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[str, Any]]:
+    """One scenario-options dict per group: group g takes ``sensing[g % len]`` (and
+    ``vehicle[g % len]`` where given: a vehicle preset the scenario is built for), and each
+    range is stratified over the groups (each group draws from its own slice of it, the
+    slices shuffled), so a few groups still span it; latencies are drawn on the control grid
+    (multiples of ``dt``), where the loop resolves them anyway."""
+    for key in spec:
+        if key not in LOOP_RANDOMIZATION_KEYS:
+            raise unknown_name_error("loop_randomization key", key, LOOP_RANDOMIZATION_KEYS)
+    groups = int(spec.get("groups", 4))
+    if groups < 1:
+        raise ValueError(f"loop_randomization groups must be >= 1, got {groups}")
+    sensing = list(spec.get("sensing", ["mocap"]))
+    for name in sensing:
+        if name not in SENSING_PRESETS:
+            raise unknown_name_error("loop_randomization sensing preset", name, SENSING_PRESETS)
+    vehicles = list(spec.get("vehicle", []))
+    for name in vehicles:
+        if name not in VEHICLES:
+            raise unknown_name_error("loop_randomization vehicle", name, VEHICLES)
+    ranges = {}
+    for key, default in (("extra_latency", (0.0, 0.0)), ("motor_time_constant_scale", (1.0, 1.0))):
+        value = spec.get(key, default)
+        low, high = (float(v) for v in value)
+        if not 0.0 <= low <= high or (key == "motor_time_constant_scale" and low == 0.0):
+            raise ValueError(f"loop_randomization {key} must be a range 0 <= low <= high "
+                             f"(a positive low for the motor scale), got {value!r}")
+        ranges[key] = (low, high)
+    rng = np.random.default_rng([0 if seed is None else seed, 0x100B])
+
+    def stratified() -> NDArray[np.float64]:  # one draw per group in [0, 1), slice g of g
+        return (rng.permutation(groups) + rng.uniform(size=groups)) / groups
+
+    low, high = ranges["extra_latency"]
+    grid = dt * np.arange(math.ceil(low / dt - 1e-9), math.floor(high / dt + 1e-9) + 1)
+    if grid.size == 0:
+        raise ValueError(f"loop_randomization extra_latency {ranges['extra_latency']} holds no "
+                         f"multiple of the control step {dt:g} s")
+    latency = grid[np.minimum((stratified() * grid.size).astype(int), grid.size - 1)]
+    low, high = ranges["motor_time_constant_scale"]
+    motor = low + (high - low) * stratified()
+    return [{"sensing": sensing[g % len(sensing)], "extra_latency": round(float(latency[g]), 6),
+             "motor_time_constant_scale": round(float(motor[g]), 4),
+             **({"vehicle": vehicles[g % len(vehicles)]} if vehicles else {})}
+            for g in range(groups)]
 
 
 class QuadrotorSB3VecEnv(VecEnv):
     """``num_envs`` vehicles of ``scenario`` as an SB3 VecEnv; other keyword arguments are
-    ``QuadrotorVectorEnv``'s."""
+    ``QuadrotorVectorEnv``'s. With ``loop_randomization`` (``draw_loops``) the vehicles are
+    split into groups of nearly equal size, each flying its own drawn loop; vehicle i is
+    seeded ``seed + i`` either way."""
 
     @checked_keywords(ResidualVectorEnv.__init__, QuadrotorVectorEnv.__init__)
     def __init__(self, num_envs: int, scenario: str = "paper-none", seed: int | None = None,
+                 loop_randomization: dict[str, Any] | None = None,
                  **env_kwargs: Any) -> None:
-        self.vector_env = make_vector_env(num_envs, scenario, **env_kwargs)
-        self.core = self.vector_env.core
-        super().__init__(num_envs, self.vector_env.single_observation_space,
-                         self.vector_env.single_action_space)
+        if loop_randomization is None:
+            self.loops: list[dict[str, Any]] = [{}]
+        else:
+            options = dict(env_kwargs.get("scenario_options") or {})
+            if env_kwargs.get("benchmark") is not None:
+                options.setdefault("benchmark", env_kwargs["benchmark"])
+            dt = make_scenario(scenario, **options).dt
+            self.loops = draw_loops(loop_randomization, seed, dt)
+        if len(self.loops) > num_envs:
+            raise ValueError(f"loop_randomization has {len(self.loops)} groups for "
+                             f"{num_envs} vehicles: at most one group per vehicle")
+        bounds = np.linspace(0, num_envs, len(self.loops) + 1).round().astype(int)
+        self.groups = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
+        self.vector_envs = [
+            make_vector_env(group.stop - group.start, scenario, **{
+                **env_kwargs, "scenario_options": {**(env_kwargs.get("scenario_options") or {}),
+                                                   **loop}})
+            for group, loop in zip(self.groups, self.loops, strict=True)]
+        first = self.vector_envs[0]
+        super().__init__(num_envs, first.single_observation_space, first.single_action_space)
         self._seed = seed
         self._actions: NDArray | None = None
 
     def reset(self) -> NDArray[np.float32]:
-        n, venv = self.num_envs, self.vector_env
-        seeds = [None if self._seed is None else self._seed + i for i in range(n)]
+        for group, venv in zip(self.groups, self.vector_envs, strict=True):
+            n = group.stop - group.start
+            venv.reseed([None if self._seed is None else self._seed + group.start + i
+                         for i in range(n)])
+            venv.restart(np.arange(n))
         self._seed = None  # later resets continue each vehicle's generator
-        venv.reseed(seeds)
-        venv.restart(np.arange(n))
-        self.reset_infos = [{} for _ in range(n)]
-        return venv.observations()
+        self.reset_infos = [{} for _ in range(self.num_envs)]
+        return self._observations()
+
+    def _observations(self) -> NDArray[np.float32]:
+        if len(self.vector_envs) == 1:
+            return self.vector_envs[0].observations()
+        return np.concatenate([venv.observations() for venv in self.vector_envs])
 
     def step_async(self, actions: NDArray) -> None:
         self._actions = actions  # checked by the vector env's fly
 
     def step_wait(self) -> tuple[NDArray[np.float32], NDArray, NDArray, list[dict]]:
-        venv, core = self.vector_env, self.core
-        venv.fly(self._actions)
-        rewards = venv.rewards().astype(np.float32)
-        terminated, truncated = core.terminated, core.truncated
-        dones = terminated | truncated
+        rewards = np.empty(self.num_envs, np.float32)
+        dones = np.empty(self.num_envs, bool)
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
-        ended = np.flatnonzero(dones)
-        if ended.size:
-            last = venv.observations()[ended]
-            for j, i in enumerate(ended):
-                infos[i] = {"terminal_observation": last[j],
-                            "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
-                            "termination_reason": core.termination_reason(i)}
-            venv.restart(ended)
-        return venv.observations(), rewards, dones.copy(), infos
+        for group, venv in zip(self.groups, self.vector_envs, strict=True):
+            core = venv.core
+            venv.fly(self._actions[group])
+            rewards[group] = venv.rewards()
+            terminated, truncated = core.terminated, core.truncated
+            dones[group] = terminated | truncated
+            ended = np.flatnonzero(dones[group])
+            if ended.size:
+                last = venv.observations()[ended]
+                for j, i in enumerate(ended):
+                    infos[group.start + i] = {
+                        "terminal_observation": last[j],
+                        "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
+                        "termination_reason": core.termination_reason(i)}
+                venv.restart(ended)
+        return self._observations(), rewards, dones, infos
 
     def seed(self, seed: int | None = None) -> Sequence[int | None]:
         self._seed = seed
         return [None if seed is None else seed + i for i in range(self.num_envs)]
 
     def close(self) -> None:
-        self.vector_env.close()
+        for venv in self.vector_envs:
+            venv.close()
 
     def _targets(self, indices: int | Iterable[int] | None) -> list[int]:
         if indices is None:
             return list(range(self.num_envs))
         return [indices] if isinstance(indices, int) else list(indices)
 
+    def _owner(self, index: int) -> Any:
+        """The vector env that flies vehicle ``index``."""
+        for group, venv in zip(self.groups, self.vector_envs, strict=True):
+            if group.start <= index < group.stop:
+                return venv
+        raise IndexError(f"vehicle index {index} out of range for {self.num_envs} vehicles")
+
     def get_attr(self, attr_name: str, indices: int | Iterable[int] | None = None) -> list[Any]:
-        """An attribute of the vector env (shared by every vehicle), once per index."""
-        value = getattr(self.vector_env, attr_name)
-        return [value for _ in self._targets(indices)]
+        """An attribute of the vector env (shared by its vehicles), once per index."""
+        return [getattr(self._owner(i), attr_name) for i in self._targets(indices)]
 
     def set_attr(self, attr_name: str, value: Any,
                  indices: int | Iterable[int] | None = None) -> None:
-        raise AttributeError(f"the {self.num_envs} vehicles share one env; cannot set "
+        raise AttributeError(f"the {self.num_envs} vehicles share their envs; cannot set "
                              f"{attr_name!r} for some of them")
 
     def env_method(self, method_name: str, *method_args: Any,
                    indices: int | Iterable[int] | None = None, **method_kwargs: Any) -> list:
-        method = getattr(self.vector_env, method_name)
-        return [method(*method_args, **method_kwargs) for _ in self._targets(indices)]
+        return [getattr(self._owner(i), method_name)(*method_args, **method_kwargs)
+                for i in self._targets(indices)]
 
     def env_is_wrapped(self, wrapper_class: type,
                        indices: int | Iterable[int] | None = None) -> list[bool]:

@@ -131,6 +131,12 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     ``quad_dob_env.benchmark``; the ``-v2`` ids set ``"v2"``).
 
     ## Version history
+    - v2, residual options (2026-12, no id bumped: the defaults fly as before, bit for bit):
+      the residual's ``authority_signal`` (``"force"``, as before, or ``"wind"``: the
+      low-passed horizontal force estimate, which stays shut in calm air under noisy
+      sensing) and ``residual_rate_weight``; the scenarios ``heldout-tracks`` and
+      ``heldout-hops`` (reference pools seeded apart from training, the second of a kind,
+      waypoint hops, no training family holds).
     - v2 (2026-12): the ids ``QuadDOB/Hover-v2``, ``HoverResidual-v2``, ``TrackResidual-v2``
       and ``TracksResidual-v2`` fly the v1 ids' scenarios under ``benchmark="v2"``: ``mocap``
       sensing, the 200 Hz inner loop, speed motors, thrust uncertainty, rotor aerodynamics.

@@ -67,7 +67,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     then adds ``base_thrust``, ``base_moment``, ``force_estimate`` and ``torque_estimate``.
     ``reward_effort_weight`` defaults to 0.01 without a base and to 0 with one (the
     residual's own effort is ``residual_effort_weight``, its rate of change
-    ``residual_rate_weight``).
+    ``residual_rate_weight``; ``authority_gate`` and ``authority_signal``: when it may act).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 100,
@@ -88,7 +88,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
                  attitude_loop: Any = None, benchmark: str | None = None,
-                 residual_rate_weight: float = 0.0) -> None:
+                 residual_rate_weight: float = 0.0, authority_signal: str = "force") -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -118,7 +118,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
         self.residual = None if base_controller is None else ResidualCommand(
             self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
             fused_pass, authority_gate, residual_mode, acceleration_scale, vertical_floor,
-            attitude_loop, residual_rate_weight=residual_rate_weight)
+            attitude_loop, residual_rate_weight=residual_rate_weight,
+            authority_signal=authority_signal)
         # None without a base; with one, its name and gains (also in the reset info)
         self.base_controller = (None if self.residual is None
                                 else self.residual.controller.describe())

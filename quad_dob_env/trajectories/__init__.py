@@ -3,7 +3,8 @@
 - ``base``: ``Reference`` (the batched values a controller needs) and the ``Trajectory``
   template: implement ``position_derivatives`` and ``yaw_derivatives`` to add one.
 - ``library``: ``PaperHelix`` (the paper's reference), ``Hover``, ``Circle``,
-  ``Lemniscate``, ``TakeoffHoverLanding`` (C³ vertical profile).
+  ``Lemniscate``, ``TakeoffHoverLanding`` (C³ vertical profile), ``WaypointHops``
+  (rest-to-rest C³ hops through 3-D waypoints).
 - ``family``: ``TrajectoryFamily`` (members, one per vehicle, drawn at each reset) and
   ``random_references`` (a seeded pool of smooth random references, by kind).
 
@@ -19,6 +20,7 @@ from quad_dob_env.trajectories.library import (
     Lemniscate,
     PaperHelix,
     TakeoffHoverLanding,
+    WaypointHops,
 )
 
 __all__ = [
@@ -33,5 +35,6 @@ __all__ = [
     "TakeoffHoverLanding",
     "Trajectory",
     "TrajectoryFamily",
+    "WaypointHops",
     "random_references",
 ]

@@ -10,8 +10,9 @@ closed-form derivatives to snap: horizontal circles and figure eights of random 
 centre, direction and heading, random sums of sinusoids on the three axes (smooth random
 paths), helices (a circle in a vertical plane of random direction, radius and rate, drifting
 along its axis, as the v1 helix does), take-offs to a hover and landings (from and to
-``LANDING_HEIGHT`` above the floor, through ground effect where the scenario has it), and
-hovers; ``kinds=`` picks which, so some can be held out of training.
+``LANDING_HEIGHT`` above the floor, through ground effect where the scenario has it),
+hovers, and hops (rest-to-rest moves through random 3-D waypoints, a kind no training family
+holds); ``kinds=`` picks which, so some can be held out of training.
 The draws are bounded so the references stay within what the vehicle's actuators give; the
 scenario built on a family checks every member (``feasibility``) and refuses any that does
 not fit.
@@ -25,10 +26,16 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from quad_dob_env.trajectories.base import Trajectory
-from quad_dob_env.trajectories.library import Harmonic, Hover, Lemniscate, TakeoffHoverLanding
+from quad_dob_env.trajectories.library import (
+    Harmonic,
+    Hover,
+    Lemniscate,
+    TakeoffHoverLanding,
+    WaypointHops,
+)
 from quad_dob_env.validation import unknown_name_error
 
-REFERENCE_KINDS = ("circle", "lemniscate", "sinusoids", "hover", "helix", "landing")
+REFERENCE_KINDS = ("circle", "lemniscate", "sinusoids", "hover", "helix", "landing", "hops")
 LANDING_HEIGHT = 0.08  # m: where take-offs start and landings end, as in the v1 scenarios
 # the speeds and accelerations the draws keep within: the v1 helix's own peak acceleration
 # is 5.9 m/s² and its speed 1.3 m/s, which the feasibility check accepts with margin
@@ -41,6 +48,12 @@ MAX_DRIFT = 0.6  # m/s, a helix's speed along its axis (the v1 helix: 0.4)
 # and at most the v1 helix's rate, π rad/s: its snap r ω⁴ is what the rotors' moment
 # range must follow (4.1 rad/s at 0.33 m asked for three times the yaw moment there is)
 MAX_HELIX_RATE = math.pi  # rad/s
+# a hops reference: 3-5 hops of 0.3-1.2 m, each held 0.3-1.5 s, within the first 9.5 s
+# (an episode is 10 s); the septic smoothstep's peaks per unit length and time
+HOP_COUNTS = (3, 5)
+HOP_HEIGHTS = (1.0, 3.0)  # [m] where the waypoints may lie
+SMOOTHSTEP_PEAK_SPEED = 35.0 / 16.0
+SMOOTHSTEP_PEAK_ACCELERATION = 7.5132  # max of s'' on [0, 1], at tau = (5 - sqrt 5)/10
 MAX_REDRAWS = 100  # draws of one member that ``accept`` may refuse before it is an error
 
 
@@ -123,6 +136,8 @@ def _draw(kind: str, rng: np.random.Generator, centre: tuple[float, float, float
                         terms=[(0, radius * across[0], omega, phase),
                                (1, radius * across[1], omega, phase),
                                (2, radius, omega, phase + math.pi / 2)])
+    if kind == "hops":
+        return _hops(rng, centre, yaw)
     if kind == "lemniscate":
         amplitude = rng.uniform(0.4, 1.5)
         # the y term at 2ω has the larger acceleration: (a/2)(2ω)² = 2 a ω²
@@ -139,3 +154,34 @@ def _draw(kind: str, rng: np.random.Generator, centre: tuple[float, float, float
                             share * MAX_SPEED / omega)
             terms.append((axis, amplitude, omega, rng.uniform(-math.pi, math.pi)))
     return Harmonic(offset=centre, terms=terms, yaw=yaw)
+
+
+def _hops(rng: np.random.Generator, centre: tuple[float, float, float],
+          yaw: float) -> WaypointHops:
+    """3-5 hops from ``centre``, each 0.3-1.2 m in a random direction (its vertical part
+    halved, the waypoints kept within ``HOP_HEIGHTS``), as fast as a drawn acceleration and
+    speed within the bounds allow."""
+    points, starts, durations = [np.array(centre)], [], []
+    time = rng.uniform(0.3, 1.5)
+    for _ in range(rng.integers(HOP_COUNTS[0], HOP_COUNTS[1] + 1)):
+        direction = rng.normal(size=3)
+        direction[2] *= 0.5
+        step = rng.uniform(0.3, 1.2) * direction / np.linalg.norm(direction)
+        target = points[-1] + step
+        target[2] = np.clip(target[2], *HOP_HEIGHTS)  # clear of the floor and the ceiling
+        step = target - points[-1]
+        length = max(float(np.linalg.norm(step)), 1e-3)
+        acceleration = rng.uniform(1.0, MAX_ACCELERATION)
+        duration = max(math.sqrt(SMOOTHSTEP_PEAK_ACCELERATION * length / acceleration),
+                       SMOOTHSTEP_PEAK_SPEED * length / MAX_SPEED)
+        if time + duration > 9.5:
+            break
+        points.append(target)
+        starts.append(time)
+        durations.append(duration)
+        time += duration + rng.uniform(0.3, 1.5)
+    if not starts:  # the first hop did not fit: one short one
+        points.append(points[0] + np.array([0.3, 0.0, 0.0]))
+        starts.append(0.5)
+        durations.append(2.0)
+    return WaypointHops(np.array(points), starts, durations, yaw=yaw)

@@ -1,4 +1,5 @@
-"""The trajectories that ship: paper helix, hover, circle, lemniscate, take-off/hover/landing."""
+"""The trajectories that ship: paper helix, hover, circle, lemniscate, take-off/hover/landing,
+waypoint hops."""
 
 from __future__ import annotations
 
@@ -146,6 +147,54 @@ class TakeoffHoverLanding(Trajectory):
                 value = polynomial.polyval(tau, _SMOOTHSTEP_DERIVATIVES[order])
                 offset = z0 if order == 0 else 0.0
                 out[order, inside, 2] = offset + (z1 - z0) * value / duration**order
+        return out
+
+    def yaw_derivatives(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        return _constant_yaw(times, self.yaw)
+
+
+class WaypointHops(Trajectory):
+    """Rest-to-rest hops through ``waypoints`` (K, 3): the reference holds ``waypoints[0]``
+    until ``starts[0]``, moves to ``waypoints[1]`` in ``durations[0]``, holds, and so on, then
+    holds the last. Each hop follows the septic smoothstep along the straight line, so
+    velocity, acceleration and jerk are continuous (zero at every waypoint), as
+    ``TakeoffHoverLanding``'s climb; heading fixed at ``yaw``. A hop of length L in T peaks
+    at 35 L / (16 T) m/s and about 7.51 L / T² m/s² (the smoothstep's own maxima)."""
+
+    def __init__(self, waypoints: ArrayLike, starts: Sequence[float],
+                 durations: Sequence[float], yaw: float = 0.0) -> None:
+        points = np.asarray(waypoints, dtype=float)
+        if points.ndim != 2 or points.shape[1] != 3 or len(points) < 2 \
+                or not np.all(np.isfinite(points)):
+            raise ValueError(f"WaypointHops.waypoints must be a finite (K, 3) array with K >= 2, "
+                             f"got shape {points.shape}")
+        hops = len(points) - 1
+        if len(starts) != hops or len(durations) != hops:
+            raise ValueError(f"WaypointHops needs one start and one duration per hop ({hops}), "
+                             f"got {len(starts)} and {len(durations)}")
+        self.starts = [as_finite(t, "WaypointHops.starts", 0.0) for t in starts]
+        self.durations = [as_finite(t, "WaypointHops.durations", 0.0, strictly=True)
+                          for t in durations]
+        for k in range(1, hops):
+            if self.starts[k] < self.starts[k - 1] + self.durations[k - 1]:
+                raise ValueError(f"WaypointHops: hop {k} starts at {self.starts[k]:g} s, before "
+                                 f"hop {k - 1} ends at "
+                                 f"{self.starts[k - 1] + self.durations[k - 1]:g} s")
+        self.waypoints = points
+        self.yaw = as_finite(yaw, "WaypointHops.yaw")
+
+    def position_derivatives(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = np.zeros((DERIVATIVE_ORDERS, times.shape[0], 3))
+        out[0] = self.waypoints[0]
+        for k, (t0, duration) in enumerate(zip(self.starts, self.durations, strict=True)):
+            step = self.waypoints[k + 1] - self.waypoints[k]
+            out[0, times >= t0 + duration] = self.waypoints[k + 1]
+            inside = (times >= t0) & (times < t0 + duration)
+            tau = (times[inside] - t0) / duration
+            for order in range(DERIVATIVE_ORDERS):
+                value = polynomial.polyval(tau, _SMOOTHSTEP_DERIVATIVES[order])
+                start = self.waypoints[k] if order == 0 else 0.0
+                out[order, inside] = start + np.outer(value / duration**order, step)
         return out
 
     def yaw_derivatives(self, times: NDArray[np.float64]) -> NDArray[np.float64]:

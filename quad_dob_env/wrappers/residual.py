@@ -32,7 +32,8 @@ class ResidualActionWrapper(gym.Wrapper):
                  residual_effort_weight: float = 0.01,
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
-                 attitude_loop: Any = None, residual_rate_weight: float = 0.0) -> None:
+                 attitude_loop: Any = None, residual_rate_weight: float = 0.0,
+                 authority_signal: str = "force") -> None:
         super().__init__(env)
         core = getattr(env.unwrapped, "core", None)
         if core is None or core.n != 1:
@@ -45,7 +46,8 @@ class ResidualActionWrapper(gym.Wrapper):
                                         acceleration_scale=acceleration_scale,
                                         vertical_floor=vertical_floor,
                                         attitude_loop=attitude_loop,
-                                        residual_rate_weight=residual_rate_weight)
+                                        residual_rate_weight=residual_rate_weight,
+                                        authority_signal=authority_signal)
         env.unwrapped.base_controller = self.residual.controller.describe()
         self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.observation_space = gym.spaces.Box(

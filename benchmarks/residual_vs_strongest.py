@@ -1,0 +1,120 @@
+"""Residual policies against the strongest classical baseline of each scenario (issue 29).
+
+Flies every classical baseline (``CLASSICAL_BASELINES``) and each residual given on the same
+seeds, takes the strongest baseline per scenario (fewest lost flights, then lowest mean RMS
+position error after the settle time), and prints, per scenario: the strongest, each
+residual's change against it with the 95 % bootstrap interval of the paired per-seed
+difference, their mean and spread over the residuals (training seeds), the lost flights,
+and the RMS rotor-command rate against the residual's base; ``--before SPEC`` adds one
+more policy's column (the v1 policy, ``residual:v1``). ``--scenario-option`` flies
+every scenario with that option (the margin check: ``extra_latency=0.01
+motor_time_constant_scale=1.5``). ``--json FILE`` keeps every number.
+
+Run by hand, e.g. ``python benchmarks/residual_vs_strongest.py --residuals
+residual:runs/a,residual:runs/b --seeds 9201-9220 --suite``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from quad_dob_env.scenarios import make_scenario
+from quad_dob_training.baseline_evaluation import CLASSICAL_BASELINES
+from quad_dob_training.cli_checks import key_values
+from quad_dob_training.evaluate import SUITES, parse_seeds
+from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.policies import fly_policy, make_policy
+from quad_dob_training.statistics import bootstrap_mean, paired_difference
+
+
+def scores(spec: str, policy, scenario) -> dict[str, np.ndarray]:
+    metrics = [flight_metrics(flight) for flight in fly_policy(policy, scenario, SEEDS)]
+    rate = [m["rms_command_rate"] for m in metrics]
+    return {"rms": np.array([m["rms_position_settled"] for m in metrics]),
+            "lost": np.array([bool(m["crashed"]) for m in metrics]),
+            "rate": np.array([np.nan if r is None else r for r in rate], dtype=float)}
+
+
+def main() -> None:
+    global SEEDS
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--residuals", required=True, help="comma-separated residual specs")
+    parser.add_argument("--scenarios", default="", help="comma-separated scenario names")
+    parser.add_argument("--suite", action="store_true", help="Benchmark v2's whole suite")
+    parser.add_argument("--seeds", default="9201-9220")
+    parser.add_argument("--scenario-option", action="append", default=[])
+    parser.add_argument("--before", help="one more policy, reported in its own column")
+    parser.add_argument("--json", help="write every number to this file")
+    args = parser.parse_args()
+    SEEDS = parse_seeds(args.seeds)
+    # Benchmark v2's loop, as quad-dob evaluate flies by default
+    options = {"benchmark": "v2", **key_values(args.scenario_option, "--scenario-option")}
+    scenario_names = ([name for family in SUITES["v2"].values() for name in family]
+                      if args.suite else args.scenarios.split(","))
+    residual_specs = args.residuals.split(",")
+    before = [args.before] if args.before else []
+    policies = {spec: make_policy(spec)
+                for spec in (*CLASSICAL_BASELINES, *residual_specs, *before)}
+    report = {}
+    print("| scenario | strongest baseline [mm] | residual, mean of seeds [min, max] [mm] | "
+          "change vs strongest, mean [min, max] | seeds whose paired 95 % CI < 0 | "
+          "lost: strongest / base / residuals | command rate: residual / base |"
+          + (f" {args.before}: mm, vs strongest, lost, command rate |" if before else ""))
+    print("|---|---|---|---|---|---|---|" + ("---|" if before else ""))
+    for name in scenario_names:
+        scenario = make_scenario(name, **options)
+        flown = {spec: scores(spec, policy, scenario) for spec, policy in policies.items()}
+        strongest = min(CLASSICAL_BASELINES, key=lambda spec: (flown[spec]["lost"].sum(),
+                                                               flown[spec]["rms"].mean()))
+        bar = flown[strongest]
+        base = flown[policies[residual_specs[0]].base]
+        rows = []
+        for spec in residual_specs:
+            mine = flown[spec]
+            difference = paired_difference(mine["rms"], bar["rms"])
+            rows.append({"spec": spec, "rms": bootstrap_mean(mine["rms"])._asdict(),
+                         "change": difference.mean / bar["rms"].mean(),
+                         "paired": difference._asdict(), "lost": int(mine["lost"].sum()),
+                         "rate": float(np.nanmean(mine["rate"]))})
+        report[name] = {"strongest": strongest, "strongest_rms": bootstrap_mean(
+            bar["rms"])._asdict(), "strongest_lost": int(bar["lost"].sum()),
+            "base_lost": int(base["lost"].sum()), "base_rate": float(np.nanmean(base["rate"])),
+            "baselines": {spec: float(flown[spec]["rms"].mean()) for spec in CLASSICAL_BASELINES},
+            "residuals": rows}
+        extra = ""
+        if before:
+            then = flown[args.before]
+            report[name]["before"] = {
+                "spec": args.before, "rms": bootstrap_mean(then["rms"])._asdict(),
+                "paired": paired_difference(then["rms"], bar["rms"])._asdict(),
+                "lost": int(then["lost"].sum()), "rate": float(np.nanmean(then["rate"]))}
+            extra = (f" {1e3 * then['rms'].mean():.1f}, "
+                     f"{100 * (then['rms'].mean() / bar['rms'].mean() - 1):+.0f} %, "
+                     f"{int(then['lost'].sum())} lost, {np.nanmean(then['rate']):.0f} N/s |")
+        means = [1e3 * row["rms"]["mean"] for row in rows]
+        changes = [100 * row["change"] for row in rows]
+        below = sum(row["paired"]["high"] < 0 for row in rows)
+        rates = [row["rate"] for row in rows]
+        strong = report[name]["strongest_rms"]
+        print(f"| {name} | {strongest} {1e3 * strong['mean']:.1f} "
+              f"[{1e3 * strong['low']:.1f}, {1e3 * strong['high']:.1f}] | "
+              f"{np.mean(means):.1f} [{min(means):.1f}, {max(means):.1f}] | "
+              f"{np.mean(changes):+.0f} % [{min(changes):+.0f}, {max(changes):+.0f}] | "
+              f"{below}/{len(rows)} | {report[name]['strongest_lost']} / "
+              f"{report[name]['base_lost']} / {', '.join(str(row['lost']) for row in rows)} | "
+              f"{np.mean(rates):.0f} / {report[name]['base_rate']:.0f} "
+              f"({np.mean(rates) / report[name]['base_rate']:.2f}x, max "
+              f"{max(rates) / report[name]['base_rate']:.2f}x) |" + extra, flush=True)
+    if args.json:
+        with open(args.json, "w") as file:
+            json.dump({"seeds": SEEDS, "scenario_options": options, "scenarios": report}, file,
+                      indent=1)
+
+
+SEEDS: list[int] = []
+
+if __name__ == "__main__":
+    main()
