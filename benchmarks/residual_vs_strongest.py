@@ -21,17 +21,16 @@ import json
 
 import numpy as np
 
-from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.baseline_evaluation import CLASSICAL_BASELINES
 from quad_dob_training.cli_checks import key_values
-from quad_dob_training.evaluate import SUITES, parse_seeds
-from quad_dob_training.metrics import flight_metrics
-from quad_dob_training.policies import fly_policy, make_policy
+from quad_dob_training.evaluate import SUITES, evaluate, parse_seeds
+from quad_dob_training.policies import make_policy
 from quad_dob_training.statistics import bootstrap_mean, paired_difference
 
 
-def scores(spec: str, policy, scenario) -> dict[str, np.ndarray]:
-    metrics = [flight_metrics(flight) for flight in fly_policy(policy, scenario, SEEDS)]
+def scores(metrics: list[dict]) -> dict[str, np.ndarray]:
+    """The per-seed numbers this table compares: RMS position error after the settle time,
+    lost flights and RMS rotor-command rate."""
     rate = [m["rms_command_rate"] for m in metrics]
     return {"rms": np.array([m["rms_position_settled"] for m in metrics]),
             "lost": np.array([bool(m["crashed"]) for m in metrics]),
@@ -39,7 +38,6 @@ def scores(spec: str, policy, scenario) -> dict[str, np.ndarray]:
 
 
 def main() -> None:
-    global SEEDS
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--residuals", required=True, help="comma-separated residual specs")
     parser.add_argument("--scenarios", default="", help="comma-separated scenario names")
@@ -49,28 +47,31 @@ def main() -> None:
     parser.add_argument("--before", help="one more policy, reported in its own column")
     parser.add_argument("--json", help="write every number to this file")
     args = parser.parse_args()
-    SEEDS = parse_seeds(args.seeds)
+    seeds = parse_seeds(args.seeds)
     # Benchmark v2's loop, as quad-dob evaluate flies by default
     options = {"benchmark": "v2", **key_values(args.scenario_option, "--scenario-option")}
     scenario_names = ([name for family in SUITES["v2"].values() for name in family]
                       if args.suite else args.scenarios.split(","))
     residual_specs = args.residuals.split(",")
     before = [args.before] if args.before else []
-    policies = {spec: make_policy(spec)
-                for spec in (*CLASSICAL_BASELINES, *residual_specs, *before)}
+    base_spec = make_policy(residual_specs[0]).base
     report = {}
-    print("| scenario | strongest baseline [mm] | residual, mean of seeds [min, max] [mm] | "
+    print("| scenario | strongest baseline (mm) | residual (mm), mean of seeds [min, max] | "
           "change vs strongest, mean [min, max] | seeds whose paired 95 % CI < 0 | "
           "lost: strongest / base / residuals | command rate: residual / base |"
           + (f" {args.before}: mm, vs strongest, lost, command rate |" if before else ""))
     print("|---|---|---|---|---|---|---|" + ("---|" if before else ""))
+    per_seed: dict[tuple[str, str], list[dict]] = {}
+    specs = list(dict.fromkeys((*CLASSICAL_BASELINES, *residual_specs, *before)))
     for name in scenario_names:
-        scenario = make_scenario(name, **options)
-        flown = {spec: scores(spec, policy, scenario) for spec, policy in policies.items()}
+        # one scenario at a time, so each row prints as soon as it is flown
+        evaluate(specs, [name], seeds, baseline=None, scenario_options=options,
+                 per_seed=per_seed)
+        flown = {spec: scores(per_seed.pop((name, spec))) for spec in specs}
         strongest = min(CLASSICAL_BASELINES, key=lambda spec: (flown[spec]["lost"].sum(),
                                                                flown[spec]["rms"].mean()))
         bar = flown[strongest]
-        base = flown[policies[residual_specs[0]].base]
+        base = flown[base_spec]
         rows = []
         for spec in residual_specs:
             mine = flown[spec]
@@ -110,11 +111,9 @@ def main() -> None:
               f"{max(rates) / report[name]['base_rate']:.2f}x) |" + extra, flush=True)
     if args.json:
         with open(args.json, "w") as file:
-            json.dump({"seeds": SEEDS, "scenario_options": options, "scenarios": report}, file,
+            json.dump({"seeds": seeds, "scenario_options": options, "scenarios": report}, file,
                       indent=1)
 
-
-SEEDS: list[int] = []
 
 if __name__ == "__main__":
     main()

@@ -64,9 +64,9 @@ def test_absurd_values_are_refused_by_name(argv, message, capsys):
 
 
 def test_scenario_options_are_parsed_by_the_cli_before_they_reach_the_library(capsys):
-    from quad_dob_training.cli import _key_values
+    from quad_dob_training.cli_checks import key_values
 
-    assert _key_values(["dt=0.005", "wind=moderate", "motor_lag=true", "wind_scale=2",
+    assert key_values(["dt=0.005", "wind=moderate", "motor_lag=true", "wind_scale=2",
                         "duration=1e3", "reference_start_spread=2.5E-1"],
                        "--scenario-option") == {"dt": 0.005, "wind": "moderate",
                                                 "motor_lag": True, "wind_scale": 2,

@@ -116,14 +116,16 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
              baseline: str | None = DEFAULT_BASE_CONTROLLER, *,
              trust_pickle: bool = False,
              scenario_options: dict[str, object] | None = None,
-             delay_grid: Sequence[float] | None = None) -> list[dict]:
+             delay_grid: Sequence[float] | None = None,
+             per_seed: dict[tuple[str, str], list[dict]] | None = None) -> list[dict]:
     """One row per (scenario, policy): mean, std and 95 % interval over seeds of each score,
     the crash rate, and the paired difference to ``baseline`` (flown too if not listed;
     None for no comparison). ``first_flights``, when given, collects each scenario's
-    flights on the first seed. ``trust_pickle``: model files may be unpickled
-    (``model_files.load_model``). ``scenario_options`` go to every scenario
-    (``make_scenario(name, **scenario_options)``). ``delay_grid``, when given: each row's
-    ``delay_margin`` on it (``quad_dob_training.margins``)."""
+    flights on the first seed; ``per_seed``, when given, each (scenario, policy spec)'s
+    flight metrics in seed order, for comparisons the rows do not hold. ``trust_pickle``:
+    model files may be unpickled (``model_files.load_model``). ``scenario_options`` go to
+    every scenario (``make_scenario(name, **scenario_options)``). ``delay_grid``, when
+    given: each row's ``delay_margin`` on it (``quad_dob_training.margins``)."""
     specs = list(dict.fromkeys(policies))
     flown = specs if baseline is None or baseline in specs else [*specs, baseline]
     built = [make_policy(spec, trust_pickle=trust_pickle) for spec in flown]
@@ -137,6 +139,8 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
                 first_flights.setdefault(scenario_name, []).append(flights[0])
             metrics[spec] = [flight_metrics(f) for f in flights]
             distinct[spec] = distinct_flights(flights)
+            if per_seed is not None:
+                per_seed[scenario_name, spec] = metrics[spec]
         reference = None if baseline is None else metrics[baseline]
         for spec, policy in zip(specs, built, strict=False):
             row = _row(scenario_name, policy.name, seeds, metrics[spec], baseline, reference)
