@@ -1,8 +1,10 @@
 """How fast PPO (stable-baselines3) learns on the native vector env, residual mode.
 
-Run by hand: ``python benchmarks/training_speed.py [--timesteps 300000]``. Trains the
-``QuadDOB/TrackResidual-v1`` recipe of ``training/hyperparams/ppo.yml`` (dryden-helix-gusts,
-geometric-ndob:tuned base) without evaluations or checkpoints and prints timesteps/s: the
+Run by hand: ``python benchmarks/training_speed.py [--timesteps 300000] [--env-id ID]``.
+Trains the recipe of ``training/hyperparams/ppo.yml`` for the id (default
+``QuadDOB/TracksResidual-v2``, issue 29's: random-tracks in Benchmark v2's randomised loop;
+``QuadDOB/TrackResidual-v1`` is v1's dryden-helix-gusts recipe, the figures before issue 29)
+without evaluations or checkpoints and prints timesteps/s: the
 environment and the PPO update together, as a user sees it, and where the time went:
 stepping the vehicles (the env), the rest of rollout collection (policy inference, buffer
 writes) and the update (SB3's ``train``).
@@ -63,14 +65,18 @@ def timed_env_steps(venv) -> list[float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--timesteps", type=int, default=300_000)
+    parser.add_argument("--env-id", default="QuadDOB/TracksResidual-v2",
+                        help="the ppo.yml recipe to train")
     parser.add_argument("--threads", type=int, default=1, help="torch threads (recipe: 1)")
-    parser.add_argument("--n-envs", type=int, default=None, help="vehicles (recipe: 64)")
-    parser.add_argument("--batch-size", type=int, default=None, help="recipe: 1024")
+    parser.add_argument("--n-envs", type=int, default=None, help="vehicles (the recipe's)")
+    parser.add_argument("--batch-size", type=int, default=None, help="the recipe's")
+    parser.add_argument("--n-epochs", type=int, default=None, help="the recipe's")
     args = parser.parse_args()
-    config = resolve_config("ppo", "residual", "QuadDOB/TrackResidual-v1", None,
-                            args.timesteps, args.n_envs, seed=0)
-    if args.batch_size:
-        config["algo_kwargs"]["batch_size"] = args.batch_size
+    config = resolve_config("ppo", "residual", args.env_id, None, args.timesteps, args.n_envs,
+                            seed=0)
+    for key in ("batch_size", "n_epochs"):
+        if getattr(args, key):
+            config["algo_kwargs"][key] = getattr(args, key)
     with tempfile.TemporaryDirectory() as folder:
         # train's setup_process sets the recipe's 1; make_vec_env and make_model set none
         torch.set_num_threads(args.threads)
@@ -84,9 +90,10 @@ def main() -> None:
         rate = args.timesteps / wall
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, torch {torch.__version__}")
-    print(f"PPO on QuadDOB/TrackResidual-v1 ({config['env_kwargs']['scenario']}, base "
+    print(f"PPO on {args.env_id} ({config['env_kwargs']['scenario']}, base "
           f"{config['base_controller']}), {config['n_envs']} envs, batch "
-          f"{config['algo_kwargs']['batch_size']}, {args.threads} torch thread(s): "
+          f"{config['algo_kwargs']['batch_size']}, {config['algo_kwargs'].get('n_epochs', 10)} "
+          f"epochs, {args.threads} torch thread(s): "
           f"{rate:,.0f} timesteps/s")
     update = wall - stopwatch.collecting
     print(f"of {wall:.1f} s: env steps {env_seconds[0]:.1f} s ({env_seconds[0] / wall:.0%}), "

@@ -33,6 +33,7 @@ from quad_dob_env.trajectories import (
     Hover,
     PaperHelix,
     TakeoffHoverLanding,
+    TrajectoryFamily,
     random_references,
 )
 from quad_dob_env.trajectories.family import LANDING_HEIGHT
@@ -234,6 +235,20 @@ HELD_OUT_POOL_SEED = 20_261_203
 HELD_OUT_POOL_COUNT = 60
 
 
+@functools.lru_cache(maxsize=16)
+def _feasible_pool(vehicle: VehicleParams, kinds: tuple[str, ...], pool_seed: int,
+                   count: int) -> TrajectoryFamily:
+    """The pool a random-reference scenario draws from, built once per process for each
+    vehicle and pool: checking 240 references' feasibility takes about a second, and a
+    training run builds its scenario once per loop group (``quad_dob_training.vec_env``)."""
+    # each member keeps Benchmark v1's margin on every axis, or is drawn again (the bounds
+    # alone let one helix, its plane at an angle to the rotor arms, keep only 15 %)
+    return random_references(
+        pool_seed, count, kinds,
+        accept=lambda member: check_reference(member, vehicle, "rotors", TRACK_DURATION,
+                                              0.01).worst.margin >= BENCHMARK_MARGIN)
+
+
 def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRAINING_KINDS,
                    pool_seed: int = 0, count: int = 240, wind_scale: float = 1.0,
                    name: str = "random-tracks") -> Scenario:
@@ -241,12 +256,7 @@ def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRA
     from none to the moderate preset (direction uniform), the two gusts, mass, inertia and
     drag randomised: the task distribution generalists train on."""
     vehicle = get_vehicle(vehicle)
-    # each member keeps Benchmark v1's margin on every axis, or is drawn again (the bounds
-    # alone let one helix, its plane at an angle to the rotor arms, keep only 15 %)
-    family = random_references(
-        pool_seed, count, kinds,
-        accept=lambda member: check_reference(member, vehicle, "rotors", TRACK_DURATION,
-                                              0.01).worst.margin >= BENCHMARK_MARGIN)
+    family = _feasible_pool(vehicle, tuple(kinds), pool_seed, count)
     start = family.members[0].evaluate(0.0)
     dryden = Dryden(wind_speed_6m=WIND_PRESETS["moderate"][1], altitude=HELIX_ALTITUDE,
                     direction=None, mean_wind_speed=WIND_PRESETS["moderate"][0],

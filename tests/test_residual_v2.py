@@ -83,6 +83,14 @@ def test_loop_groups_are_stratified_over_their_ranges_and_seeded():
     assert sorted(round(loop["extra_latency"] / 0.01) for loop in loops) == [0, 1, 2, 3]
     airframes = draw_loops({**spec, "vehicle": ["paper", "neural-fly"]}, 7, 0.01)
     assert [loop["vehicle"] for loop in airframes] == ["paper", "neural-fly"] * 2
+    # the wind scale is drawn only when asked for, after the others, which it leaves as
+    # they were
+    windy = draw_loops({**spec, "wind_scale": [1.0, 2.0]}, 7, 0.01)
+    assert all("wind_scale" not in loop for loop in loops)
+    assert [{k: v for k, v in loop.items() if k != "wind_scale"} for loop in windy] == loops
+    assert sorted(int(loop["wind_scale"] / 0.25) - 4 for loop in windy) == [0, 1, 2, 3]
+    with pytest.raises(ValueError, match=r"wind_scale must be a range"):
+        draw_loops({"wind_scale": [2.0, 1.0]}, 0, 0.01)
     with pytest.raises(ValueError, match=r"loop_randomization vehicle 'nf'"):
         draw_loops({"vehicle": ["nf"]}, 0, 0.01)
     with pytest.raises(ValueError, match=r"loop_randomization key.*groups"):

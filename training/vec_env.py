@@ -7,7 +7,9 @@ whether it was the time limit). This adapter drives a ``QuadrotorVectorEnv``'s c
 way, so ``PPO("MlpPolicy", QuadrotorSB3VecEnv(...))`` trains on N vehicles in one process.
 
 ``loop_randomization`` randomises what one batch cannot vary per vehicle, the vehicle loop
-(sensing preset, extra latency, motor time constant) and the airframe, by splitting the N
+(sensing preset, extra latency, motor time constant), the airframe and, where the spec
+gives it, the scenario's wind scale (``wind_scale``: the ceiling of its per-vehicle wind
+draw, for scenarios that take one), by splitting the N
 vehicles into ``groups``, each a vector env of its own loop, drawn from the ranges given
 (``draw_loops``); mass, inertia, drag, thrust coefficient and wind are drawn per vehicle by
 the scenario. It is a training option only: ``env_options`` drops it, so evaluation flies
@@ -35,7 +37,7 @@ from quad_dob_env.validation import checked_keywords, unknown_name_error
 # the keys of ``loop_randomization``: the number of groups, the sensing presets and the
 # vehicles they cycle through, and (low, high) ranges of the scenario options drawn per group
 LOOP_RANDOMIZATION_KEYS = ("groups", "sensing", "vehicle", "extra_latency",
-                           "motor_time_constant_scale")
+                           "motor_time_constant_scale", "wind_scale")
 TRAINING_ONLY_KEYS = ("loop_randomization",)
 
 
@@ -66,7 +68,8 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
         if name not in VEHICLES:
             raise unknown_name_error("loop_randomization vehicle", name, VEHICLES)
     ranges = {}
-    for key, default in (("extra_latency", (0.0, 0.0)), ("motor_time_constant_scale", (1.0, 1.0))):
+    for key, default in (("extra_latency", (0.0, 0.0)), ("motor_time_constant_scale", (1.0, 1.0)),
+                         ("wind_scale", (1.0, 1.0))):
         value = spec.get(key, default)
         low, high = (float(v) for v in value)
         if not 0.0 <= low <= high or (key == "motor_time_constant_scale" and low == 0.0):
@@ -86,9 +89,13 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
     latency = grid[np.minimum((stratified() * grid.size).astype(int), grid.size - 1)]
     low, high = ranges["motor_time_constant_scale"]
     motor = low + (high - low) * stratified()
+    # drawn last, and only when asked for, so specs without it draw as they did before it
+    low, high = ranges["wind_scale"]
+    wind = low + (high - low) * stratified() if "wind_scale" in spec else None
     return [{"sensing": sensing[g % len(sensing)], "extra_latency": round(float(latency[g]), 6),
              "motor_time_constant_scale": round(float(motor[g]), 4),
-             **({"vehicle": vehicles[g % len(vehicles)]} if vehicles else {})}
+             **({"vehicle": vehicles[g % len(vehicles)]} if vehicles else {}),
+             **({"wind_scale": round(float(wind[g]), 4)} if wind is not None else {})}
             for g in range(groups)]
 
 
