@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from quad_dob_composition.attitude_loop import AttitudeLoop
@@ -21,7 +22,7 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
                       authority_gate: float | None = None,
                       residual_mode: str = "thrust_moments", acceleration_scale: float = 3.0,
                       vertical_floor: float = 0.5, residual_rate_weight: float = 0.0,
-                      authority_signal: str = "force",
+                      authority_signal: str = "force", lookahead: Sequence[float] = (),
                       **env_kwargs: Any) -> ResidualActionWrapper:
     """``ResidualActionWrapper(QuadrotorEnv(**env_kwargs))`` flown by ``base_controller``
     (a name or a controller), the env's own effort term off."""
@@ -33,7 +34,7 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
                                  authority_gate, residual_mode, acceleration_scale,
                                  vertical_floor, attitude_loop=AttitudeLoop.install,
                                  residual_rate_weight=residual_rate_weight,
-                                 authority_signal=authority_signal)
+                                 authority_signal=authority_signal, lookahead=lookahead)
 
 
 class ResidualVectorEnv(QuadrotorVectorEnv):

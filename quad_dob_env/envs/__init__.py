@@ -24,6 +24,7 @@
   ``quad_dob_env.wrappers.ResidualActionWrapper`` both run it.
 - ``residual_kernels``: the residual's compiled per-vehicle command, reward and extra
   observation.
+- ``lookahead``: the residual observation's optional look-ahead of the reference.
 - ``info``: the layout of every vehicle's ``info`` numbers and the pass that writes them.
 - ``rendering``: ``FlightRenderer``, the frames of ``render_mode="rgb_array"``/``"human"``.
 

@@ -136,7 +136,9 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
       low-passed horizontal force estimate, which stays shut in calm air under noisy
       sensing) and ``residual_rate_weight``; the scenarios ``heldout-tracks`` and
       ``heldout-hops`` (reference pools seeded apart from training, the second of a kind,
-      waypoint hops, no training family holds).
+      waypoint hops, no training family holds); the residual's ``lookahead`` (the error
+      against the reference at given times ahead, 3 observation entries each; none by
+      default).
     - v2 (2026-12): the ids ``QuadDOB/Hover-v2``, ``HoverResidual-v2``, ``TrackResidual-v2``
       and ``TracksResidual-v2`` fly the v1 ids' scenarios under ``benchmark="v2"``: ``mocap``
       sensing, the 200 Hz inner loop, speed motors, thrust uncertainty, rotor aerodynamics.

@@ -55,8 +55,8 @@ flies alone, bit for bit; from the gate up it has all of it. ``authority_signal`
   scenarios had it above 0.012-0.07 on 90 % (docs/residual-rl.md), so a gate of 0.04
   (shut below 0.02) stays shut in calm air under both.
 
-Observation: the env's own observation followed by 16 entries, from the measurement the base
-controller reads:
+Observation: the env's own observation followed by 16 entries (and 3 per look-ahead time),
+from the measurement the base controller reads:
 
 | index (after the env's) | entry                                                   | unit |
 |-------------------------|---------------------------------------------------------|------|
@@ -65,9 +65,15 @@ controller reads:
 | 7-9                     | observer's torque estimate d̂Ω / moment limit            | -    |
 | 10-12                   | position error in the body frame, Rᵀ(x - x_d)           | m    |
 | 13-15                   | velocity error in the body frame, Rᵀ(v - v_d)           | m/s  |
+| 16 + 3k to 18 + 3k      | with ``lookahead``: Rᵀ(x - x_d(t + τ_k)), τ_k its k-th time | m    |
 
 The body-frame errors are there because the residual acts through body moments: with them
-a correction is nearly linear in what the policy sees, whatever the heading.
+a correction is nearly linear in what the policy sees, whatever the heading. ``lookahead``
+(times in seconds, multiples of the control step up to 2 s; none by default)
+adds the error against the reference that far ahead, as DATT's feedforward reads the
+trajectory's next points (Huang et al., "DATT", CoRL 2023, arXiv:2310.09053); past the
+reference table's end it reads its last row. x and R are the measurement the base reads, as
+in every entry.
 
 Reward: the env's reward (built with no effort term) minus
 ``residual_effort_weight · mean(a²)``, so only the policy's own effort is penalised, and
@@ -79,12 +85,13 @@ oscillation.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from quad_dob_env.envs.lookahead import look_ahead, lookahead_steps
 from quad_dob_env.envs.residual_kernels import (
     join_columns,
     residual_command_kernel,
@@ -137,7 +144,8 @@ class ResidualCommand:
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
                  attitude_loop: Callable[[QuadrotorBatch, Any], Any] | None = None,
-                 residual_rate_weight: float = 0.0, authority_signal: str = "force") -> None:
+                 residual_rate_weight: float = 0.0, authority_signal: str = "force",
+                 lookahead: Sequence[float] = ()) -> None:
         if core.action_map.rate_loop is not None:
             raise ValueError("a residual adds to its base's thrust and moments: "
                              "action_mode='thrust_rates' is for direct control only")
@@ -175,7 +183,9 @@ class ResidualCommand:
         n = core.n
         self.base_thrust, self.base_moment = np.zeros(n), np.zeros((n, 3))
         self.requested_thrust = np.zeros(n)  # base + residual, before the actuators' limits
-        self.extra_observation = np.zeros((n, RESIDUAL_OBSERVATION_SIZE), dtype=np.float32)
+        self.lookahead_steps = lookahead_steps(lookahead, core.scenario.dt)
+        self.extra_observation = np.zeros(
+            (n, RESIDUAL_OBSERVATION_SIZE + 3 * len(self.lookahead_steps)), dtype=np.float32)
         self.rewards = np.zeros(n)
         self._body_errors = np.zeros((n, 6))
         self._base_action = np.zeros((n, 4))
@@ -233,6 +243,8 @@ class ResidualCommand:
             self.plan()
         else:
             self._fused.restart(indices)
+            look_ahead(self.core, self.lookahead_steps,
+                       self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:])
 
     def fly(self, residual: NDArray[np.float64]) -> None:
         """Step the core with base + ``residual`` (N, 4) and plan the next base command:
@@ -240,6 +252,8 @@ class ResidualCommand:
         ``core.step``, ``record`` and ``plan``."""
         if self._fused is not None:
             self._fused.fly(self.gated(residual))
+            look_ahead(self.core, self.lookahead_steps,
+                       self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:])
             return
         self.core.step(self.command(residual))
         self.record()
@@ -352,6 +366,8 @@ class ResidualCommand:
             state.position, state.velocity, state.rotation, core.reference_table,
             core.reference_row, core.action_map.inverse, self._base_action, self._body_errors,
             self.extra_observation)
+        look_ahead(self.core, self.lookahead_steps,
+                   self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:])
 
     def requested_command(self, base_moment: NDArray | None = None
                           ) -> tuple[NDArray, NDArray]:

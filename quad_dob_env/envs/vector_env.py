@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -23,7 +24,7 @@ from quad_dob_env.envs.core import (
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND, episode_ends_kernel
 from quad_dob_env.envs.limits import SpecWithEpisodeLength
 from quad_dob_env.envs.rendering import FlightRenderer
-from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
+from quad_dob_env.envs.residual import ResidualCommand
 from quad_dob_env.scenarios import Scenario, make_scenario
 from quad_dob_env.validation import checked_keywords, unknown_name_error
 
@@ -67,7 +68,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     then adds ``base_thrust``, ``base_moment``, ``force_estimate`` and ``torque_estimate``.
     ``reward_effort_weight`` defaults to 0.01 without a base and to 0 with one (the
     residual's own effort is ``residual_effort_weight``, its rate of change
-    ``residual_rate_weight``; ``authority_gate`` and ``authority_signal``: when it may act).
+    ``residual_rate_weight``; ``authority_gate`` and ``authority_signal``: when it may act;
+    ``lookahead``: times [s] at which the observation also holds the reference ahead).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 100,
@@ -88,7 +90,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
                  attitude_loop: Any = None, benchmark: str | None = None,
-                 residual_rate_weight: float = 0.0, authority_signal: str = "force") -> None:
+                 residual_rate_weight: float = 0.0, authority_signal: str = "force",
+                 lookahead: Sequence[float] = ()) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -119,7 +122,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
             self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
             fused_pass, authority_gate, residual_mode, acceleration_scale, vertical_floor,
             attitude_loop, residual_rate_weight=residual_rate_weight,
-            authority_signal=authority_signal)
+            authority_signal=authority_signal, lookahead=lookahead)
         # None without a base; with one, its name and gains (also in the reset info)
         self.base_controller = (None if self.residual is None
                                 else self.residual.controller.describe())
@@ -128,7 +131,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
                          "autoreset_mode": self.autoreset_mode}
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         size = self.core.observation_size + (
-            0 if self.residual is None else RESIDUAL_OBSERVATION_SIZE)
+            0 if self.residual is None else self.residual.extra_observation.shape[1])
         self.single_observation_space = gym.spaces.Box(
             -OBSERVATION_BOUND, OBSERVATION_BOUND, (size,), np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)

@@ -6,6 +6,7 @@ Command, observation and reward: see ``quad_dob_env.envs.residual``.
 from __future__ import annotations
 
 import copy
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -14,7 +15,7 @@ from numpy.typing import NDArray
 
 from quad_dob_env.envs.actions import screen_actions
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND
-from quad_dob_env.envs.residual import RESIDUAL_OBSERVATION_SIZE, ResidualCommand
+from quad_dob_env.envs.residual import ResidualCommand
 
 
 class ResidualActionWrapper(gym.Wrapper):
@@ -33,7 +34,7 @@ class ResidualActionWrapper(gym.Wrapper):
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
                  attitude_loop: Any = None, residual_rate_weight: float = 0.0,
-                 authority_signal: str = "force") -> None:
+                 authority_signal: str = "force", lookahead: Sequence[float] = ()) -> None:
         super().__init__(env)
         core = getattr(env.unwrapped, "core", None)
         if core is None or core.n != 1:
@@ -47,12 +48,13 @@ class ResidualActionWrapper(gym.Wrapper):
                                         vertical_floor=vertical_floor,
                                         attitude_loop=attitude_loop,
                                         residual_rate_weight=residual_rate_weight,
-                                        authority_signal=authority_signal)
+                                        authority_signal=authority_signal,
+                                        lookahead=lookahead)
         env.unwrapped.base_controller = self.residual.controller.describe()
         self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.observation_space = gym.spaces.Box(
             -OBSERVATION_BOUND, OBSERVATION_BOUND,
-            (core.observation_size + RESIDUAL_OBSERVATION_SIZE,), np.float32)
+            (core.observation_size + self.residual.extra_observation.shape[1],), np.float32)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[NDArray[np.float32], dict]:
