@@ -168,3 +168,20 @@ def test_a_cut_off_checkpoint_is_named_and_the_earlier_one_still_resumes(tmp_pat
         train(config, tmp_path / "resumed2", resume=zip_path, progress_bar=False)
     with pytest.raises(ValueError, match="does not exist"):
         train(config, tmp_path / "x", resume=tmp_path / "nowhere", progress_bar=False)
+
+
+def test_a_run_keeps_its_newest_two_checkpoints_and_no_other_runs_files_are_touched(tmp_path):
+    config = resolve_config("ppo", "residual", ENV, None, 1280, 8, seed=3,
+                            hyperparams=_conf_file(tmp_path, "ppo"))
+    folder = tmp_path / "checkpoints"
+    folder.mkdir()
+    foreign = [folder / "ppo_64.state", folder / "ppo_64.zip"]  # another run's leftovers
+    for path in foreign:
+        path.write_bytes(b"not this run's")
+    train(config, tmp_path, checkpoint_every=256, evaluate_every=10**9, progress_bar=False)
+    # checkpoints were due at 256, 512, 768 and 1024 timesteps: the last two stay
+    names = sorted(p.name for p in folder.iterdir())
+    assert names == sorted(["ppo_64.state", "ppo_64.zip", "ppo_768.state", "ppo_768.zip",
+                            "ppo_1024.state", "ppo_1024.zip"])
+    assert all(path.read_bytes() == b"not this run's" for path in foreign)
+    assert latest_checkpoint(tmp_path).name == "ppo_1024.state"

@@ -208,8 +208,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "finishes that run as if it had never stopped; or a model .zip: "
                        "trains --timesteps more from its weights (default: a fresh run)")
     train.add_argument("--checkpoint-every", type=_positive_int, default=None,
-                       help="timesteps between checkpoints (default: 100000, or the resumed "
-                       "run's own)")
+                       help="timesteps between checkpoints, of which the run keeps its "
+                       "newest two (default: 100000, or the resumed run's own)")
     train.add_argument("--evaluate-every", type=_positive_int, default=None,
                        help="timesteps between evaluations against the base, each run at "
                        "the first rollout's start past it (default: 100000, or the resumed "
