@@ -28,9 +28,14 @@ def _rebuilt(core, residual) -> np.ndarray:
                           measured.angular_velocity, reference.acceleration,
                           reference.heading], axis=1)
     limit = core.actuator.moment_limit
-    thrust = _normalised(residual.base_thrust, vehicle.hover_thrust,
+    # the command the observation shows: the base's coming one, or in acceleration mode (the
+    # base runs within the step) the one just flown, as the flight records it
+    shown_thrust, shown_moment = (residual.requested_command()
+                                  if residual.residual_mode == "acceleration"
+                                  else (residual.base_thrust, residual.base_moment))
+    thrust = _normalised(shown_thrust, vehicle.hover_thrust,
                          vehicle.max_total_thrust - vehicle.hover_thrust, vehicle.hover_thrust)
-    moment = np.clip(residual.base_moment / limit, -1.0, 1.0)
+    moment = np.clip(shown_moment / limit, -1.0, 1.0)
     # Rᵀ e: the errors in the (estimated) body frame
     body = np.einsum("nji,nj->ni", rotation, position_error)
     body_velocity = np.einsum("nji,nj->ni", rotation, velocity_error)
@@ -40,10 +45,17 @@ def _rebuilt(core, residual) -> np.ndarray:
     return np.concatenate([own, extra], axis=1).astype(np.float32)
 
 
+# residual:v2's own options: acceleration residuals behind the wind gate
+V2_RESIDUAL = {"residual_mode": "acceleration", "moment_scale": 0.3, "authority_gate": 0.04,
+               "authority_signal": "wind"}
+
+
+@pytest.mark.parametrize("options", [{}, V2_RESIDUAL], ids=["thrust_moments", "v2"])
 @pytest.mark.parametrize("sensing", ["mocap", "gnss-imu"])
-def test_the_residual_observation_is_rebuilt_from_the_measurement_record_bit_for_bit(sensing):
+def test_the_residual_observation_is_rebuilt_from_the_measurement_record_bit_for_bit(sensing,
+                                                                                     options):
     scenario = make_scenario("dryden-helix-gusts", benchmark="v2", sensing=sensing)
-    env = make_vector_env(3, scenario, base_controller="geometric-ndob:tuned")
+    env = make_vector_env(3, scenario, base_controller="geometric-ndob:tuned", **options)
     obs, _ = env.reset(seed=[5, 6, 7])
     rng = np.random.default_rng(0)
     gaps = []

@@ -166,17 +166,14 @@ def test_held_out_families_are_new_references():
 ])
 def test_the_look_ahead_is_the_reference_ahead_in_the_estimates_body_frame(options):
     lookahead = (0.2, 0.5)
-    # 1.5 s episodes, so the look-ahead passes the reference table's end (held at its last
-    # row) before each episode ends
+    # 1.5 s episodes: the look-ahead reads past the scenario's end before each one ends
     env = ResidualVectorEnv(3, lookahead=lookahead, scenario_options={"duration": 1.5},
                             **options)
     assert (env.residual._fused is None) == (options.get("benchmark") == "v2")
     obs, _ = env.reset(seed=[4, 5, 6])
     core = env.core
     assert obs.shape[1] == env.single_observation_space.shape[0] == core.observation_size + 22
-    # the table's last row: the scenario's end plus the start spread
-    last = core.scenario.duration + core.scenario.reference_start_spread
-    for step in range(round(last / core.scenario.dt) - 1):
+    for step in range(core.scenario.steps - 1):
         if step % 7 == 0:
             # an oracle from the trajectory itself, not the table
             for i in range(3):
@@ -186,11 +183,12 @@ def test_the_look_ahead_is_the_reference_ahead_in_the_estimates_body_frame(optio
                 now = (core.reference_start[i] + core.step_count[i]) * core.scenario.dt
                 estimate = core.measurement
                 for k, ahead in enumerate(lookahead):
-                    target = member.evaluate(min(now + ahead, last)).position[0]
+                    target = member.evaluate(now + ahead).position[0]
                     expected = estimate.rotation[i].T @ (estimate.position[i] - target)
                     seen = obs[i, -6 + 3 * k:-3 + 3 * k or None]
                     np.testing.assert_allclose(seen, expected, rtol=1e-5, atol=1e-6)
         obs, *_ = env.step(np.full((3, 4), 0.1, np.float32))
+        assert not env.core.termination_code.any()  # one episode each: the oracle's times
     with pytest.raises(ValueError, match="multiples of the control step"):
         ResidualVectorEnv(1, "hover-calm", lookahead=(0.015,))
     with pytest.raises(ValueError, match="must increase"):

@@ -6,9 +6,8 @@ physics, observation, reward and termination are written once.
 Every vehicle's time is ``step_count * dt``, so whatever depends on time alone (the
 reference and the non-random disturbances) is tabulated once on that grid (a
 ``TrajectoryFamily``'s members stacked, each vehicle reading its member's block at
-``reference_row``), and one
-compiled call per step does the rest for the whole batch: action -> command -> actuation ->
-integration -> observation, reward, termination.
+``reference_row``), and one compiled call per step does the rest for the whole batch:
+action -> command -> actuation -> integration -> observation, reward, termination.
 """
 
 from __future__ import annotations
@@ -94,8 +93,7 @@ class QuadrotorBatch:
         # which member each vehicle flies, and its row in the stacked reference table
         self.reference_member = np.zeros(n, dtype=np.int64)
         self.reference_start = np.zeros(n, dtype=np.int64)  # its start's row in the member
-        self.reference_row = np.zeros(n, dtype=np.int64)
-        self.step_count = np.zeros(n, dtype=np.int64)
+        self.reference_row, self.step_count = np.zeros(n, np.int64), np.zeros(n, np.int64)
         self._start_steps = scenario.start_spread_steps
         self._tabulate(scenario.table_rows)
         # an episode is truncated after this many steps (``set_time_limit``)
@@ -111,9 +109,8 @@ class QuadrotorBatch:
         self.rewards = np.zeros(n)
         self.applied = AppliedCommand(np.zeros(n), np.zeros((n, 3)), np.zeros((n, 4)),
                                       np.zeros(n, dtype=np.bool_))
-        self.disturbance_force = np.zeros((n, 3))
-        self.disturbance_torque = np.zeros((n, 3))
-        self.wind_velocity = np.zeros((n, 3))
+        self.disturbance_force, self.disturbance_torque, self.wind_velocity = (
+            np.zeros((n, 3)) for _ in range(3))
         self._own = tuple(np.zeros((n, samples, 3)) for _ in range(3))  # force, torque, wind
         # per-vehicle physics (mass, inertia, inverse, drag), so vehicles can differ
         self._nominal = physics_arrays(self.vehicle, 1, scenario.drag,
@@ -127,8 +124,7 @@ class QuadrotorBatch:
                          if scenario.motor_lag or scenario.speed_motors else 0.0)
         self._actuator = (self.actuator.to_wrench, self.actuator.to_rotors, float(time_constant),
                           self.actuator_state)
-        limits_ = self.limits
-        floor = scenario.floor_height
+        floor, limits_ = scenario.floor_height, self.limits
         self._limits = (float(limits_.max_position_error), float(np.cos(limits_.max_tilt)),
                         float(limits_.max_body_rate), floor is not None,
                         0.0 if floor is None else float(floor))
@@ -189,6 +185,10 @@ class QuadrotorBatch:
         order; vehicle i reads row ``reference_row[i]``, time ``step_count[i] dt`` of its
         member. It is replaced (not grown in place) when flown past its end."""
         return self._reference_table
+
+    def tabulate_ahead(self, steps: int) -> None:
+        """Each member's table ``steps`` rows longer, for a reader of the reference ahead."""
+        self._tabulate(self._member_rows + steps)
 
     def member_reference(self, index: int, steps: int) -> NDArray[np.float64]:
         """Vehicle ``index``'s reference over its first ``steps`` rows, (steps, 8, 3)."""

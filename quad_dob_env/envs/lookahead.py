@@ -34,8 +34,9 @@ def lookahead_steps(lookahead: Sequence[float], dt: float) -> NDArray[np.int64]:
 def look_ahead(core: QuadrotorBatch, steps: NDArray[np.int64], out: NDArray[np.float32]
                ) -> None:
     """``out`` (N, 3K) = R̂ᵀ(x̂ - x_d(t + τ_k)) for each of the K ``steps``, from the
-    measurement the base read; each reference member is held at its
-    block's last row of the table (a family stacks its members' blocks)."""
+    measurement the base read. The residual has the core tabulate the reference that far
+    past the episode's end (``tabulate_ahead``); a vehicle flown past even that reads its
+    member's last row (a family stacks its members' blocks)."""
     if not len(steps):
         return
     measurement = core.measurement

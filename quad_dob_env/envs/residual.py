@@ -71,9 +71,9 @@ The body-frame errors are there because the residual acts through body moments: 
 a correction is nearly linear in what the policy sees, whatever the heading. ``lookahead``
 (times in seconds, multiples of the control step up to 2 s; none by default)
 adds the error against the reference that far ahead, as DATT's feedforward reads the
-trajectory's next points (Huang et al., "DATT", CoRL 2023, arXiv:2310.09053); past the
-reference table's end it reads its last row. x and R are the measurement the base reads, as
-in every entry.
+trajectory's next points (Huang et al., "DATT", CoRL 2023, arXiv:2310.09053); the reference
+is tabulated that much past the episode's end, and a vehicle flown past even that (no
+reset) reads its last row. x and R are the measurement the base reads, as in every entry.
 
 Reward: the env's reward (built with no effort term) minus
 ``residual_effort_weight · mean(a²)``, so only the policy's own effort is penalised, and
@@ -184,6 +184,8 @@ class ResidualCommand:
         self.base_thrust, self.base_moment = np.zeros(n), np.zeros((n, 3))
         self.requested_thrust = np.zeros(n)  # base + residual, before the actuators' limits
         self.lookahead_steps = lookahead_steps(lookahead, core.scenario.dt)
+        if len(self.lookahead_steps):  # so that an episode's last step still sees ahead
+            core.tabulate_ahead(int(self.lookahead_steps[-1]))
         self.extra_observation = np.zeros(
             (n, RESIDUAL_OBSERVATION_SIZE + 3 * len(self.lookahead_steps)), dtype=np.float32)
         self.rewards = np.zeros(n)
@@ -251,7 +253,7 @@ class ResidualCommand:
         one compiled pass when it was given one (``fused_pass``), else ``command``,
         ``core.step``, ``record`` and ``plan``."""
         if self._fused is not None:
-            self._fused.fly(self.gated(residual))
+            self._fused.fly(self._gate_flown(residual))
             look_ahead(self.core, self.lookahead_steps,
                        self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:])
             return
@@ -267,7 +269,7 @@ class ResidualCommand:
         measurement = core.measurement
         self._state_before = measurement.copy()
         actions = np.empty((core.n, 4))
-        residual = np.ascontiguousarray(self.gated(residual), dtype=np.float64)
+        residual = np.ascontiguousarray(self._gate_flown(residual), dtype=np.float64)
         if self.residual_mode == "acceleration":
             clipped = np.clip(residual, -1.0, 1.0)
             correction = self.acceleration_scale * clipped[:, :3]
@@ -315,20 +317,23 @@ class ResidualCommand:
             return None
         return np.column_stack([correction[:, :2] * shorten[:, None], vertical])
 
+    def _gate_flown(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``gated``, the ``"wind"`` filter advanced first: once per flown step."""
+        if self.authority_gate is not None and self.authority_signal == "wind":
+            # first-order low-pass of d̂x,xy / (m g₀) at the step's start, forward Euler
+            blend = min(1.0, self.core.scenario.dt / WIND_GATE_TIME_CONSTANT)
+            self.gate_filter += blend * (self.extra_observation[:, 4:6] - self.gate_filter)
+        return self.gated(residual)
+
     def gated(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
         """``residual`` clipped and scaled by the authority the observed disturbance gives
-        (module docstring); unchanged without ``authority_gate``. Called once per flown
-        step (``fly`` or ``command``): the ``"wind"`` signal's filter advances here."""
+        (module docstring); unchanged without ``authority_gate``. Sets ``authority`` only."""
         if self.authority_gate is None:
             return residual
-        estimate = self.extra_observation[:, 4:7]  # d̂x / (m g₀) at the step's start
         if self.authority_signal == "wind":
-            # first-order low-pass, forward Euler at the control step
-            blend = min(1.0, self.core.scenario.dt / WIND_GATE_TIME_CONSTANT)
-            self.gate_filter += blend * (estimate[:, :2] - self.gate_filter)
             seen = np.linalg.norm(self.gate_filter, axis=1)
-        else:
-            seen = np.linalg.norm(estimate, axis=1)
+        else:  # d̂x / (m g₀) at the step's start
+            seen = np.linalg.norm(self.extra_observation[:, 4:7], axis=1)
         self.authority = np.clip(2.0 * seen / self.authority_gate - 1.0, 0.0, 1.0)
         return np.clip(residual, -1.0, 1.0) * self.authority[:, None]
 
