@@ -185,3 +185,11 @@ def test_a_run_keeps_its_newest_two_checkpoints_and_no_other_runs_files_are_touc
                             "ppo_1024.state", "ppo_1024.zip"])
     assert all(path.read_bytes() == b"not this run's" for path in foreign)
     assert latest_checkpoint(tmp_path).name == "ppo_1024.state"
+    # a later checkpoint of the same run (a branch given up by resuming an earlier one)
+    # is not counted among the newest, nor deleted
+    for suffix in (".state", ".zip"):
+        (folder / f"ppo_1024{suffix}").rename(folder / f"ppo_9984{suffix}")
+    train(None, tmp_path, resume=folder / "ppo_768.state", progress_bar=False)
+    assert sorted(p.name for p in folder.iterdir()) == sorted(
+        ["ppo_64.state", "ppo_64.zip", "ppo_768.state", "ppo_768.zip", "ppo_1024.state",
+         "ppo_1024.zip", "ppo_9984.state", "ppo_9984.zip"])

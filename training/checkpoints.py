@@ -203,12 +203,15 @@ class ResumableCheckpoint(BaseCallback):
         return path
 
     def _prune(self, run_id: object) -> None:
-        """Delete this run's checkpoints but the newest ``KEEP_CHECKPOINTS``: each holds every
-        vehicle's state, reference tables included (about 170 MB for 256 vehicles of
-        ``random-tracks``), and a resume reads only the newest (the one before it stays in
-        case that one was cut off). Another run's files left in the folder are not touched."""
-        own = sorted((int(m["steps"]), path) for path in self.folder.glob("*.state")
+        """Delete this run's checkpoints but the newest ``KEEP_CHECKPOINTS`` up to the one
+        just written: each holds every vehicle's state, reference tables included (about
+        170 MB for 256 vehicles of ``random-tracks``), and a resume reads only the newest
+        (the one before it stays in case that one was cut off). Later ones (left by a branch
+        given up when an earlier checkpoint was resumed) and another run's files are not
+        touched."""
+        own = sorted((steps, path) for path in self.folder.glob("*.state")
                      if (m := _NAME.match(path.name)) and m["algo"] == self.config["algo"]
+                     and (steps := int(m["steps"])) <= self.num_timesteps
                      and _claimed_run_id(path) == run_id)
         for _, state in own[:-KEEP_CHECKPOINTS]:
             for old in (state, state.with_suffix(".zip"),
