@@ -48,8 +48,9 @@ def env_options(env_kwargs: dict[str, Any]) -> dict[str, Any]:
 
 
 def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[str, Any]]:
-    """One scenario-options dict per group: group g takes ``sensing[g % len]`` (and
-    ``vehicle[g % len]`` where given: a vehicle preset the scenario is built for), and each
+    """One scenario-options dict per group: group g takes ``sensing[g % len]`` and
+    ``vehicle[g % len]`` where given (the scenario's own where not; the two lists cycle
+    together, so their pairs are the ones listed, not every combination), and each
     range is stratified over the groups (each group draws from its own slice of it, the
     slices shuffled), so a few groups still span it; latencies are drawn on the control grid
     (multiples of ``dt``), where the loop resolves them anyway."""
@@ -59,11 +60,14 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
     groups = int(spec.get("groups", 4))
     if groups < 1:
         raise ValueError(f"loop_randomization groups must be >= 1, got {groups}")
-    sensing = list(spec.get("sensing", ["mocap"]))
+    sensing, vehicles = list(spec.get("sensing", [])), list(spec.get("vehicle", []))
+    for key, names in (("sensing", sensing), ("vehicle", vehicles)):
+        if key in spec and not names:
+            raise ValueError(f"loop_randomization {key} must name one or more, got an empty "
+                             "list (leave it out to fly the scenario's own)")
     for name in sensing:
         if name not in SENSING_PRESETS:
             raise unknown_name_error("loop_randomization sensing preset", name, SENSING_PRESETS)
-    vehicles = list(spec.get("vehicle", []))
     for name in vehicles:
         if name not in VEHICLES:
             raise unknown_name_error("loop_randomization vehicle", name, VEHICLES)
@@ -92,7 +96,8 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
     # drawn last, and only when asked for, so specs without it draw as they did before it
     low, high = ranges["wind_scale"]
     wind = low + (high - low) * stratified() if "wind_scale" in spec else None
-    return [{"sensing": sensing[g % len(sensing)], "extra_latency": round(float(latency[g]), 6),
+    return [{**({"sensing": sensing[g % len(sensing)]} if sensing else {}),
+             "extra_latency": round(float(latency[g]), 6),
              "motor_time_constant_scale": round(float(motor[g]), 4),
              **({"vehicle": vehicles[g % len(vehicles)]} if vehicles else {}),
              **({"wind_scale": round(float(wind[g]), 4)} if wind is not None else {})}
