@@ -125,7 +125,8 @@ def test_a_changed_shipped_config_is_refused_before_anything_is_read(tmp_path, m
     text = config.read_text()
     assert "authority_gate: 0.02" in text
     config.write_text(text.replace("authority_gate: 0.02", "authority_gate: 0.5"))
-    monkeypatch.setattr(policies, "SHIPPED_RESIDUAL", path)
+    monkeypatch.setitem(policies.SHIPPED_POLICIES, "v1",
+                        (path, *policies.SHIPPED_POLICIES["v1"][1:]))
 
     def never(*_):
         raise AssertionError("loaded before its config was checked")

@@ -65,6 +65,14 @@ from quad_dob_training.model_files import (
 from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memory
 from quad_dob_training.vec_env import env_options
 
+# the shipped residual policies by the benchmark they were trained in, each its zip, the
+# zip's sha256 and its config's: ``residual:v1`` (and bare ``residual``, as before v2's
+# policy shipped) and ``residual:v2``
+SHIPPED_POLICIES = {
+    "v1": (SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256, SHIPPED_RESIDUAL_CONFIG_SHA256),
+    "v2": (SHIPPED_RESIDUAL_V2, SHIPPED_RESIDUAL_V2_SHA256, SHIPPED_RESIDUAL_V2_CONFIG_SHA256),
+}
+
 
 @dataclass
 class Policy:
@@ -115,18 +123,11 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
         user = user_controller(spec)  # a py: module that does not import fails here, named
         return Policy(spec, base=spec, fingerprint=None if user is None else
                       _source_sha256(user[1]))
-    if kind == "residual" and path in ("", "v1"):
-        # the shipped policy, trained in v1's loop; residual:v1 keeps naming it once a
-        # policy trained in v2's loop ships as residual
-        model, config = load_model(SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256,
-                                   expected_config_sha256=SHIPPED_RESIDUAL_CONFIG_SHA256)
+    if kind == "residual" and (path or "v1") in SHIPPED_POLICIES:
+        zip_path, digest, config_digest = SHIPPED_POLICIES[path or "v1"]
+        model, config = load_model(zip_path, digest, expected_config_sha256=config_digest)
         return Policy(spec, config["base_controller"], model, config,
-                      trained_benchmark(config), SHIPPED_RESIDUAL_SHA256)
-    if kind == "residual" and path == "v2":
-        model, config = load_model(SHIPPED_RESIDUAL_V2, SHIPPED_RESIDUAL_V2_SHA256,
-                                   expected_config_sha256=SHIPPED_RESIDUAL_V2_CONFIG_SHA256)
-        return Policy(spec, config["base_controller"], model, config,
-                      trained_benchmark(config), SHIPPED_RESIDUAL_V2_SHA256)
+                      trained_benchmark(config), digest)
     if (kind in ALGORITHMS or kind == "residual") and path:
         model, config = load_model(path, trust_pickle=trust_pickle)
         mode, algo = config.get("mode"), config.get("algo", "ppo")
