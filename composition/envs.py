@@ -23,6 +23,7 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
                       residual_mode: str = "thrust_moments", acceleration_scale: float = 3.0,
                       vertical_floor: float = 0.5, residual_rate_weight: float = 0.0,
                       authority_signal: str = "force", lookahead: Sequence[float] = (),
+                      floor_fade: Sequence[float] | None = None,
                       **env_kwargs: Any) -> ResidualActionWrapper:
     """``ResidualActionWrapper(QuadrotorEnv(**env_kwargs))`` flown by ``base_controller``
     (a name or a controller), the env's own effort term off."""
@@ -34,7 +35,8 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
                                  authority_gate, residual_mode, acceleration_scale,
                                  vertical_floor, attitude_loop=AttitudeLoop.install,
                                  residual_rate_weight=residual_rate_weight,
-                                 authority_signal=authority_signal, lookahead=lookahead)
+                                 authority_signal=authority_signal, lookahead=lookahead,
+                                 floor_fade=floor_fade)
 
 
 class ResidualVectorEnv(QuadrotorVectorEnv):

@@ -25,6 +25,8 @@
 - ``residual_kernels``: the residual's compiled per-vehicle command, reward and extra
   observation.
 - ``lookahead``: the residual observation's optional look-ahead of the reference.
+- ``authority``: how much of its residual a ``ResidualCommand`` may fly (the gate on the
+  observed disturbance, the fade near the floor).
 - ``info``: the layout of every vehicle's ``info`` numbers and the pass that writes them.
 - ``rendering``: ``FlightRenderer``, the frames of ``render_mode="rgb_array"``/``"human"``.
 

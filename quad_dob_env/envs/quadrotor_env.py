@@ -138,7 +138,9 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
       ``heldout-hops`` (reference pools seeded apart from training, the second of a kind,
       waypoint hops, no training family holds); the residual's ``lookahead`` (the error
       against the reference at given times ahead, 3 observation entries each; none by
-      default).
+      default); the residual's ``floor_fade`` (its authority faded out near the floor; off
+      by default) and the training family ``tunnel-tracks`` (training's kinds but the
+      landings, in a steady wind of 0-13 m/s).
     - v2 (2026-12): the ids ``QuadDOB/Hover-v2``, ``HoverResidual-v2``, ``TrackResidual-v2``
       and ``TracksResidual-v2`` fly the v1 ids' scenarios under ``benchmark="v2"``: ``mocap``
       sensing, the 200 Hz inner loop, speed motors, thrust uncertainty, rotor aerodynamics.

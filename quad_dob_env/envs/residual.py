@@ -35,25 +35,9 @@ a zero residual giving the base command exactly:
   within 0.5 s of the start, where the helix asks for 0.4 g while the motors still spin
   at hover; with it, none.
 
-With ``authority_gate`` = g (a fraction of the weight), ``a`` is first multiplied by
-``clip(2 s / g - 1, 0, 1)``: below half the gate the residual has no authority and the base
-flies alone, bit for bit; from the gate up it has all of it. ``authority_signal`` says what
-``s`` is:
-
-- ``"force"`` (v1's): ``‖d̂x‖ / (m g₀)``, the force disturbance the observer sees now (the
-  observation's entries 4-6). In Benchmark v2's calm hover a gate of 0.02 on it was open
-  on 75-93 % of the steps: the per-episode thrust coefficient puts about 2 % of the weight
-  into the vertical estimate even on the true state, and sensor noise adds to it
-  (``benchmarks/gate_under_noise.py``).
-- ``"wind"``: ``‖LPF(d̂x,xy)‖ / (m g₀)``, the estimate's horizontal part through a
-  first-order low-pass of ``WIND_GATE_TIME_CONSTANT`` (its state zero at each vehicle's
-  start, advanced once per flown step). What wind does to a vehicle is mostly horizontal;
-  a thrust coefficient's error, the battery's sag and ground effect are vertical, and the
-  estimate's noise under ``mocap`` and ``gnss-imu`` is mostly faster than the filter. On
-  the tuning seeds 100-109 in v2's loop, calm hover and the calm landing kept ``s`` below
-  0.0018 (``mocap``) and 0.0164 (``gnss-imu``) on 99 % of the steps, while the wind
-  scenarios had it above 0.012-0.07 on 90 % (docs/residual-rl.md), so a gate of 0.04
-  (shut below 0.02) stays shut in calm air under both.
+How much of the residual flies (``authority_gate`` and ``authority_signal``: a gate on the
+observed disturbance; ``floor_fade``: a fade near the floor) is
+``quad_dob_env.envs.authority``'s.
 
 Observation: the env's own observation followed by 16 entries (and 3 per look-ahead time),
 from the measurement the base controller reads:
@@ -91,6 +75,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from quad_dob_env.envs.authority import (
+    WIND_GATE_TIME_CONSTANT,
+    check_floor_fade,
+    check_signal,
+    floor_factor,
+    gate_factor,
+)
 from quad_dob_env.envs.lookahead import look_ahead, lookahead_steps
 from quad_dob_env.envs.residual_kernels import (
     join_columns,
@@ -105,11 +96,6 @@ if TYPE_CHECKING:
 
 RESIDUAL_OBSERVATION_SIZE = 16
 RESIDUAL_MODES = ("thrust_moments", "acceleration")
-AUTHORITY_SIGNALS = ("force", "wind")
-# [s] the "wind" gate's low-pass: long enough to average mocap's and gnss-imu's estimate
-# noise below half a 0.04 gate in calm air (module docstring), short enough to follow the
-# scenarios' 1-cosine gusts, which build over about a second
-WIND_GATE_TIME_CONSTANT = 0.5
 # how far an acceleration residual may tilt the base's desired force: tan 20°
 HORIZONTAL_GUARD = float(np.tan(np.radians(20.0)))
 
@@ -145,7 +131,8 @@ class ResidualCommand:
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
                  attitude_loop: Callable[[QuadrotorBatch, Any], Any] | None = None,
                  residual_rate_weight: float = 0.0, authority_signal: str = "force",
-                 lookahead: Sequence[float] = ()) -> None:
+                 lookahead: Sequence[float] = (),
+                 floor_fade: Sequence[float] | None = None) -> None:
         if core.action_map.rate_loop is not None:
             raise ValueError("a residual adds to its base's thrust and moments: "
                              "action_mode='thrust_rates' is for direct control only")
@@ -158,9 +145,10 @@ class ResidualCommand:
         self.core = core
         self.authority_gate = (None if authority_gate is None else
                                as_finite(authority_gate, "authority_gate", 0.0, strictly=True))
-        if authority_signal not in AUTHORITY_SIGNALS:
-            raise unknown_name_error("authority_signal", authority_signal, AUTHORITY_SIGNALS)
-        self.authority_signal = authority_signal
+        self.authority_signal = check_signal(authority_signal)
+        # no floor, nothing to fade near
+        self.floor_fade = (check_floor_fade(floor_fade) if core.scenario.floor_height is not None
+                           else None)
         self.controller = check_controller(base_controller)
         if residual_mode == "acceleration" and not getattr(
                 self.controller, "accepts_acceleration_correction", False):
@@ -326,16 +314,21 @@ class ResidualCommand:
         return self.gated(residual)
 
     def gated(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``residual`` clipped and scaled by the authority the observed disturbance gives
-        (module docstring); unchanged without ``authority_gate``. Sets ``authority`` only."""
-        if self.authority_gate is None:
+        """``residual`` clipped and scaled by the authority the observed disturbance and the
+        height above the floor give (``quad_dob_env.envs.authority``); unchanged without
+        ``authority_gate`` and ``floor_fade``. Sets ``authority`` only."""
+        if self.authority_gate is None and self.floor_fade is None:
             return residual
-        if self.authority_signal == "wind":
-            seen = np.linalg.norm(self.gate_filter, axis=1)
-        else:  # d̂x / (m g₀) at the step's start
-            seen = np.linalg.norm(self.extra_observation[:, 4:7], axis=1)
-        self.authority = np.clip(2.0 * seen / self.authority_gate - 1.0, 0.0, 1.0)
-        return np.clip(residual, -1.0, 1.0) * self.authority[:, None]
+        authority = np.ones(self.core.n)
+        if self.authority_gate is not None:
+            seen = np.linalg.norm(self.gate_filter if self.authority_signal == "wind"
+                                  else self.extra_observation[:, 4:7], axis=1)  # d̂x / (m g₀)
+            authority = gate_factor(seen, self.authority_gate)
+        if self.floor_fade is not None:
+            height = self.core.measurement.position[:, 2] - self.core.scenario.floor_height
+            authority = authority * floor_factor(height, self.floor_fade)
+        self.authority = authority
+        return np.clip(residual, -1.0, 1.0) * authority[:, None]
 
     def record(self) -> None:
         """After the core flew ``command``'s actions: tell the controller what was applied

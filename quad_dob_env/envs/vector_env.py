@@ -69,7 +69,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     ``reward_effort_weight`` defaults to 0.01 without a base and to 0 with one (the
     residual's own effort is ``residual_effort_weight``, its rate of change
     ``residual_rate_weight``; ``authority_gate`` and ``authority_signal``: when it may act;
-    ``lookahead``: times [s] at which the observation also holds the reference ahead).
+    ``lookahead``: times [s] at which the observation also holds the reference ahead;
+    ``floor_fade``: the heights above the floor over which the residual fades out).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 100,
@@ -91,7 +92,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
                  attitude_loop: Any = None, benchmark: str | None = None,
                  residual_rate_weight: float = 0.0, authority_signal: str = "force",
-                 lookahead: Sequence[float] = ()) -> None:
+                 lookahead: Sequence[float] = (),
+                 floor_fade: Sequence[float] | None = None) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -122,7 +124,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
             self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
             fused_pass, authority_gate, residual_mode, acceleration_scale, vertical_floor,
             attitude_loop, residual_rate_weight=residual_rate_weight,
-            authority_signal=authority_signal, lookahead=lookahead)
+            authority_signal=authority_signal, lookahead=lookahead,
+            floor_fade=floor_fade)
         # None without a base; with one, its name and gains (also in the reset info)
         self.base_controller = (None if self.residual is None
                                 else self.residual.controller.describe())

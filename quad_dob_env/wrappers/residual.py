@@ -34,7 +34,8 @@ class ResidualActionWrapper(gym.Wrapper):
                  authority_gate: float | None = None, residual_mode: str = "thrust_moments",
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
                  attitude_loop: Any = None, residual_rate_weight: float = 0.0,
-                 authority_signal: str = "force", lookahead: Sequence[float] = ()) -> None:
+                 authority_signal: str = "force", lookahead: Sequence[float] = (),
+                 floor_fade: Sequence[float] | None = None) -> None:
         super().__init__(env)
         core = getattr(env.unwrapped, "core", None)
         if core is None or core.n != 1:
@@ -49,7 +50,7 @@ class ResidualActionWrapper(gym.Wrapper):
                                         attitude_loop=attitude_loop,
                                         residual_rate_weight=residual_rate_weight,
                                         authority_signal=authority_signal,
-                                        lookahead=lookahead)
+                                        lookahead=lookahead, floor_fade=floor_fade)
         env.unwrapped.base_controller = self.residual.controller.describe()
         self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.observation_space = gym.spaces.Box(
