@@ -1,20 +1,20 @@
 """quad_dob_env: quadrotor environments for disturbance-rejection research.
 
-Layers, each importing only from those above it (DESIGN.md):
-``validation``, ``memory``, ``linalg``, ``rng``, ``threads`` (shared utilities: input
-checks, the memory budget large requests are sized against, small matrix functions,
-counter-based per-vehicle noise, compiled loops split across cores), ``params`` (vehicle
-presets; their sources in ``vehicle_sources``), ``so3`` (rotations), ``dynamics`` (state,
-actuation, integrator, rotors), ``disturbances`` (forces, torques, wind, ground effect),
-``trajectories``, ``flatness`` (the attitude, rates and inputs that fly a reference),
-``feasibility`` (a reference's needs against the actuators), ``variation`` (state noise,
-domain randomisation), ``sensing`` (sensors, delay lines and the state estimator every
-policy reads through, with the ``ideal``, ``mocap`` and ``gnss-imu`` presets), ``scenario``
-(the ``Scenario`` record, validated), ``scenarios`` (the named ones, the random-reference
-families included), ``envs``, ``wrappers`` (the residual wrapper). None of them imports
-``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``, not even at run
-time (``tests/test_layering.py``): the residual ids name their composition-layer entry
-points as strings.
+Layers, each importing only from those above it (DESIGN.md): ``validation``, ``memory``,
+``linalg``, ``rng``, ``threads`` (shared utilities: input checks, the memory budget large
+requests are sized against, small matrix functions, counter-based per-vehicle noise, compiled
+loops split across cores), ``params`` (vehicle presets; their sources in ``vehicle_sources``),
+``so3`` (rotations), ``dynamics`` (state, actuation, integrator, rotors), ``disturbances``
+(forces, torques, wind, ground effect), ``trajectories``, ``flatness`` (the attitude, rates and
+inputs that fly a reference), ``feasibility`` (a reference's needs against the actuators),
+``variation`` (state noise, domain randomisation), ``sensing`` (sensors, delay lines and the
+state estimator every policy reads through, with the ``ideal``, ``mocap`` and ``gnss-imu``
+presets), ``scenario`` (the ``Scenario`` record, validated), ``wind_tunnel`` (Neural-Fly's
+figure-8s and the tunnel's wind), ``scenarios`` (the named ones, the random-reference families
+included), ``envs``, ``wrappers`` (the residual wrapper). None of them imports
+``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``, not even at run time
+(``tests/test_layering.py``): the residual ids name their composition-layer entry points as
+strings.
 
 Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v1`` and
 ``QuadDOB/Track-v1`` (direct control), and ``QuadDOB/HoverResidual-v1`` and

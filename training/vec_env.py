@@ -7,8 +7,9 @@ whether it was the time limit). This adapter drives a ``QuadrotorVectorEnv``'s c
 way, so ``PPO("MlpPolicy", QuadrotorSB3VecEnv(...))`` trains on N vehicles in one process.
 
 ``loop_randomization`` randomises what one batch cannot vary per vehicle, the vehicle loop
-(sensing preset, extra latency, motor time constant), the airframe and, where the spec
-gives it, the scenario's wind scale (``wind_scale``: the ceiling of its per-vehicle wind
+(sensing preset, extra latency, motor time constant), the airframe, where the spec gives
+them the scenarios the groups fly (``scenario``, cycled with the sensing and airframe
+lists) and the scenario's wind scale (``wind_scale``: the ceiling of its per-vehicle wind
 draw, for scenarios that take one), by splitting the N
 vehicles into ``groups``, each a vector env of its own loop, drawn from the ranges given
 (``draw_loops``); mass, inertia, drag, thrust coefficient and wind are drawn per vehicle by
@@ -30,15 +31,18 @@ from stable_baselines3.common.vec_env import VecEnv
 from quad_dob_composition import ResidualVectorEnv, make_vector_env
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.params import VEHICLES
-from quad_dob_env.scenarios import make_scenario
+from quad_dob_env.scenarios import SCENARIOS, make_scenario
 from quad_dob_env.sensing import SENSING_PRESETS
 from quad_dob_env.validation import checked_keywords, unknown_name_error
 
 # the keys of ``loop_randomization``: the number of groups, the sensing presets and the
 # vehicles they cycle through, and (low, high) ranges of the scenario options drawn per group
-LOOP_RANDOMIZATION_KEYS = ("groups", "sensing", "vehicle", "extra_latency",
+LOOP_RANDOMIZATION_KEYS = ("groups", "sensing", "vehicle", "scenario", "extra_latency",
                            "motor_time_constant_scale", "wind_scale")
 TRAINING_ONLY_KEYS = ("loop_randomization",)
+# where a drawn loop names the scenario its group flies instead of the env's (not an option
+# of the scenario: ``QuadrotorSB3VecEnv`` takes it out)
+SCENARIO_KEY = "scenario"
 
 
 def env_options(env_kwargs: dict[str, Any]) -> dict[str, Any]:
@@ -48,12 +52,13 @@ def env_options(env_kwargs: dict[str, Any]) -> dict[str, Any]:
 
 
 def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[str, Any]]:
-    """One scenario-options dict per group: group g takes ``sensing[g % len]`` and
-    ``vehicle[g % len]`` where given (the scenario's own where not; the two lists cycle
-    together, so their pairs are the ones listed, not every combination), and each
-    range is stratified over the groups (each group draws from its own slice of it, the
-    slices shuffled), so a few groups still span it; latencies are drawn on the control grid
-    (multiples of ``dt``), where the loop resolves them anyway."""
+    """One scenario-options dict per group: group g takes ``sensing[g % len]``,
+    ``vehicle[g % len]`` and ``scenario[g % len]`` (under ``SCENARIO_KEY``) where given
+    (the env's own where not; the lists cycle together, so their tuples are the ones
+    listed, not every combination), and each range is stratified over the groups (each
+    group draws from its own slice of it, the slices shuffled), so a few groups still span
+    it; latencies are drawn on the control grid (multiples of ``dt``), where the loop
+    resolves them anyway."""
     for key in spec:
         if key not in LOOP_RANDOMIZATION_KEYS:
             raise unknown_name_error("loop_randomization key", key, LOOP_RANDOMIZATION_KEYS)
@@ -61,7 +66,8 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
     if groups < 1:
         raise ValueError(f"loop_randomization groups must be >= 1, got {groups}")
     sensing, vehicles = list(spec.get("sensing", [])), list(spec.get("vehicle", []))
-    for key, names in (("sensing", sensing), ("vehicle", vehicles)):
+    scenarios = list(spec.get("scenario", []))
+    for key, names in (("sensing", sensing), ("vehicle", vehicles), ("scenario", scenarios)):
         if key in spec and not names:
             raise ValueError(f"loop_randomization {key} must name one or more, got an empty "
                              "list (leave it out to fly the scenario's own)")
@@ -71,6 +77,9 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
     for name in vehicles:
         if name not in VEHICLES:
             raise unknown_name_error("loop_randomization vehicle", name, VEHICLES)
+    for name in scenarios:
+        if name not in SCENARIOS:
+            raise unknown_name_error("loop_randomization scenario", name, SCENARIOS)
     ranges = {}
     for key, default in (("extra_latency", (0.0, 0.0)), ("motor_time_constant_scale", (1.0, 1.0)),
                          ("wind_scale", (1.0, 1.0))):
@@ -100,7 +109,8 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
              "extra_latency": round(float(latency[g]), 6),
              "motor_time_constant_scale": round(float(motor[g]), 4),
              **({"vehicle": vehicles[g % len(vehicles)]} if vehicles else {}),
-             **({"wind_scale": round(float(wind[g]), 4)} if wind is not None else {})}
+             **({"wind_scale": round(float(wind[g]), 4)} if wind is not None else {}),
+             **({SCENARIO_KEY: scenarios[g % len(scenarios)]} if scenarios else {})}
             for g in range(groups)]
 
 
@@ -128,9 +138,10 @@ class QuadrotorSB3VecEnv(VecEnv):
         bounds = np.linspace(0, num_envs, len(self.loops) + 1).round().astype(int)
         self.groups = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
         self.vector_envs = [
-            make_vector_env(group.stop - group.start, scenario, **{
-                **env_kwargs, "scenario_options": {**(env_kwargs.get("scenario_options") or {}),
-                                                   **loop}})
+            make_vector_env(group.stop - group.start, loop.get(SCENARIO_KEY, scenario), **{
+                **env_kwargs, "scenario_options": {
+                    **(env_kwargs.get("scenario_options") or {}),
+                    **{key: value for key, value in loop.items() if key != SCENARIO_KEY}}})
             for group, loop in zip(self.groups, self.loops, strict=True)]
         first = self.vector_envs[0]
         super().__init__(num_envs, first.single_observation_space, first.single_action_space)
