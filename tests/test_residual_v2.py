@@ -148,16 +148,17 @@ def test_waypoint_hops_derivatives_are_those_of_its_position():
 
 def test_held_out_families_are_new_references():
     training = make_scenario("random-tracks", benchmark="v2").trajectory
+    tunnel = make_scenario("tunnel-tracks", benchmark="v2").trajectory  # trained on too
     times = np.linspace(0.0, 10.0, 11)
     seen = {np.round(member.position_derivatives(times)[0], 9).tobytes()
-            for member in training.members}
+            for member in (*training.members, *tunnel.members)}
     for name, kinds in (("heldout-tracks", {"circle", "sinusoids", "hover", "helix", "landing"}),
                         ("heldout-hops", {"hops"})):
         family = make_scenario(name, benchmark="v2").trajectory
         assert set(family.kinds) == kinds
         for member in family.members:
             assert np.round(member.position_derivatives(times)[0], 9).tobytes() not in seen
-    assert "hops" not in training.kinds
+    assert "hops" not in training.kinds and "hops" not in tunnel.kinds
 
 
 @pytest.mark.parametrize("options", [
@@ -193,3 +194,86 @@ def test_the_look_ahead_is_the_reference_ahead_in_the_estimates_body_frame(optio
         ResidualVectorEnv(1, "hover-calm", lookahead=(0.015,))
     with pytest.raises(ValueError, match="must increase"):
         ResidualVectorEnv(1, "hover-calm", lookahead=(0.5, 0.2))
+
+
+def test_the_floor_fade_is_its_equation_on_the_measured_height():
+    flown = make_scenario("takeoff-landing-wind", sensing="mocap", benchmark="v2")
+    env = make_vector_env(3, flown, floor_fade=(0.1, 0.3), **V2_ACCELERATION)
+    env.reset(seed=[3, 4, 5])
+    mine, oracle = [], []
+    for _ in range(flown.steps):
+        # an oracle from the docstring: the height the base reads, the floor at 0
+        height = env.core.measurement.position[:, 2].copy()
+        oracle.append(np.clip((height - 0.1) / 0.2, 0.0, 1.0))
+        env.step(np.tile(np.float32([0.5, -0.5, 0.0, 0.2]), (3, 1)))  # none vertical
+        mine.append(env.residual.authority.copy())
+    mine, oracle = np.array(mine), np.array(oracle)
+    np.testing.assert_allclose(mine, oracle, rtol=0, atol=1e-12)
+    # shut at the take-off's start and at the landing's end, open in the hover at 1 m
+    assert np.all(mine[0] == 0) and np.all(mine[-1] == 0) and np.all(mine[500] == 1)
+    with pytest.raises(ValueError, match=r"floor_fade needs h0 < h1"):
+        make_vector_env(1, flown, floor_fade=(0.3, 0.1), **V2_ACCELERATION)
+    with pytest.raises(ValueError, match=r"floor_fade must be two heights"):
+        make_vector_env(1, flown, floor_fade=(0.3,), **V2_ACCELERATION)
+
+
+def test_below_the_floor_fade_the_base_flies_alone_bit_for_bit():
+    def flight(action, fade):
+        env = ResidualVectorEnv(2, "ground-effect-landing", benchmark="v2", floor_fade=fade,
+                                **{k: v for k, v in V2_ACCELERATION.items()
+                                   if k != "base_controller"})
+        obs, _ = env.reset(seed=9)
+        for _ in range(300):  # 0.15 m down to the 8 cm landing, all under the fade's 0.2 m
+            obs, *_ = env.step(np.full((2, 4), action, np.float32))
+        return obs
+
+    assert np.array_equal(flight(0.9, (0.2, 0.4)), flight(0.0, None))
+    assert not np.array_equal(flight(0.9, (0.05, 0.1)), flight(0.0, None))
+
+
+def test_loop_groups_may_fly_scenarios_of_their_own():
+    spec = {"groups": 3, "scenario": ["random-tracks", "tunnel-tracks"],
+            "vehicle": ["paper", "neural-fly"]}
+    loops = draw_loops(spec, 7, 0.01)
+    assert [loop["scenario"] for loop in loops] == ["random-tracks", "tunnel-tracks",
+                                                    "random-tracks"]
+    # the list leaves the other draws as they were
+    assert [{k: v for k, v in loop.items() if k != "scenario"} for loop in loops] == \
+        draw_loops({k: v for k, v in spec.items() if k != "scenario"}, 7, 0.01)
+    venv = QuadrotorSB3VecEnv(6, "random-tracks", seed=3, loop_randomization=spec,
+                              benchmark="v2", **V2_ACCELERATION)
+    assert [v.scenario.name for v in venv.vector_envs] == [loop["scenario"] for loop in loops]
+    assert [v.scenario.vehicle.name for v in venv.vector_envs] == ["paper", "neural-fly",
+                                                                   "paper"]
+    with pytest.raises(ValueError, match=r"loop_randomization scenario 'tunnel'"):
+        draw_loops({"scenario": ["tunnel"]}, 0, 0.01)
+    with pytest.raises(ValueError, match=r"loop_randomization scenario must name one"):
+        draw_loops({"scenario": []}, 0, 0.01)
+
+
+def test_the_tunnel_family_blows_a_steady_wind_of_its_range_and_has_no_figure_eights():
+    flown = make_scenario("tunnel-tracks", vehicle="neural-fly", benchmark="v2")
+    assert set(flown.trajectory.kinds) == {"circle", "sinusoids", "hover", "helix"}
+    training = make_scenario("random-tracks", benchmark="v2").trajectory
+    times = np.linspace(0.0, 10.0, 11)
+    seen = {np.round(m.position_derivatives(times)[0], 9).tobytes() for m in training.members}
+    assert not any(np.round(m.position_derivatives(times)[0], 9).tobytes() in seen
+                   for m in flown.trajectory.members)  # a pool of its own
+    wind = flown.disturbance
+    n = 200
+    wind.bind(n, flown.dt)
+    wind.resample(np.arange(n), [np.random.default_rng(seed) for seed in range(n)])
+    samples = np.array([wind.evaluate(np.zeros((n, 1)))[2][:, 0] for _ in range(2000)])
+    mean = samples.mean(axis=0)
+    speed = np.hypot(mean[:, 0], mean[:, 1])
+    # an oracle from the description: a mean of 0-13 m/s, uniform, from any direction
+    assert speed.max() <= 13.0 * 1.05 and speed.min() < 1.0 and speed.max() > 12.0
+    assert 0.4 < np.mean(speed < 6.5) < 0.6
+    directions = np.arctan2(mean[:, 1], mean[:, 0])
+    assert np.histogram(directions, bins=4, range=(-np.pi, np.pi))[0].min() > 30
+    # along the mean wind the turbulence is 5 % of it (sampled over 20 s, the filter's
+    # correlation time well under that)
+    along = np.einsum("tnk,nk->tn", samples[:, :, :2], mean[:, :2] / speed[:, None])
+    strong = speed > 5.0
+    np.testing.assert_allclose(np.median(along.std(axis=0)[strong] / speed[strong]), 0.05,
+                               rtol=0.2)
