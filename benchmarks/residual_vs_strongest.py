@@ -4,11 +4,12 @@ Flies every classical baseline (``CLASSICAL_BASELINES``) and each residual given
 seeds, takes the strongest baseline per scenario (fewest lost flights, then lowest mean RMS
 position error after the settle time), and prints, per scenario: the strongest, each
 residual's change against it with the 95 % bootstrap interval of the paired per-seed
-difference, their mean and spread over the residuals (training seeds), the lost flights,
-and the RMS rotor-command rate against the residual's base; ``--before SPEC`` adds one
-more policy's column (the v1 policy, ``residual:v1``). ``--scenario-option`` flies
-every scenario with that option (the margin check: ``extra_latency=0.01
-motor_time_constant_scale=1.5``). ``--json FILE`` keeps every number.
+difference, their mean and spread over the residuals (training seeds), the lost flights (and
+of each residual's, those its base keeps), and the RMS rotor-command rate against the
+residual's base; ``--before SPEC`` adds one more policy's column (the v1 policy,
+``residual:v1``). ``--scenario-option`` flies every scenario with that option (the margin
+check: ``extra_latency=0.01 motor_time_constant_scale=1.5``). ``--json FILE`` keeps every
+number.
 
 Run by hand, e.g. ``python benchmarks/residual_vs_strongest.py --residuals
 residual:runs/a,residual:runs/b --seeds 9201-9220 --suite``.
@@ -58,7 +59,8 @@ def main() -> None:
     report = {}
     print("| scenario | strongest baseline (mm) | residual (mm), mean of seeds [min, max] | "
           "change vs strongest, mean [min, max] | seeds whose paired 95 % CI < 0 | "
-          "lost: strongest / base / residuals | command rate: residual / base |"
+          "lost: strongest / base / residuals (of them, kept by the base) | "
+          "command rate: residual / base |"
           + (f" {args.before}: mm, vs strongest, lost, command rate |" if before else ""))
     print("|---|---|---|---|---|---|---|" + ("---|" if before else ""))
     per_seed: dict[tuple[str, str], list[dict]] = {}
@@ -79,6 +81,8 @@ def main() -> None:
             rows.append({"spec": spec, "rms": bootstrap_mean(mine["rms"])._asdict(),
                          "change": difference.mean / bar["rms"].mean(),
                          "paired": difference._asdict(), "lost": int(mine["lost"].sum()),
+                         # issue 29's margin target: no flight lost that the base keeps
+                         "lost_base_kept": int((mine["lost"] & ~base["lost"]).sum()),
                          "rate": float(np.nanmean(mine["rate"]))})
         report[name] = {"strongest": strongest, "strongest_rms": bootstrap_mean(
             bar["rms"])._asdict(), "strongest_lost": int(bar["lost"].sum()),
@@ -105,7 +109,8 @@ def main() -> None:
               f"{np.mean(means):.1f} [{min(means):.1f}, {max(means):.1f}] | "
               f"{np.mean(changes):+.0f} % [{min(changes):+.0f}, {max(changes):+.0f}] | "
               f"{below}/{len(rows)} | {report[name]['strongest_lost']} / "
-              f"{report[name]['base_lost']} / {', '.join(str(row['lost']) for row in rows)} | "
+              f"{report[name]['base_lost']} / {', '.join(str(row['lost']) for row in rows)} "
+              f"({', '.join(str(row['lost_base_kept']) for row in rows)}) | "
               f"{np.mean(rates):.0f} / {report[name]['base_rate']:.0f} "
               f"({np.mean(rates) / report[name]['base_rate']:.2f}x, max "
               f"{max(rates) / report[name]['base_rate']:.2f}x) |" + extra, flush=True)
