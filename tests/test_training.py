@@ -230,6 +230,8 @@ def test_residual_v2_is_the_policy_trained_in_v2s_randomised_loop_and_flies_the_
     assert policy.base_benchmark == "v2" and policy.base == "geometric-ndob:tuned"
     trained = policy.config["env_kwargs"]
     assert trained["authority_signal"] == "wind" and "loop_randomization" in trained
+    assert trained["floor_fade"] == [0.3, 0.6]  # and evaluation flies it too
+    assert policy.env_kwargs()["floor_fade"] == [0.3, 0.6]
     assert "loop_randomization" not in policy.env_kwargs()  # evaluation flies the named loop
     flights = fly_policy(policy, make_scenario("gusty-hover", benchmark="v2", duration=3.0),
                          [1, 2])

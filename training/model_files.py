@@ -54,9 +54,9 @@ SHIPPED_RESIDUAL_CONFIG_SHA256 = "000896053c3fd23bf7ff3082e0c56301c6d8b1d93298bf
 # the policy trained in Benchmark v2's loop (issue 29's recipe, the median of its seeds),
 # ``residual:v2``; checked the same way
 SHIPPED_RESIDUAL_V2 = PRETRAINED / "residual_v2.zip"
-SHIPPED_RESIDUAL_V2_SHA256 = "c0f7170cc7ce16558161156c41a2c952214bbce5416d6484469ca3b1afabce41"
+SHIPPED_RESIDUAL_V2_SHA256 = "26da3f4ba1261843ff6e869a02e5633ada4b7d6048ffaa9e16563fcfde6b9662"
 SHIPPED_RESIDUAL_V2_CONFIG_SHA256 = (
-    "991bba1b92ffdefebbfc6bea5d9dd8192efc0fb859f9e7c330f1d2a59cc4ed06")
+    "2600763be939f9a93ac487073df10322be3730a28bd8c5829e4faa803e5e3839")
 TRUST_PICKLE_HINT = ("only if you made the file or trust where it came from, load it with "
                      "--trust-pickle (trust_pickle=True), which unpickles the zip's entries")
 
