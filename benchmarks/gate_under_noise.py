@@ -2,7 +2,7 @@
 
 The gate gives the residual authority only where the signal it reads (the observer's force
 estimate, or with ``authority_signal="wind"`` its low-passed horizontal part) is above half
-the gate (``quad_dob_env.envs.residual``). Fed a noisy estimate, the observer turns
+the gate (``quad_dob_env.envs.authority``). Fed a noisy estimate, the observer turns
 velocity noise into apparent force; this counts the steps (after 2 s) on which the gate is
 open at all, and the mean authority, as the env computed them, seeds 9001-9020 unless told.
 
@@ -38,8 +38,9 @@ def open_share(sensing: str, scenario: str = "paper-none", spec: str = "residual
     for step in range(flown.steps):
         obs, *_ = env.step(policy.act(obs))
         if step * flown.dt >= 2.0:  # the gate of the step just flown
-            opened.append(residual.authority > 0)
-            authorities.append(residual.authority.copy())
+            # the gate's own factor, not the floor fade's on top of it
+            opened.append(residual.gate_authority > 0)
+            authorities.append(residual.gate_authority.copy())
     return float(np.mean(opened)), float(np.mean(authorities))
 
 

@@ -279,9 +279,12 @@ def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRA
         wind = ("wind from none to the moderate preset (6 m/s mean, W20 30 kt) per vehicle "
                 "from a random direction, the two gusts")
     else:
-        disturbance = tunnel_wind(tunnel_speed * as_finite(wind_scale, "wind_scale", 0.0),
-                              FIGURE8_TURBULENCE_INTENSITY, HELIX_ALTITUDE, None, (0.0, 1.0))
-        wind = (f"a steady wind of 0-{tunnel_speed:g} m/s per vehicle from a random direction, "
+        top = tunnel_speed * as_finite(wind_scale, "wind_scale", 0.0)
+        disturbance = tunnel_wind(top, FIGURE8_TURBULENCE_INTENSITY, HELIX_ALTITUDE, None,
+                                  (0.0, 1.0))
+        # the turbulence's time constants are those of the top speed's (Dryden's spectra
+        # take one mean wind); its intensity scales with each vehicle's
+        wind = (f"a steady wind of 0-{top:g} m/s per vehicle from a random direction, "
                 f"{100 * FIGURE8_TURBULENCE_INTENSITY:g} % turbulence")
     return Scenario(
         name=name, vehicle=vehicle, trajectory=family, duration=TRACK_DURATION,
@@ -310,11 +313,11 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
     "takeoff-landing-wind": _takeoff_landing_wind,
     "helix-force-torque": _helix_force_torque,
     "random-tracks": _random_tracks,
-    # held out of training: another kind, another pool
     # training's kinds but the landings, in a steady wind (issue 29: what the figure-8s fly)
     "tunnel-tracks": lambda **kw: _random_tracks(
         kinds=TUNNEL_KINDS, pool_seed=TUNNEL_POOL_SEED, name="tunnel-tracks",
         tunnel_speed=TUNNEL_WIND, **kw),
+    # held out of training: another kind, another pool
     "random-lemniscates": lambda **kw: _random_tracks(
         kinds=("lemniscate",), pool_seed=1, count=32, name="random-lemniscates", **kw),
     "heldout-tracks": lambda **kw: _random_tracks(

@@ -31,13 +31,17 @@ def tunnel_wind(speed: float, intensity: float, height: float, direction: float 
                 scale: tuple[float, float] | None = None) -> Disturbance:
     """A steady wind of ``speed`` m/s along ``direction`` (None: random per vehicle) carrying
     ``intensity`` σ_u / U of Dryden turbulence (``scale``: per-vehicle factors on both)."""
-    if speed == 0 or intensity == 0:
+    if speed == 0:
+        return Constant(wind=(0.0, 0.0, 0.0))
+    if intensity == 0:
         if direction is None or scale is not None:
-            raise ValueError("a tunnel wind with a random direction or scale needs a speed "
-                             "and a turbulence intensity above zero")
-        return Constant(wind=(speed * math.cos(direction), speed * math.sin(direction), 0.0))
-    # σ_u = 0.1 W20 / (0.177 + 0.000823 h)^0.4 at h = 10 ft (Dryden's floor): W20 for σ_u
-    sigma_u_per_w20 = 0.1 / (0.177 + 0.000823 * 10.0) ** 0.4
+            raise ValueError("a tunnel wind with a random direction or a per-vehicle scale is "
+                             "Dryden's: give it a turbulence intensity above zero")
+        # rounded so that a wind along an axis has no 1e-16 across it (sin π)
+        return Constant(wind=(round(speed * math.cos(direction), 12),
+                              round(speed * math.sin(direction), 12), 0.0))
+    # W20 for σ_u: Dryden's own σ_u per unit W20 at this height (MIL-F-8785C, in Dryden)
+    sigma_u_per_w20 = float(Dryden(wind_speed_6m=1.0, altitude=height).sigmas[0])
     return Dryden(wind_speed_6m=intensity * speed / sigma_u_per_w20, altitude=height,
                   direction=direction, mean_wind_speed=speed, intensity_scale=scale)
 

@@ -197,24 +197,41 @@ def test_the_look_ahead_is_the_reference_ahead_in_the_estimates_body_frame(optio
 
 
 def test_the_floor_fade_is_its_equation_on_the_measured_height():
-    flown = make_scenario("takeoff-landing-wind", sensing="mocap", benchmark="v2")
-    env = make_vector_env(3, flown, floor_fade=(0.1, 0.3), **V2_ACCELERATION)
-    env.reset(seed=[3, 4, 5])
-    mine, oracle = [], []
+    # a floor 5 cm below the scenario's, so a height read from z alone fails; with the gate,
+    # as residual:v2 flies both
+    flown = make_scenario("takeoff-landing-wind", sensing="mocap", benchmark="v2",
+                          floor_height=-0.05)
+    gate = 0.04
+    env = make_vector_env(3, flown, floor_fade=(0.1, 0.3), authority_gate=gate,
+                          authority_signal="wind", **V2_ACCELERATION)
+    obs, _ = env.reset(seed=[3, 4, 5])
+    estimate_columns = slice(obs.shape[1] - 16 + 4, obs.shape[1] - 16 + 6)  # d̂x,xy / (m g)
+    blend, filtered = flown.dt / WIND_GATE_TIME_CONSTANT, np.zeros((3, 2))
+    fades, mine, oracle = [], [], []
     for _ in range(flown.steps):
-        # an oracle from the docstring: the height the base reads, the floor at 0
-        height = env.core.measurement.position[:, 2].copy()
-        oracle.append(np.clip((height - 0.1) / 0.2, 0.0, 1.0))
-        env.step(np.tile(np.float32([0.5, -0.5, 0.0, 0.2]), (3, 1)))  # none vertical
+        # oracles from the docstrings: the gate on the low-passed observed estimate, the
+        # fade on the height the base reads above the floor
+        filtered = filtered + blend * (obs[:, estimate_columns].astype(np.float64) - filtered)
+        opened = np.clip(2.0 * np.hypot(filtered[:, 0], filtered[:, 1]) / gate - 1.0, 0, 1)
+        height = env.core.measurement.position[:, 2] + 0.05
+        fades.append(np.clip((height - 0.1) / 0.2, 0.0, 1.0))
+        oracle.append(opened * fades[-1])
+        obs, *_ = env.step(np.tile(np.float32([0.5, -0.5, 0.0, 0.2]), (3, 1)))  # none vertical
         mine.append(env.residual.authority.copy())
+        np.testing.assert_allclose(env.residual.gate_authority, opened, rtol=0, atol=1e-12)
     mine, oracle = np.array(mine), np.array(oracle)
     np.testing.assert_allclose(mine, oracle, rtol=0, atol=1e-12)
-    # shut at the take-off's start and at the landing's end, open in the hover at 1 m
-    assert np.all(mine[0] == 0) and np.all(mine[-1] == 0) and np.all(mine[500] == 1)
-    with pytest.raises(ValueError, match=r"floor_fade needs h0 < h1"):
-        make_vector_env(1, flown, floor_fade=(0.3, 0.1), **V2_ACCELERATION)
-    with pytest.raises(ValueError, match=r"floor_fade must be two heights"):
-        make_vector_env(1, flown, floor_fade=(0.3,), **V2_ACCELERATION)
+    # the fade is whole in the hover at 1 m and about a seventh at the landing's end, 13 cm
+    # above this floor; the product flew some residual
+    assert np.all(fades[500] == 1) and np.all(fades[-1] < 0.25) and mine.max() > 0.5
+    for fade, message in (((0.3, 0.1), "floor_fade needs h0 < h1"),
+                          ((0.3,), "floor_fade must be two heights"),
+                          (0.3, "floor_fade must be two heights")):
+        with pytest.raises(ValueError, match=message):
+            make_vector_env(1, flown, floor_fade=fade, **V2_ACCELERATION)
+    # refused where there is no floor to fade by, too
+    with pytest.raises(ValueError, match="floor_fade needs h0 < h1"):
+        make_vector_env(1, "dryden-helix", floor_fade=(0.3, 0.1), **V2_ACCELERATION)
 
 
 def test_below_the_floor_fade_the_base_flies_alone_bit_for_bit():
@@ -249,6 +266,13 @@ def test_loop_groups_may_fly_scenarios_of_their_own():
         draw_loops({"scenario": ["tunnel"]}, 0, 0.01)
     with pytest.raises(ValueError, match=r"loop_randomization scenario must name one"):
         draw_loops({"scenario": []}, 0, 0.01)
+
+
+def test_a_still_tunnel_is_still_and_the_figure8s_wind_lies_along_its_axis():
+    still = make_scenario("tunnel-tracks", wind_scale=0.0).disturbance
+    assert np.array_equal(still.wind, np.zeros(3))
+    steady = make_scenario("figure8-wind-12.1", turbulence_intensity=0.0).disturbance
+    assert np.array_equal(steady.wind, [-12.1, 0.0, 0.0])  # not sin(π) across it
 
 
 def test_the_tunnel_family_blows_a_steady_wind_of_its_range_and_has_no_figure_eights():

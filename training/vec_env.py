@@ -124,6 +124,7 @@ class QuadrotorSB3VecEnv(VecEnv):
     def __init__(self, num_envs: int, scenario: str = "paper-none", seed: int | None = None,
                  loop_randomization: dict[str, Any] | None = None,
                  **env_kwargs: Any) -> None:
+        dt = None  # the clock the latency draws were made on
         if loop_randomization is None:
             self.loops: list[dict[str, Any]] = [{}]
         else:
@@ -144,6 +145,15 @@ class QuadrotorSB3VecEnv(VecEnv):
                     **{key: value for key, value in loop.items() if key != SCENARIO_KEY}}})
             for group, loop in zip(self.groups, self.loops, strict=True)]
         first = self.vector_envs[0]
+        for loop, venv in zip(self.loops, self.vector_envs, strict=True):
+            # one policy flies every group: the same spaces and the clock the latency draws
+            # were made on
+            if (venv.single_observation_space != first.single_observation_space
+                    or venv.scenario.dt != (dt or first.scenario.dt)):
+                raise ValueError(f"loop group {loop} flies {venv.scenario.name!r} with "
+                                 f"dt={venv.scenario.dt:g} and {venv.single_observation_space},"
+                                 f" unlike the first group's {first.scenario.name!r}: the "
+                                 "groups' scenarios must share dt and observation space")
         super().__init__(num_envs, first.single_observation_space, first.single_action_space)
         self._seed = seed
         self._actions: NDArray | None = None

@@ -25,8 +25,8 @@ The floor fade (``floor_fade`` = (h₀, h₁) [m], in scenarios with a floor) gi
 ``clip((ĥ - h₀) / (h₁ - h₀), 0, 1)``, ĥ the measured height above the floor: below h₀ the
 base flies alone. Touching the floor ends a flight. Under issue 29's margin (10 ms more
 latency, a motor 1.5 times slower) the base's own hover at a landing's 8 cm, in wind and
-ground effect, is marginal: it tilts by 10-20° and swings its rotor commands over most of
-their range. A residual acting there, or handing the base a state it would not have flown
+ground effect, is marginal: it tilts by up to 18° and swings its rotor commands between 4
+and 13 N. A residual acting there, or handing the base a state it would not have flown
 into, made it lose landings its base kept (docs/residual-rl.md, "The floor fade").
 """
 
@@ -56,7 +56,7 @@ def check_floor_fade(fade: Sequence[float] | None) -> tuple[float, float] | None
     """``fade`` as (h₀, h₁) with 0 <= h₀ < h₁, or None (no fade)."""
     if fade is None:
         return None
-    values = tuple(fade)
+    values = tuple(fade) if isinstance(fade, (tuple, list, np.ndarray)) else ()
     if len(values) != 2:
         raise ValueError(f"floor_fade must be two heights (h0, h1) in m, got {fade!r}")
     low, high = (as_finite(v, "floor_fade height", 0.0) for v in values)

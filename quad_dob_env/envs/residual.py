@@ -146,9 +146,8 @@ class ResidualCommand:
         self.authority_gate = (None if authority_gate is None else
                                as_finite(authority_gate, "authority_gate", 0.0, strictly=True))
         self.authority_signal = check_signal(authority_signal)
-        # no floor, nothing to fade near
-        self.floor_fade = (check_floor_fade(floor_fade) if core.scenario.floor_height is not None
-                           else None)
+        fade = check_floor_fade(floor_fade)  # checked even where there is no floor to fade by
+        self.floor_fade = fade if core.scenario.floor_height is not None else None
         self.controller = check_controller(base_controller)
         if residual_mode == "acceleration" and not getattr(
                 self.controller, "accepts_acceleration_correction", False):
@@ -184,7 +183,9 @@ class ResidualCommand:
         self._residual = np.zeros((n, 4))
         self.previous_residual = np.zeros((n, 4))  # the residual flown the step before
         self.gate_filter = np.zeros((n, 2))  # the "wind" signal's low-passed d̂x,xy / (m g₀)
-        self.authority = np.ones(n)  # the last step's gate factor (1 without a gate)
+        # the last step's factors: the gate's, and the gate's times the floor fade's (the
+        # one flown); 1 without either
+        self.gate_authority, self.authority = np.ones(n), np.ones(n)
         self._started = False
         by_acceleration = residual_mode == "acceleration"
         # the compiled pass reads the true state (for the identity sensing only) and flies the
@@ -316,7 +317,8 @@ class ResidualCommand:
     def gated(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
         """``residual`` clipped and scaled by the authority the observed disturbance and the
         height above the floor give (``quad_dob_env.envs.authority``); unchanged without
-        ``authority_gate`` and ``floor_fade``. Sets ``authority`` only."""
+        ``authority_gate`` and ``floor_fade``. Sets ``gate_authority`` and ``authority``
+        only."""
         if self.authority_gate is None and self.floor_fade is None:
             return residual
         authority = np.ones(self.core.n)
@@ -324,6 +326,7 @@ class ResidualCommand:
             seen = np.linalg.norm(self.gate_filter if self.authority_signal == "wind"
                                   else self.extra_observation[:, 4:7], axis=1)  # d̂x / (m g₀)
             authority = gate_factor(seen, self.authority_gate)
+        self.gate_authority = authority
         if self.floor_fade is not None:
             height = self.core.measurement.position[:, 2] - self.core.scenario.floor_height
             authority = authority * floor_factor(height, self.floor_fade)
