@@ -175,6 +175,7 @@ class ResidualCommand:
             core.tabulate_ahead(int(self.lookahead_steps[-1]))
         self.extra_observation = np.zeros(
             (n, RESIDUAL_OBSERVATION_SIZE + 3 * len(self.lookahead_steps)), dtype=np.float32)
+        self._ahead = self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:]  # a view: look_ahead
         self.rewards = np.zeros(n)
         self._body_errors = np.zeros((n, 6))
         self._base_action = np.zeros((n, 4))
@@ -234,8 +235,7 @@ class ResidualCommand:
             self.plan()
         else:
             self._fused.restart(indices)
-            look_ahead(self.core, self.lookahead_steps,
-                       self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:])
+            look_ahead(self.core, self.lookahead_steps, self._ahead)
 
     def fly(self, residual: NDArray[np.float64]) -> None:
         """Step the core with base + ``residual`` (N, 4) and plan the next base command:
@@ -243,8 +243,7 @@ class ResidualCommand:
         ``core.step``, ``record`` and ``plan``."""
         if self._fused is not None:
             self._fused.fly(self._gate_flown(residual))
-            look_ahead(self.core, self.lookahead_steps,
-                       self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:])
+            look_ahead(self.core, self.lookahead_steps, self._ahead)
             return
         self.core.step(self.command(residual))
         self.record()
@@ -367,8 +366,7 @@ class ResidualCommand:
             state.position, state.velocity, state.rotation, core.reference_table,
             core.reference_row, core.action_map.inverse, self._base_action, self._body_errors,
             self.extra_observation)
-        look_ahead(self.core, self.lookahead_steps,
-                   self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:])
+        look_ahead(self.core, self.lookahead_steps, self._ahead)
 
     def requested_command(self, base_moment: NDArray | None = None
                           ) -> tuple[NDArray, NDArray]:
