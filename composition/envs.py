@@ -24,6 +24,7 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
                       vertical_floor: float = 0.5, residual_rate_weight: float = 0.0,
                       authority_signal: str = "force", lookahead: Sequence[float] = (),
                       floor_fade: Sequence[float] | None = None,
+                      residual_cutoff: float | None = None,
                       **env_kwargs: Any) -> ResidualActionWrapper:
     """``ResidualActionWrapper(QuadrotorEnv(**env_kwargs))`` flown by ``base_controller``
     (a name or a controller), the env's own effort term off."""
@@ -36,7 +37,7 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_sca
                                  vertical_floor, attitude_loop=AttitudeLoop.install,
                                  residual_rate_weight=residual_rate_weight,
                                  authority_signal=authority_signal, lookahead=lookahead,
-                                 floor_fade=floor_fade)
+                                 floor_fade=floor_fade, residual_cutoff=residual_cutoff)
 
 
 class ResidualVectorEnv(QuadrotorVectorEnv):

@@ -301,3 +301,47 @@ def test_the_tunnel_family_blows_a_steady_wind_of_its_range_and_has_no_figure_ei
     strong = speed > 5.0
     np.testing.assert_allclose(np.median(along.std(axis=0)[strong] / speed[strong]), 0.05,
                                rtol=0.2)
+
+
+def test_the_residual_low_pass_is_its_equation_and_the_observation_shows_its_state():
+    cutoff, lookahead = 2.0, (0.1, 0.2)
+    flown = make_scenario("gusty-hover", sensing="mocap", benchmark="v2")
+    env = make_vector_env(2, flown, residual_cutoff=cutoff, lookahead=lookahead,
+                          **V2_ACCELERATION)
+    plain = make_vector_env(2, flown, lookahead=lookahead, **V2_ACCELERATION)
+    obs, _ = env.reset(seed=[1, 2])
+    assert obs.shape[1] == plain.reset(seed=[1, 2])[0].shape[1] + 4  # after the look-ahead's
+    assert np.array_equal(obs[:, -4:], np.zeros((2, 4)))
+    held = np.array([0.5, -0.5, 0.25, 1.75])  # float32-exact; the last clipped to 1 first
+    for k in range(1, 61):
+        obs, *_ = env.step(np.tile(held.astype(np.float32), (2, 1)))
+        # the continuous first-order step response, 1 - e^(-2π f t), at t = k dt
+        expected = np.clip(held, -1, 1) * -np.expm1(-2.0 * np.pi * cutoff * k * flown.dt)
+        np.testing.assert_allclose(obs[:, -4:], np.tile(expected, (2, 1)), rtol=0, atol=1e-6)
+        # what flew is the filtered residual (no gate, no fade here)
+        np.testing.assert_allclose(env.residual.previous_residual, np.tile(expected, (2, 1)),
+                                   rtol=0, atol=1e-12)
+    assert expected[0] > 0.95 * 0.5  # 0.6 s is 7.5 time constants: it got there
+    # a fresh episode starts from the base alone: the filter's state is zero again
+    assert np.array_equal(env.reset(seed=[3, 4])[0][:, -4:], np.zeros((2, 4)))
+    for bad, message in ((0.0, "residual_cutoff"), (-1.0, "residual_cutoff"),
+                         ("2", "residual_cutoff")):
+        with pytest.raises(ValueError, match=message):
+            make_vector_env(1, flown, residual_cutoff=bad, **V2_ACCELERATION)
+
+
+def test_the_residual_low_pass_lets_a_shut_gate_fly_the_base_alone_bit_for_bit():
+    def flight(action, cutoff):
+        env = ResidualVectorEnv(2, "ground-effect-landing", benchmark="v2", floor_fade=(0.2, 0.4),
+                                residual_cutoff=cutoff,
+                                **{k: v for k, v in V2_ACCELERATION.items()
+                                   if k != "base_controller"})
+        obs, _ = env.reset(seed=9)
+        for _ in range(300):  # all under the fade's 0.2 m: the filter runs, nothing flies
+            obs, *_ = env.step(np.full((2, 4), action, np.float32))
+        return obs
+
+    filtered = flight(0.9, 1.0)
+    assert np.array_equal(filtered[:, :-4], flight(0.0, None))
+    np.testing.assert_allclose(filtered[:, -4:], 0.9 * -np.expm1(-2 * np.pi * 1.0 * 3.0),
+                               rtol=1e-6)

@@ -1,6 +1,7 @@
 """How much of its residual a ``ResidualCommand`` may fly: the disturbance gate and the fade
 near the floor, both read from what the base reads (the observer's estimate, the measured
-height), both a factor in [0, 1] on the clipped residual.
+height), both a factor in [0, 1] on the clipped residual; and the guard on an acceleration
+residual (``guard_correction``).
 
 The gate (``authority_gate`` = g, a fraction of the weight) gives ``clip(2 s / g - 1, 0, 1)``:
 below half the gate the residual has no authority and the base flies alone, bit for bit;
@@ -27,7 +28,10 @@ base flies alone. Touching the floor ends a flight. Under issue 29's margin (10 
 latency, a motor 1.5 times slower) the base's own hover at a landing's 8 cm, in wind and
 ground effect, is marginal: it tilts by up to 18° and swings its rotor commands between 4
 and 13 N. A residual acting there, or handing the base a state it would not have flown
-into, made it lose landings its base kept (docs/residual-rl.md, "The floor fade").
+into, made it lose landings its base kept (docs/residual-rl.md, "The floor fade"). The fade
+does not stop all of it. What the residual does higher up, early in the descent, can
+leave the base's attitude mode swinging into the hover ("What loses the landings under
+the margin").
 """
 
 from __future__ import annotations
@@ -40,6 +44,8 @@ from numpy.typing import NDArray
 from quad_dob_env.validation import as_finite, unknown_name_error
 
 AUTHORITY_SIGNALS = ("force", "wind")
+# how far an acceleration residual may tilt the base's desired force: tan 20°
+HORIZONTAL_GUARD = float(np.tan(np.radians(20.0)))
 # [s] the "wind" gate's low-pass: long enough to average mocap's and gnss-imu's estimate
 # noise below half a 0.04 gate in calm air (module docstring), short enough to follow the
 # scenarios' 1-cosine gusts, which build over about a second
@@ -75,3 +81,24 @@ def floor_factor(height: NDArray[np.float64], fade: tuple[float, float]) -> NDAr
     """The floor fade's factor at the measured heights above the floor ``height`` (N,)."""
     low, high = fade
     return np.clip((height - low) / (high - low), 0.0, 1.0)
+
+
+def guard_correction(correction: NDArray[np.float64], force: NDArray[np.float64], mass: float,
+                     gravity: float, vertical_floor: float) -> NDArray[np.float64] | None:
+    """``correction`` (N, 3), for a base whose desired force with it is ``force`` (N, 3),
+    with its downward part raised where it would take the desired force's vertical part
+    below ``vertical_floor`` of the weight, and its horizontal part shortened where it
+    would tilt that force by more than ``HORIZONTAL_GUARD`` (m |Δa_xy| <= tan 20° · F_z);
+    None where neither applies. The force is affine in Δa (``F = F_base + m Δa``), so
+    this needs the base's F once. Near F = 0 the thrust direction, and with it the
+    attitude the base asks for, swings with every horizontal newton: the residual may not
+    take the base there, nor swing it there, though the base may go there itself."""
+    base_vertical = force[:, 2] - mass * correction[:, 2]
+    floor = vertical_floor * mass * gravity
+    vertical = np.maximum(correction[:, 2], np.minimum(0.0, (floor - base_vertical) / mass))
+    reach = HORIZONTAL_GUARD * np.maximum(base_vertical + mass * vertical, 0.0) / mass
+    horizontal = np.hypot(correction[:, 0], correction[:, 1])
+    shorten = np.minimum(1.0, reach / np.maximum(horizontal, 1e-12))
+    if np.all(vertical == correction[:, 2]) and np.all(shorten == 1.0):
+        return None
+    return np.column_stack([correction[:, :2] * shorten[:, None], vertical])

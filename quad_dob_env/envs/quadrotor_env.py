@@ -139,8 +139,10 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
       waypoint hops, no training family holds); the residual's ``lookahead`` (the error
       against the reference at given times ahead, 3 observation entries each; none by
       default); the residual's ``floor_fade`` (its authority faded out near the floor; off
-      by default) and the training family ``tunnel-tracks`` (training's kinds but the
-      landings, in a steady wind of 0-13 m/s).
+      by default), the training family ``tunnel-tracks`` (training's kinds but the
+      landings, in a steady wind of 0-13 m/s) and the residual's ``residual_cutoff`` (a
+      first-order low-pass on the residual, its state 4 more observation entries; none by
+      default).
     - v2 (2026-12): the ids ``QuadDOB/Hover-v2``, ``HoverResidual-v2``, ``TrackResidual-v2``
       and ``TracksResidual-v2`` fly the v1 ids' scenarios under ``benchmark="v2"``: ``mocap``
       sensing, the 200 Hz inner loop, speed motors, thrust uncertainty, rotor aerodynamics.

@@ -50,6 +50,7 @@ from the measurement the base controller reads:
 | 10-12                   | position error in the body frame, Rᵀ(x - x_d)           | m    |
 | 13-15                   | velocity error in the body frame, Rᵀ(v - v_d)           | m/s  |
 | 16 + 3k to 18 + 3k      | with ``lookahead``: Rᵀ(x - x_d(t + τ_k)), τ_k its k-th time | m    |
+| then 4 more             | with ``residual_cutoff``: the low-passed residual flown  | -    |
 
 The body-frame errors are there because the residual acts through body moments: with them
 a correction is nearly linear in what the policy sees, whatever the heading. ``lookahead``
@@ -58,6 +59,9 @@ adds the error against the reference that far ahead, as DATT's feedforward reads
 trajectory's next points (Huang et al., "DATT", CoRL 2023, arXiv:2310.09053); the reference
 is tabulated that much past the episode's end, and a vehicle flown past even that (no
 reset) reads its last row. x and R are the measurement the base reads, as in every entry.
+``residual_cutoff`` (Hz; none by default) low-passes the residual before the gate and fade
+(``quad_dob_env.envs.residual_filter``); the last 4 entries are then that filter's state,
+the policy's own past output filtered.
 
 Reward: the env's reward (built with no effort term) minus
 ``residual_effort_weight · mean(a²)``, so only the policy's own effort is penalised, and
@@ -81,8 +85,10 @@ from quad_dob_env.envs.authority import (
     check_signal,
     floor_factor,
     gate_factor,
+    guard_correction,
 )
 from quad_dob_env.envs.lookahead import look_ahead, lookahead_steps
+from quad_dob_env.envs.residual_filter import ResidualFilter
 from quad_dob_env.envs.residual_kernels import (
     join_columns,
     residual_command_kernel,
@@ -96,8 +102,6 @@ if TYPE_CHECKING:
 
 RESIDUAL_OBSERVATION_SIZE = 16
 RESIDUAL_MODES = ("thrust_moments", "acceleration")
-# how far an acceleration residual may tilt the base's desired force: tan 20°
-HORIZONTAL_GUARD = float(np.tan(np.radians(20.0)))
 
 
 def check_controller(base: Any) -> Any:
@@ -131,8 +135,8 @@ class ResidualCommand:
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
                  attitude_loop: Callable[[QuadrotorBatch, Any], Any] | None = None,
                  residual_rate_weight: float = 0.0, authority_signal: str = "force",
-                 lookahead: Sequence[float] = (),
-                 floor_fade: Sequence[float] | None = None) -> None:
+                 lookahead: Sequence[float] = (), floor_fade: Sequence[float] | None = None,
+                 residual_cutoff: float | None = None) -> None:
         if core.action_map.rate_loop is not None:
             raise ValueError("a residual adds to its base's thrust and moments: "
                              "action_mode='thrust_rates' is for direct control only")
@@ -173,9 +177,14 @@ class ResidualCommand:
         self.lookahead_steps = lookahead_steps(lookahead, core.scenario.dt)
         if len(self.lookahead_steps):  # so that an episode's last step still sees ahead
             core.tabulate_ahead(int(self.lookahead_steps[-1]))
+        self.residual_filter = (None if residual_cutoff is None else
+                                ResidualFilter(n, core.scenario.dt, residual_cutoff))
+        ahead_end = RESIDUAL_OBSERVATION_SIZE + 3 * len(self.lookahead_steps)
         self.extra_observation = np.zeros(
-            (n, RESIDUAL_OBSERVATION_SIZE + 3 * len(self.lookahead_steps)), dtype=np.float32)
-        self._ahead = self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:]  # a view: look_ahead
+            (n, ahead_end + (0 if self.residual_filter is None else 4)), dtype=np.float32)
+        # views the look-ahead and the filter write through
+        self._ahead = self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:ahead_end]
+        self._filtered = self.extra_observation[:, ahead_end:]
         self.rewards = np.zeros(n)
         self._body_errors = np.zeros((n, 6))
         self._base_action = np.zeros((n, 4))
@@ -223,6 +232,9 @@ class ResidualCommand:
         self.rewards[indices] = 0.0
         self.previous_residual[indices] = 0.0  # an episode starts from the base alone
         self.gate_filter[indices] = 0.0
+        if self.residual_filter is not None:
+            self.residual_filter.restart(indices)
+            self._filtered[indices] = 0.0
         if self.residual_mode == "acceleration":
             # the base runs in ``command``: until a vehicle's first one it shows hover, no
             # residual and no estimate
@@ -285,28 +297,17 @@ class ResidualCommand:
         return actions
 
     def _guard(self, correction: NDArray[np.float64]) -> NDArray[np.float64] | None:
-        """``correction`` (N, 3) with its downward part raised where it would take the
-        desired force's vertical part below ``vertical_floor`` of the weight, and its
-        horizontal part shortened where it would tilt that force by more than
-        ``HORIZONTAL_GUARD`` (m |Δa_xy| <= tan 20° · F_z); None where neither applies. The
-        force is affine in Δa (``F = F_base + m Δa``), so this needs the base's F once.
-        Near F = 0 the thrust direction, and with it the attitude the base asks for, swings
-        with every horizontal newton: the residual may not take the base there, nor swing
-        it there, though the base may go there itself."""
-        mass = self.core.vehicle.mass
-        force = self.controller.diagnostics["desired_force"]
-        base_vertical = force[:, 2] - mass * correction[:, 2]
-        floor = self.vertical_floor * mass * self.core.vehicle.gravity
-        vertical = np.maximum(correction[:, 2], np.minimum(0.0, (floor - base_vertical) / mass))
-        reach = HORIZONTAL_GUARD * np.maximum(base_vertical + mass * vertical, 0.0) / mass
-        horizontal = np.hypot(correction[:, 0], correction[:, 1])
-        shorten = np.minimum(1.0, reach / np.maximum(horizontal, 1e-12))
-        if np.all(vertical == correction[:, 2]) and np.all(shorten == 1.0):
-            return None
-        return np.column_stack([correction[:, :2] * shorten[:, None], vertical])
+        """``guard_correction`` for this step's base (its desired force)."""
+        vehicle = self.core.vehicle
+        return guard_correction(correction, self.controller.diagnostics["desired_force"],
+                                vehicle.mass, vehicle.gravity, self.vertical_floor)
 
     def _gate_flown(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``gated``, the ``"wind"`` filter advanced first: once per flown step."""
+        """``gated``, the ``"wind"`` filter and the residual's low-pass advanced first: once
+        per flown step."""
+        if self.residual_filter is not None:  # the gate and fade then scale what it passes
+            residual = self.residual_filter.step(residual)
+            self._filtered[:] = residual
         if self.authority_gate is not None and self.authority_signal == "wind":
             # first-order low-pass of d̂x,xy / (m g₀) at the step's start, forward Euler
             blend = min(1.0, self.core.scenario.dt / WIND_GATE_TIME_CONSTANT)

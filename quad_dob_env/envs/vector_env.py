@@ -70,7 +70,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     residual's own effort is ``residual_effort_weight``, its rate of change
     ``residual_rate_weight``; ``authority_gate`` and ``authority_signal``: when it may act;
     ``lookahead``: times [s] at which the observation also holds the reference ahead;
-    ``floor_fade``: the heights above the floor over which the residual fades out).
+    ``floor_fade``: the heights above the floor over which the residual fades out;
+    ``residual_cutoff``: the corner [Hz] of a low-pass on the residual, none by default).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 100,
@@ -93,7 +94,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
                  attitude_loop: Any = None, benchmark: str | None = None,
                  residual_rate_weight: float = 0.0, authority_signal: str = "force",
                  lookahead: Sequence[float] = (),
-                 floor_fade: Sequence[float] | None = None) -> None:
+                 floor_fade: Sequence[float] | None = None,
+                 residual_cutoff: float | None = None) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -125,7 +127,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
             fused_pass, authority_gate, residual_mode, acceleration_scale, vertical_floor,
             attitude_loop, residual_rate_weight=residual_rate_weight,
             authority_signal=authority_signal, lookahead=lookahead,
-            floor_fade=floor_fade)
+            floor_fade=floor_fade, residual_cutoff=residual_cutoff)
         # None without a base; with one, its name and gains (also in the reset info)
         self.base_controller = (None if self.residual is None
                                 else self.residual.controller.describe())

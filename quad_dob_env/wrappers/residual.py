@@ -35,7 +35,8 @@ class ResidualActionWrapper(gym.Wrapper):
                  acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
                  attitude_loop: Any = None, residual_rate_weight: float = 0.0,
                  authority_signal: str = "force", lookahead: Sequence[float] = (),
-                 floor_fade: Sequence[float] | None = None) -> None:
+                 floor_fade: Sequence[float] | None = None,
+                 residual_cutoff: float | None = None) -> None:
         super().__init__(env)
         core = getattr(env.unwrapped, "core", None)
         if core is None or core.n != 1:
@@ -50,7 +51,8 @@ class ResidualActionWrapper(gym.Wrapper):
                                         attitude_loop=attitude_loop,
                                         residual_rate_weight=residual_rate_weight,
                                         authority_signal=authority_signal,
-                                        lookahead=lookahead, floor_fade=floor_fade)
+                                        lookahead=lookahead, floor_fade=floor_fade,
+                                        residual_cutoff=residual_cutoff)
         env.unwrapped.base_controller = self.residual.controller.describe()
         self.action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.observation_space = gym.spaces.Box(
