@@ -7,20 +7,31 @@ them (seeds whose vehicle draws a take-off and landing reference), the lost flig
 (landings marked), and how many of those the base (the first policy named) kept.
 ``--json FILE`` keeps every number.
 
-Run by hand, e.g. ``python benchmarks/landings_under_margin.py --policies
-geometric-ndob:tuned,residual:v2 --scenarios random-tracks,heldout-tracks --seeds 9400-9599``.
+``--dither A[,A...]`` adds a control: the base perturbed at random instead of by a policy.
+It flies the env of the last residual named (its gate, floor fade and clip) with random
+actions of standard deviation A in action units ([-1, 1]; the acceleration residual's 1 is
+``acceleration_scale`` m/s²), each entry a stationary Ornstein-Uhlenbeck process of
+correlation time ``--dither-time`` seconds (0: white), ``--dither-draws`` noise streams per
+amplitude. A policy's residual is smooth: match A and the time to its actions' RMS and
+step-to-step change (``--dither-time`` ≈ 2 dt · RMS² / change²). If a perturbation of that
+size loses landings the base kept as often as the policy does, the losses are the base's
+sensitivity under the margin; if the dither keeps them, they are the policy's doing.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import dataclass, fields
+
+import numpy as np
+from numpy.typing import NDArray
 
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.evaluate import parse_seeds
 from quad_dob_training.metrics import flight_metrics
-from quad_dob_training.policies import fly_policy, make_policy
+from quad_dob_training.policies import Policy, fly_policy, make_policy
 
 MARGIN = {"extra_latency": 0.01, "motor_time_constant_scale": 1.5}
 
@@ -34,16 +45,75 @@ def reference_kinds(scenario, seeds: list[int]) -> list[str]:
     return [kinds[member] for member in env.core.reference_member]
 
 
+@dataclass
+class Dither(Policy):
+    """A residual policy's env flown with random actions: per entry a stationary
+    Ornstein-Uhlenbeck process of standard deviation ``amplitude`` and correlation time
+    ``correlation_time`` [s] (0: white noise), clipped to the action box, from its own
+    seeded stream."""
+
+    amplitude: float = 0.0
+    correlation_time: float = 0.0
+    draw: int = 0
+    stream: np.random.Generator | None = None
+    memory: float = 0.0  # exp(-dt / correlation_time): how much of a step's noise the next keeps
+    current: NDArray | None = None
+
+    @classmethod
+    def of(cls, residual: Policy, amplitude: float, correlation_time: float,
+           draw: int) -> Dither:
+        carried = {f.name: getattr(residual, f.name) for f in fields(Policy)}
+        carried["name"] = (f"dither {amplitude:g}, {correlation_time:g} s (draw {draw}) on "
+                           f"{residual.name}'s env")
+        return cls(**carried, amplitude=amplitude, correlation_time=correlation_time,
+                   draw=draw)
+
+    def restart(self, dt: float) -> None:
+        """The same noise from the first step of every scenario flown, at its step ``dt``."""
+        self.stream = np.random.default_rng(self.draw)
+        self.memory = (float(np.exp(-dt / self.correlation_time))
+                       if self.correlation_time > 0 else 0.0)
+        self.current = None
+
+    def act(self, observations: NDArray[np.float32]) -> NDArray:
+        shape = (len(observations), *self.model.action_space.shape)
+        fresh = self.stream.normal(0.0, self.amplitude, shape)
+        # the exact discrete OU step: the variance stays amplitude², from a stationary start
+        self.current = (fresh if self.current is None else
+                        self.memory * self.current + np.sqrt(1.0 - self.memory**2) * fresh)
+        return np.clip(self.current, -1.0, 1.0)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--policies", required=True,
                         help="comma-separated policy specs, the base first")
     parser.add_argument("--scenarios", default="random-tracks,heldout-tracks")
     parser.add_argument("--seeds", default="9400-9599")
+    parser.add_argument("--dither", default="",
+                        help="comma-separated amplitudes of the random-action control")
+    parser.add_argument("--dither-time", type=float, default=0.0,
+                        help="the dither's correlation time [s] (0: white)")
+    parser.add_argument("--dither-draws", type=int, default=3,
+                        help="noise streams per dither amplitude")
     parser.add_argument("--json", help="write every number to this file")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
     specs = args.policies.split(",")
+    policies = [make_policy(spec) for spec in specs]
+    amplitudes = [float(a) for a in args.dither.split(",") if a]
+    if amplitudes:
+        residuals = [p for p in policies if p.model is not None and p.base is not None]
+        if not residuals:
+            raise ValueError("--dither flies a residual's env: name a residual policy in "
+                             f"--policies (got {args.policies!r})")
+        if any(not 0.0 < a <= 1.0 for a in amplitudes):
+            raise ValueError(f"--dither amplitudes must lie in (0, 1] (action units), got "
+                             f"{args.dither!r}")
+        if not args.dither_time >= 0.0:
+            raise ValueError(f"--dither-time must be >= 0 s, got {args.dither_time}")
+        policies += [Dither.of(residuals[-1], a, args.dither_time, draw) for a in amplitudes
+                     for draw in range(args.dither_draws)]
     report: dict[str, dict[str, dict]] = {}
     print("| scenario | policy | flights | landings | lost | lost that the base kept | "
           "lost seeds (L: a landing) |")
@@ -54,8 +124,11 @@ def main() -> None:
         landings = sum(kind == "landing" for kind in kind_of.values())
         report[name] = {}
         base_lost: set[int] = set()
-        for index, spec in enumerate(specs):
-            flights = fly_policy(make_policy(spec), scenario, seeds)
+        for index, policy in enumerate(policies):
+            spec = specs[index] if index < len(specs) else policy.name
+            if isinstance(policy, Dither):
+                policy.restart(scenario.dt)
+            flights = fly_policy(policy, scenario, seeds)
             lost = [seed for seed, f in zip(seeds, flights, strict=True)
                     if flight_metrics(f)["crashed"]]
             if index == 0:
@@ -70,7 +143,8 @@ def main() -> None:
                   f"{len(beyond) if index else '-'} | {shown or '-'} |", flush=True)
     if args.json:
         with open(args.json, "w") as file:
-            json.dump({"seeds": seeds, "scenario_options": MARGIN, "policies": specs,
+            json.dump({"seeds": seeds, "scenario_options": MARGIN,
+                       "policies": specs + [p.name for p in policies[len(specs):]],
                        "scenarios": report}, file, indent=1)
 
 
