@@ -9,13 +9,19 @@ them (seeds whose vehicle draws a take-off and landing reference), the lost flig
 
 ``--dither A[,A...]`` adds a control: the base perturbed at random instead of by a policy.
 It flies the env of the last residual named (its gate, floor fade and clip) with random
-actions of standard deviation A in action units ([-1, 1]; the acceleration residual's 1 is
-``acceleration_scale`` m/s²), each entry a stationary Ornstein-Uhlenbeck process of
-correlation time ``--dither-time`` seconds (0: white), ``--dither-draws`` noise streams per
-amplitude. A policy's residual is smooth: match A and the time to its actions' RMS and
-step-to-step change (``--dither-time`` ≈ 2 dt · RMS² / change²). If a perturbation of that
-size loses landings the base kept as often as the policy does, the losses are the base's
-sensitivity under the margin; if the dither keeps them, they are the policy's doing.
+actions of standard deviation A in action units (A <= 0.5, so that the clip to [-1, 1]
+seldom bites; the acceleration residual's 1 is ``acceleration_scale`` m/s²), each entry a
+stationary Ornstein-Uhlenbeck process of correlation time ``--dither-time`` seconds (0:
+white), ``--dither-draws`` noise streams per amplitude. Stream d is seeded d for every
+amplitude and scenario (common random numbers: amplitudes differ in size, not in draw),
+and a vehicle's noise follows its row in the batch, the seeds' order.
+
+A policy's residual is smooth: match A and the time to its actions' RMS and step-to-step
+change (``--dither-time`` ≈ 2 dt · RMS² / change²). If a perturbation of that size loses
+landings the base kept as often as the policy does, the losses are the base's sensitivity
+under the margin; if the dither keeps them, they are the policy's doing. A short
+correlation time puts the same RMS at higher frequencies (the process's corner is
+1 / (2π τ)), to ask which band of the residual does it.
 """
 
 from __future__ import annotations
@@ -107,9 +113,12 @@ def main() -> None:
         if not residuals:
             raise ValueError("--dither flies a residual's env: name a residual policy in "
                              f"--policies (got {args.policies!r})")
-        if any(not 0.0 < a <= 1.0 for a in amplitudes):
-            raise ValueError(f"--dither amplitudes must lie in (0, 1] (action units), got "
-                             f"{args.dither!r}")
+        if any(not 0.0 < a <= 0.5 for a in amplitudes):
+            raise ValueError(f"--dither amplitudes must lie in (0, 0.5] (action units, "
+                             f"standard deviations the clip to [-1, 1] leaves nearly whole), "
+                             f"got {args.dither!r}")
+        if args.dither_draws < 1:
+            raise ValueError(f"--dither-draws must be at least 1, got {args.dither_draws}")
         if not args.dither_time >= 0.0:
             raise ValueError(f"--dither-time must be >= 0 s, got {args.dither_time}")
         policies += [Dither.of(residuals[-1], a, args.dither_time, draw) for a in amplitudes

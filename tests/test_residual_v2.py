@@ -4,7 +4,7 @@ randomisation of training, and the held-out reference families."""
 import numpy as np
 import pytest
 
-from quad_dob_composition import ResidualVectorEnv, make_vector_env
+from quad_dob_composition import ResidualVectorEnv, make_residual_env, make_vector_env
 from quad_dob_env.envs.residual import WIND_GATE_TIME_CONSTANT
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.trajectories import WaypointHops
@@ -303,25 +303,41 @@ def test_the_tunnel_family_blows_a_steady_wind_of_its_range_and_has_no_figure_ei
                                rtol=0.2)
 
 
+def _step_responses(levels, switch, cutoff, steps, dt):
+    """The continuous first-order filter's output at t = k dt, k = 1..steps, for an input
+    (N, 4) that is ``levels[0]`` until ``switch`` steps and ``levels[1]`` after: the sum of
+    two step responses, 1 - e^(-2π f t) each (no recursion)."""
+    time = dt * np.arange(1, steps + 1)[:, None, None]
+    first, second = (np.clip(level, -1, 1) for level in levels)
+    after = np.maximum(time - switch * dt, 0.0)
+    return (first * -np.expm1(-2 * np.pi * cutoff * time)
+            + (second - first) * -np.expm1(-2 * np.pi * cutoff * after))
+
+
 def test_the_residual_low_pass_is_its_equation_and_the_observation_shows_its_state():
-    cutoff, lookahead = 2.0, (0.1, 0.2)
+    cutoff, lookahead, steps, switch = 2.0, (0.1, 0.2), 90, 40
     flown = make_scenario("gusty-hover", sensing="mocap", benchmark="v2")
     env = make_vector_env(2, flown, residual_cutoff=cutoff, lookahead=lookahead,
                           **V2_ACCELERATION)
     plain = make_vector_env(2, flown, lookahead=lookahead, **V2_ACCELERATION)
-    obs, _ = env.reset(seed=[1, 2])
-    assert obs.shape[1] == plain.reset(seed=[1, 2])[0].shape[1] + 4  # after the look-ahead's
+    obs, plain_obs = env.reset(seed=[1, 2])[0], plain.reset(seed=[1, 2])[0]
+    assert obs.shape[1] == plain_obs.shape[1] + 4  # after the look-ahead's
     assert np.array_equal(obs[:, -4:], np.zeros((2, 4)))
-    held = np.array([0.5, -0.5, 0.25, 1.75])  # float32-exact; the last clipped to 1 first
-    for k in range(1, 61):
-        obs, *_ = env.step(np.tile(held.astype(np.float32), (2, 1)))
-        # the continuous first-order step response, 1 - e^(-2π f t), at t = k dt
-        expected = np.clip(held, -1, 1) * -np.expm1(-2.0 * np.pi * cutoff * k * flown.dt)
-        np.testing.assert_allclose(obs[:, -4:], np.tile(expected, (2, 1)), rtol=0, atol=1e-6)
+    # a zero residual leaves every other entry, the look-ahead's included, as without it
+    for _ in range(5):
+        obs, plain_obs = (e.step(np.zeros((2, 4), np.float32))[0] for e in (env, plain))
+        assert np.array_equal(obs[:, :-4], plain_obs) and not obs[:, -4:].any()
+    env.reset(seed=[1, 2])
+    # each vehicle its own input, stepping up then down, float32-exact; 1.75 clipped to 1
+    levels = (np.array([[0.5, -0.5, 0.25, 1.75], [-0.25, 0.75, -1.0, 0.125]]),
+              np.array([[-0.5, 0.0, 0.75, -0.25], [0.5, -0.125, 0.0, 1.0]]))
+    expected = _step_responses(levels, switch, cutoff, steps, flown.dt)
+    for k in range(steps):
+        obs, *_ = env.step(levels[k >= switch].astype(np.float32))
+        np.testing.assert_allclose(obs[:, -4:], expected[k], rtol=0, atol=1e-6)
         # what flew is the filtered residual (no gate, no fade here)
-        np.testing.assert_allclose(env.residual.previous_residual, np.tile(expected, (2, 1)),
-                                   rtol=0, atol=1e-12)
-    assert expected[0] > 0.95 * 0.5  # 0.6 s is 7.5 time constants: it got there
+        np.testing.assert_allclose(env.residual.previous_residual, expected[k], rtol=0,
+                                   atol=1e-12)
     # a fresh episode starts from the base alone: the filter's state is zero again
     assert np.array_equal(env.reset(seed=[3, 4])[0][:, -4:], np.zeros((2, 4)))
     for bad, message in ((0.0, "residual_cutoff"), (-1.0, "residual_cutoff"),
@@ -330,7 +346,49 @@ def test_the_residual_low_pass_is_its_equation_and_the_observation_shows_its_sta
             make_vector_env(1, flown, residual_cutoff=bad, **V2_ACCELERATION)
 
 
-def test_the_residual_low_pass_lets_a_shut_gate_fly_the_base_alone_bit_for_bit():
+def test_the_residual_low_pass_restarts_with_each_vehicle_in_every_path():
+    # thrust-and-moment residuals on the true state: the compiled pass and the separate
+    # stages; actions strong enough that some vehicles crash and restart mid-run
+    flown = make_scenario("random-tracks")
+    actions = np.random.default_rng(0).uniform(-1.5, 1.5, (400, 3, 4)).astype(np.float32)
+    cutoff = 2.0
+    blend = -np.expm1(-2 * np.pi * cutoff * flown.dt)
+
+    def flight(compiled):
+        env = make_vector_env(3, flown, base_controller="geometric-ndob", compiled=compiled,
+                              residual_cutoff=cutoff, lookahead=(0.1,), thrust_scale=1.0,
+                              moment_scale=1.0)
+        assert (env.residual._fused is not None) == compiled
+        env.reset(seed=[1, 2, 3])
+        seen, ended = [], []
+        for step in actions:
+            obs, _, terminated, truncated, _ = env.step(step)
+            seen.append(obs.copy())
+            ended.append(terminated | truncated)
+        return np.array(seen), np.array(ended)
+
+    fused, ended = flight(True)
+    staged, _ = flight(False)
+    assert np.array_equal(fused, staged) and ended.any()
+    state, restarting = np.zeros((3, 4)), np.zeros(3, bool)
+    for step, obs, ends in zip(actions, fused, ended, strict=True):
+        state = np.where(restarting[:, None], 0.0,  # next-step autoreset: a fresh episode
+                         state + blend * (np.clip(step, -1, 1) - state))
+        np.testing.assert_allclose(obs[:, -4:], state, rtol=0, atol=1e-6)
+        restarting = ends
+    # the single env wrapper: the same entries, zero at each reset
+    single = make_residual_env("geometric-ndob", residual_cutoff=cutoff,
+                               scenario="random-tracks")
+    obs, _ = single.reset(seed=0)
+    assert obs.shape == single.observation_space.shape and not obs[-4:].any()
+    for k in range(1, 6):
+        obs, *_ = single.step(np.float32([1, -1, 0.5, 0]))
+        np.testing.assert_allclose(obs[-4:], np.array([1, -1, 0.5, 0]) * -np.expm1(
+            -2 * np.pi * cutoff * k * flown.dt), rtol=0, atol=1e-6)
+    assert not single.reset(seed=1)[0][-4:].any()
+
+
+def test_under_the_floor_fade_a_low_passed_residual_flies_the_base_alone_bit_for_bit():
     def flight(action, cutoff):
         env = ResidualVectorEnv(2, "ground-effect-landing", benchmark="v2", floor_fade=(0.2, 0.4),
                                 residual_cutoff=cutoff,

@@ -5,9 +5,11 @@ f_c before the authority gate and the floor fade scale it.
 Why: under issue 29's margin (10 ms more latency, a motor 1.5 times slower) a residual
 trained without it excites its base's 2-3 Hz attitude mode on the descent to a landing;
 the base, alone again below the fade, has not damped it by the time it hovers at 8 cm and
-touches the floor (docs/residual-rl.md, "A low-passed residual"). A penalty on the
-residual's rate of change (``residual_rate_weight``) only asks for smoothness; the filter
-bounds what the policy can put into the loop above f_c, whatever it learnt.
+touches the floor (docs/residual-rl.md, "What loses the landings under the margin"). A
+penalty on the residual's rate of change (``residual_rate_weight``) only asks for
+smoothness; the filter attenuates whatever the policy puts into the loop above f_c, by
+1/√(1 + (f/f_c)²) at f (half at 2.45 Hz for f_c = 1.5 Hz). It is no hard limit: only the
+clip to [-1, 1] is, and a policy that sees the filter's state may learn to push harder.
 
 The filter's state is the policy's own past output, filtered: the observation shows it (4
 entries after the look-ahead's), so the policy reads what it has already committed the
