@@ -403,3 +403,30 @@ def test_under_the_floor_fade_a_low_passed_residual_flies_the_base_alone_bit_for
     assert np.array_equal(filtered[:, :-4], flight(0.0, None))
     np.testing.assert_allclose(filtered[:, -4:], 0.9 * -np.expm1(-2 * np.pi * 1.0 * 3.0),
                                rtol=1e-6)
+
+
+def test_the_termination_penalty_is_taken_from_the_reward_of_early_ends_only():
+    options = {"benchmark": "v2", "max_episode_steps": 120,
+               "base_controller": "geometric-ndob:tuned", "thrust_scale": 1.0}
+    plain, penalised = (QuadrotorSB3VecEnv(4, "random-tracks", seed=5,
+                                           termination_penalty=p, **options)
+                        for p in (0.0, 40.0))
+    plain.reset(), penalised.reset()
+    down = np.tile(np.float32([-1.0, 0.0, 0.0, 0.0]), (4, 1))  # two cut their thrust
+    down[2:] = 0.0  # two fly their base to the time limit
+    crashes = limits = 0
+    for _ in range(130):
+        rewards = []
+        for venv in (plain, penalised):
+            venv.step_async(down)
+            _, reward, done, infos = venv.step_wait()
+            rewards.append(reward)
+        early = np.array([info.get("termination_reason", "") not in ("", "time_limit")
+                          for info in infos])
+        np.testing.assert_array_equal(rewards[1], rewards[0] - np.float32(40.0) * early)
+        crashes += early.sum()
+        limits += (done & ~early).sum()
+    assert crashes >= 2 and limits >= 2  # both kinds of end were flown
+    assert "termination_penalty" not in env_options({"termination_penalty": 40.0})
+    with pytest.raises(ValueError, match="termination_penalty"):
+        QuadrotorSB3VecEnv(1, "random-tracks", termination_penalty=-1.0, **options)

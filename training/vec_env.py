@@ -33,13 +33,13 @@ from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.params import VEHICLES
 from quad_dob_env.scenarios import SCENARIOS, make_scenario
 from quad_dob_env.sensing import SENSING_PRESETS
-from quad_dob_env.validation import checked_keywords, unknown_name_error
+from quad_dob_env.validation import as_finite, checked_keywords, unknown_name_error
 
 # the keys of ``loop_randomization``: the number of groups, the sensing presets and the
 # vehicles they cycle through, and (low, high) ranges of the scenario options drawn per group
 LOOP_RANDOMIZATION_KEYS = ("groups", "sensing", "vehicle", "scenario", "extra_latency",
                            "motor_time_constant_scale", "wind_scale")
-TRAINING_ONLY_KEYS = ("loop_randomization",)
+TRAINING_ONLY_KEYS = ("loop_randomization", "termination_penalty")
 # where a drawn loop names the scenario its group flies instead of the env's (not an option
 # of the scenario: ``QuadrotorSB3VecEnv`` takes it out)
 SCENARIO_KEY = "scenario"
@@ -118,12 +118,16 @@ class QuadrotorSB3VecEnv(VecEnv):
     """``num_envs`` vehicles of ``scenario`` as an SB3 VecEnv; other keyword arguments are
     ``QuadrotorVectorEnv``'s. With ``loop_randomization`` (``draw_loops``) the vehicles are
     split into groups of nearly equal size, each flying its own drawn loop; vehicle i is
-    seeded ``seed + i`` either way."""
+    seeded ``seed + i`` either way. ``termination_penalty`` P (0 by default) is taken from
+    the reward of every step that ends an episode early (a crash, the vehicle out of
+    bounds or its attitude lost; not the time limit): the env's reward forfeits only the
+    steps left, which a loss late in an episode makes few."""
 
     @checked_keywords(ResidualVectorEnv.__init__, QuadrotorVectorEnv.__init__)
     def __init__(self, num_envs: int, scenario: str = "paper-none", seed: int | None = None,
                  loop_randomization: dict[str, Any] | None = None,
-                 **env_kwargs: Any) -> None:
+                 termination_penalty: float = 0.0, **env_kwargs: Any) -> None:
+        self.termination_penalty = as_finite(termination_penalty, "termination_penalty", 0.0)
         dt = None  # the clock the latency draws were made on
         if loop_randomization is None:
             self.loops: list[dict[str, Any]] = [{}]
@@ -186,6 +190,7 @@ class QuadrotorSB3VecEnv(VecEnv):
             rewards[group] = venv.rewards()
             terminated, truncated = core.terminated, core.truncated
             dones[group] = terminated | truncated
+            rewards[group] -= self.termination_penalty * terminated
             ended = np.flatnonzero(dones[group])
             if ended.size:
                 last = venv.observations()[ended]
