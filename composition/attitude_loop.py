@@ -35,7 +35,7 @@ from quad_dob_env.dynamics import (
     vehicle_physics,
 )
 from quad_dob_env.envs.kernels import finish_vehicle_step
-from quad_dob_env.envs.ticks import battery_scale_at, fly_tick, inner_estimate, tick_factors
+from quad_dob_env.envs.ticks import fly_tick, inner_estimate, thrust_path_at, tick_factors
 from quad_dob_env.threads import run_over_batch
 
 
@@ -62,7 +62,7 @@ def attitude_loop_kernel(start, stop, addition, law, actions, action_map, actuat
         row = step_count[i]
         vehicle = vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag)
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        battery = battery_scale_at(i, row, dt, rotors, rotor_state)
+        battery = thrust_path_at(i, row, dt, rotors, rotor_state, vehicle)
         r0, w0 = R, w
         end = (actuator_state[i, 0], actuator_state[i, 1], actuator_state[i, 2],
                actuator_state[i, 3])

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from quad_dob_env.benchmark import BENCHMARKS, LOOP_FIELDS, loop_fields
 from quad_dob_env.disturbances import Disturbance, GroundEffect
+from quad_dob_env.dynamics.throttle import ThrottleMap
 from quad_dob_env.feasibility import Feasibility, check_reference, refusal
 from quad_dob_env.memory import check_memory
 from quad_dob_env.params import ACTUATIONS, VehicleParams, get_vehicle
@@ -23,7 +24,7 @@ from quad_dob_env.sensing.models import SensorSuite, resolve_sensing
 from quad_dob_env.so3 import project_to_so3
 from quad_dob_env.trajectories import Trajectory, TrajectoryFamily
 from quad_dob_env.validation import as_finite, as_vector3, unknown_name_error
-from quad_dob_env.variation import Randomization, SensorNoise
+from quad_dob_env.variation import ModelTolerance, Randomization, SensorNoise
 
 # Bounds that keep a typo from asking for an absurd experiment: a control period from
 # 0.1 ms to 0.1 s, at most a million steps per episode (its reference is tabulated), and
@@ -85,6 +86,10 @@ class Scenario:
     extra_latency: float = 0.0
     # the rotors' time constant is the vehicle's times this (needs motor_lag or speed_motors)
     motor_time_constant_scale: float = 1.0
+    # [s] the rotor speed's time constants (spin-up, spin-down) on speed motors, in place of
+    # the vehicle's one ``motor_time_constant`` for both (None); ``motor_time_constant_scale``
+    # scales both
+    motor_time_constants: tuple[float, float] | None = None
     # Benchmark v2's vehicle loop, one switch per factor (``quad_dob_env.dynamics.rotors``),
     # each off giving v1's flight bit for bit; None: as ``benchmark`` says (v1: off, v2: on;
     # quad_dob_env.benchmark):
@@ -97,6 +102,13 @@ class Scenario:
     speed_motors: bool | None = None
     # per-episode thrust coefficient and battery sag within the flight, seeded
     thrust_uncertainty: bool | None = None
+    # Benchmark v3's throttle between the autopilot and the rotors (``dynamics.throttle``):
+    # the rotors' thrust per throttle, the autopilot's belief of it and the battery under
+    # both, drawn per episode; it replaces thrust_uncertainty and needs speed motors
+    throttle_map: ThrottleMap | None = None
+    # Benchmark v3: the controllers' model of the vehicle (mass, inertia, thrust
+    # coefficient) off the truth within these tolerances, drawn per episode
+    model_tolerance: ModelTolerance | None = None
     # rotor drag and its moment, thrust with axial inflow; they replace drag_linear
     rotor_aerodynamics: bool | None = None
     # "v1" or "v2": the loop every field above left None takes (quad_dob_env.benchmark)
@@ -131,7 +143,9 @@ class Scenario:
             self.ground_effect.law(self.vehicle, self.floor_height)  # validates its heights
         if self.floor_height is not None:
             as_finite(self.floor_height, "Scenario.floor_height")
-        for name, kind in (("sensors", SensorNoise), ("randomization", Randomization)):
+        for name, kind in (("sensors", SensorNoise), ("randomization", Randomization),
+                           ("throttle_map", ThrottleMap),
+                           ("model_tolerance", ModelTolerance)):
             value = getattr(self, name)
             if value is not None and not isinstance(value, kind):
                 if not isinstance(value, dict):
@@ -161,6 +175,7 @@ class Scenario:
                              f"lag, but scenario {self.name!r} flies without it: set "
                              f"motor_lag=True (or speed_motors=True) too")
         object.__setattr__(self, "motor_time_constant_scale", scale)
+        self._check_motor_time_constants()
         dt = as_finite(self.dt, "Scenario.dt", MIN_DT)
         if dt > MAX_DT:
             raise ValueError(f"Scenario.dt must be in [{MIN_DT}, {MAX_DT}] s, got {self.dt!r}")
@@ -225,6 +240,32 @@ class Scenario:
                                       self.name).items():
             object.__setattr__(self, key, value)
 
+    def _check_motor_time_constants(self) -> None:
+        given = self.motor_time_constants
+        if given is None:
+            return
+        if (not isinstance(given, (tuple, list)) or len(given) != 2
+                or isinstance(given, str)):
+            raise ValueError(f"Scenario.motor_time_constants must be (spin-up, spin-down) in "
+                             f"seconds, or None (the vehicle's), got {given!r}")
+        pair = tuple(as_finite(value, f"Scenario.motor_time_constants[{k}]", 0.0, strictly=True)
+                     for k, value in enumerate(given))
+        if not self.speed_motors:
+            raise ValueError(f"Scenario.motor_time_constants {pair} are the rotor speed's, "
+                             f"but scenario {self.name!r} flies without speed motors: set "
+                             "speed_motors=True (or benchmark='v2')")
+        object.__setattr__(self, "motor_time_constants", pair)
+
+    @property
+    def rotor_time_constants(self) -> tuple[float, float]:
+        """[s] the actuators' time constants as flown, scale applied: (spin-up, spin-down),
+        equal but for speed motors given ``motor_time_constants``; (0, 0) without a lag."""
+        if not (self.motor_lag or self.speed_motors):
+            return 0.0, 0.0
+        up, down = ((self.vehicle.motor_time_constant,) * 2 if self.motor_time_constants is None
+                    else self.motor_time_constants)
+        return up * self.motor_time_constant_scale, down * self.motor_time_constant_scale
+
     def _check_rotor_factors(self) -> None:
         for name in ("speed_motors", "thrust_uncertainty", "rotor_aerodynamics"):
             value = getattr(self, name)
@@ -234,6 +275,17 @@ class Scenario:
                 raise ValueError(f"Scenario.{name} models the rotors, but scenario "
                                  f"{self.name!r} flies actuation={self.actuation!r} (the "
                                  "paper's wrench, no rotors): use actuation='rotors'")
+        if self.throttle_map is not None:
+            if not self.speed_motors or self.thrust_uncertainty:
+                raise ValueError(f"Scenario.throttle_map maps throttle to the rotors' speed and "
+                                 f"replaces thrust_uncertainty's draws, but scenario "
+                                 f"{self.name!r} flies speed_motors={self.speed_motors}, "
+                                 f"thrust_uncertainty={self.thrust_uncertainty}: set "
+                                 "speed_motors=True, thrust_uncertainty=False")
+        if self.model_tolerance is not None and not (self.speed_motors or self.throttle_map):
+            raise ValueError(f"Scenario.model_tolerance's thrust coefficient is the speed "
+                             f"motors' k_F, but scenario {self.name!r} flies without them: "
+                             "set speed_motors=True")
         if self.rotor_aerodynamics and not self.drag:
             raise ValueError(f"Scenario.rotor_aerodynamics acts on the air-relative velocity, "
                              f"but scenario {self.name!r} flies without drag: set drag=True")

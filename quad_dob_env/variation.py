@@ -58,3 +58,24 @@ class Randomization:
             if high < low:
                 raise ValueError(f"Randomization.{name} needs low <= high, got {value!r}")
             object.__setattr__(self, name, (low, high))
+
+
+@dataclass(frozen=True)
+class ModelTolerance:
+    """How far the vehicle model the controllers are told may be from the truth (Benchmark
+    v3): at each reset, each told value (mass, inertia, thrust coefficient) is the truth times
+    a factor drawn uniformly from ``1 ± tolerance``, so the truth is the vehicle's nominal
+    value over that factor; the controllers keep the nominal one. One factor scales the
+    whole inertia matrix. The draws are in the reset ``info["sampled"]``."""
+
+    mass: float = 0.0
+    inertia: float = 0.0
+    thrust_coefficient: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("mass", "inertia", "thrust_coefficient"):
+            value = as_finite(getattr(self, name), f"ModelTolerance.{name}", 0.0)
+            if value >= 1.0:
+                raise ValueError(f"ModelTolerance.{name} is a relative bound below 1, got "
+                                 f"{value!r}")
+            object.__setattr__(self, name, value)

@@ -18,7 +18,13 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from quad_dob_env.dynamics.rotors import lagged_output, rotor_wrench, speeds_of_output
+from quad_dob_env.dynamics.rotors import (
+    lagged_each,
+    lagged_output,
+    rotor_wrench,
+    speed_lag_factors,
+    speeds_of_output,
+)
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.so3 import (
     cross_tuple,
@@ -190,7 +196,12 @@ def _stage_inputs(start, command, time_constant, to_wrench, tables, own, row, i,
     ``elapsed`` s in (the rotor speeds are what the rotors' own model reads, when on)."""
     factor = lag_factor(elapsed, time_constant)
     if rotors[0]:
-        speeds = speeds_of_output(lagged_output(start, command, factor), rotors)
+        if rotors[1] and rotors[11] > 0.0:  # speed motors spinning up and down unequally
+            output = lagged_each(start, command, speed_lag_factors(
+                start, command, time_constant, rotors[11], elapsed))
+        else:
+            output = lagged_output(start, command, factor)
+        speeds = speeds_of_output(output, rotors)
         f, m = 0.0, (0.0, 0.0, 0.0)
     else:
         speeds = (0.0, 0.0, 0.0, 0.0)

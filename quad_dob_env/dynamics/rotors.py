@@ -6,9 +6,16 @@ actuator (rotor thrusts or the wrench, lagged directly) and nothing here runs.
 
 - **Motors on rotor speed** (``speed_motors``): each rotor's speed follows its command
   ``ω_c = sqrt(T_c / k_F)`` as ``ω̇ = (ω_c - ω) / τ`` (exact over a step:
-  ``ω(t) = ω_c + (ω₀ - ω_c) e^{-t/τ}``); thrust ``T = k_F ω²`` and yaw torque
-  ``Q = c_τ k_F ω²`` (c_τ the vehicle's torque per thrust), so both go as ω². Speeds lie in
-  ``[0, sqrt(max_rotor_thrust / k_F)]`` because the mixer clips the thrusts it asks for.
+  ``ω(t) = ω_c + (ω₀ - ω_c) e^{-t/τ}``), τ the spin-up time constant where ``ω_c > ω₀``
+  and the spin-down one (``spin_down_time_constant``, 0: the same) where it is below: a
+  first-order lag never crosses its command, so the direction holds over the interval, and
+  an ESC without active braking slows a rotor by its drag alone; thrust ``T = k_F ω²`` and
+  yaw torque ``Q = c_τ k_F ω²`` (c_τ the vehicle's torque per thrust), so both go as ω².
+  Speeds lie in ``[0, sqrt(max_rotor_thrust / k_F)]`` because the mixer clips the thrusts it
+  asks for.
+- **The throttle** (``throttle``, Benchmark v3, ``dynamics.throttle``): between the mixer
+  and the motors, the thrust a throttle gives and the autopilot's belief of it; the speed
+  command is then ``ω_c = sqrt(T / (κ_s k_F))`` for the true rotor thrust T.
 - **Thrust uncertainty** (``thrust_uncertainty``): the true ``k_F`` (and with it the yaw
   torque) is the nominal times a per-episode ``thrust_scale`` (air density), and the
   battery's sag scales every command's thrust by ``(1 - sag_rate t)²`` (open-loop ESCs:
@@ -43,6 +50,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from quad_dob_env.dynamics.throttle import ThrottleMap
 from quad_dob_env.params import VehicleParams
 
 
@@ -60,14 +68,24 @@ class RotorModel(NamedTuple):
     radius: float = 1.0  # R [m]
     edgewise_ratio: float = 0.0  # a_μ
     axial_ratio: float = 0.0  # a_λ
+    # [s] the rotor speed's time constant when it slows (speed motors); 0: the spin-up one
+    spin_down_time_constant: float = 0.0
+    # the throttle between mixer and rotors (``dynamics.throttle``; speed motors): on, the
+    # rotors' κ, the autopilot's κ_ap, and the believed hover thrust per rotor T̂_h [N]
+    throttle: bool = False
+    thrust_model_factor: float = 0.0
+    autopilot_thrust_model_factor: float = 0.0
+    believed_hover_rotor_thrust: float = 1.0
 
     @property
     def active(self) -> bool:
-        return self.speed_motors or self.thrust_uncertainty or self.aerodynamics
+        return (self.speed_motors or self.thrust_uncertainty or self.aerodynamics
+                or self.throttle)
 
     @classmethod
     def of(cls, vehicle: VehicleParams, speed_motors: bool, thrust_uncertainty: bool,
-           aerodynamics: bool) -> RotorModel:
+           aerodynamics: bool, spin_down_time_constant: float = 0.0,
+           throttle: ThrottleMap | None = None) -> RotorModel:
         allocation = vehicle.allocation_matrix
         # the allocation's moment rows: Mx = py T, My = -px T, Mz = spin c_τ T
         positions = np.stack([-allocation[2], allocation[1],
@@ -76,12 +94,18 @@ class RotorModel(NamedTuple):
                    float(vehicle.thrust_coefficient), float(vehicle.rotor_drag_coefficient),
                    float(vehicle.inflow_coefficient), np.ascontiguousarray(positions),
                    np.ascontiguousarray(allocation[3]), float(vehicle.rotor_radius),
-                   *map(float, vehicle.inflow_quadratic))
+                   *map(float, vehicle.inflow_quadratic), float(spin_down_time_constant),
+                   throttle is not None,
+                   0.0 if throttle is None else throttle.thrust_model_factor,
+                   0.0 if throttle is None else throttle.autopilot_thrust_model_factor,
+                   float(vehicle.hover_thrust / 4))
 
     def kernel_arguments(self) -> tuple:
         return (self.active, self.speed_motors, self.aerodynamics, self.thrust_coefficient,
                 self.drag_coefficient, self.inflow_coefficient, self.positions, self.spin,
-                self.radius, self.edgewise_ratio, self.axial_ratio)
+                self.radius, self.edgewise_ratio, self.axial_ratio,
+                self.spin_down_time_constant, self.throttle, self.thrust_model_factor,
+                self.autopilot_thrust_model_factor, self.believed_hover_rotor_thrust)
 
 
 # The largest advance ratios (λ, μ) the thrust law uses: where Gill & D'Andrea's data and
@@ -97,6 +121,25 @@ def lagged_output(start, command, factor):
             command[1] + (start[1] - command[1]) * factor,
             command[2] + (start[2] - command[2]) * factor,
             command[3] + (start[3] - command[3]) * factor)
+
+
+@njit(cache=True, inline="always")
+def speed_lag_factors(start, command, spin_up, spin_down, elapsed):
+    """Per rotor, the share of its old speed left after ``elapsed`` s: ``e^{-t/τ}`` with the
+    spin-up time constant where the command is above the speed, else the spin-down one."""
+    up = math.exp(-elapsed / spin_up) if spin_up > 0.0 else 0.0
+    down = math.exp(-elapsed / spin_down) if spin_down > 0.0 else 0.0
+    return (up if command[0] > start[0] else down, up if command[1] > start[1] else down,
+            up if command[2] > start[2] else down, up if command[3] > start[3] else down)
+
+
+@njit(cache=True, inline="always")
+def lagged_each(start, command, factors):
+    """``lagged_output`` with a factor per output."""
+    return (command[0] + (start[0] - command[0]) * factors[0],
+            command[1] + (start[1] - command[1]) * factors[1],
+            command[2] + (start[2] - command[2]) * factors[2],
+            command[3] + (start[3] - command[3]) * factors[3])
 
 
 @njit(cache=True, inline="always")
@@ -133,7 +176,8 @@ def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
     """The rotors' true force (body frame) and moment about the centre of mass at rotor
     ``speeds``, for a vehicle at velocity ``v``, attitude ``rotation`` (row-major 9-tuple),
     body rates ``omega`` in air moving at ``wind``. Returns ((Fx, Fy, Fz), (Mx, My, Mz))."""
-    _, _, aerodynamics, k_f, k_d, k_z, positions, spin, radius, a_mu, a_lambda = rotors
+    aerodynamics, k_f, k_d, k_z = rotors[2], rotors[3], rotors[4], rotors[5]
+    positions, spin, radius, a_mu, a_lambda = rotors[6], rotors[7], rotors[8], rotors[9], rotors[10]
     r = rotation
     a = (v[0] - wind[0], v[1] - wind[1], v[2] - wind[2])
     body = (r[0] * a[0] + r[3] * a[1] + r[6] * a[2], r[1] * a[0] + r[4] * a[1] + r[7] * a[2],
@@ -183,17 +227,27 @@ def nominal_wrench(speeds, rotors, allocation):
 
 
 @njit(cache=True, inline="always")
-def mean_square_speeds(start, command, tau, elapsed):
-    """The mean of ω(t)² over ``elapsed`` s for ``ω = c + (s - c) e^{-t/τ}``:
-    ``c² + 2 c (s - c) m₁ + (s - c)² m₂`` with ``m₁ = τ/T (1 - e^{-T/τ})`` and
-    ``m₂ = τ/(2T) (1 - e^{-2T/τ})`` (τ = 0: the command's)."""
+def _square_means(tau, elapsed):
+    """``m₁ = τ/T (1 - e^{-T/τ})``, ``m₂ = τ/(2T) (1 - e^{-2T/τ})``: the means of e^{-t/τ}
+    and e^{-2t/τ} over T = ``elapsed`` s (τ = 0: none left)."""
     if tau > 0.0:
-        m1 = tau / elapsed * (1.0 - math.exp(-elapsed / tau))
-        m2 = tau / (2.0 * elapsed) * (1.0 - math.exp(-2.0 * elapsed / tau))
-    else:
-        m1 = m2 = 0.0
+        return (tau / elapsed * (1.0 - math.exp(-elapsed / tau)),
+                tau / (2.0 * elapsed) * (1.0 - math.exp(-2.0 * elapsed / tau)))
+    return 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
+def mean_square_speeds(start, command, tau, elapsed, spin_down=0.0):
+    """The mean of ω(t)² over ``elapsed`` s for ``ω = c + (s - c) e^{-t/τ}``:
+    ``c² + 2 c (s - c) m₁ + (s - c)² m₂`` (``_square_means``); with ``spin_down`` > 0,
+    the rotors not speeding up (c <= s) take that time constant instead of ``tau``."""
+    m1, m2 = _square_means(tau, elapsed)
+    d1, d2 = _square_means(spin_down, elapsed) if spin_down > 0.0 else (m1, m2)
     out = [0.0, 0.0, 0.0, 0.0]
     for k in range(4):
         c, d = command[k], start[k] - command[k]
-        out[k] = c * c + 2.0 * c * d * m1 + d * d * m2
+        if c > start[k]:
+            out[k] = c * c + 2.0 * c * d * m1 + d * d * m2
+        else:
+            out[k] = c * c + 2.0 * c * d * d1 + d * d * d2
     return (out[0], out[1], out[2], out[3])

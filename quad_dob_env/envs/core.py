@@ -120,8 +120,7 @@ class QuadrotorBatch:
         self.sampled: list[dict[str, float]] = [{} for _ in range(n)]
         self.actuator_state = np.zeros((n, 4))
         self._actuation = self.actuator.kernel_arguments()
-        time_constant = (self.vehicle.motor_time_constant * scenario.motor_time_constant_scale
-                         if scenario.motor_lag or scenario.speed_motors else 0.0)
+        time_constant = scenario.rotor_time_constants[0]
         self._actuator = (self.actuator.to_wrench, self.actuator.to_rotors, float(time_constant),
                           self.actuator_state)
         floor, limits_ = scenario.floor_height, self.limits
@@ -241,6 +240,8 @@ class QuadrotorBatch:
                      else None)
             self.sensing.start(int(indices[j]), child)
             self.loop.start(int(indices[j]), child)
+            if self.loop.tolerance is not None:  # the controllers keep the nominal model
+                scales[j, :2] *= self.loop.truth_scales(int(indices[j]))
         offsets = np.zeros((count, 6))  # position, velocity
         offsets[:, :3] = draws[:, :3] * sc.initial_position_noise
         rows = members * self._member_rows + starts

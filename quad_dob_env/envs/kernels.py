@@ -23,10 +23,10 @@ from quad_dob_env.dynamics import (
 )
 from quad_dob_env.dynamics.rotors import nominal_wrench, rotor_wrench, speeds_of_output
 from quad_dob_env.envs.ticks import (
-    battery_scale_at,
     fly_tick,
     inner_estimate,
     rate_law,
+    thrust_path_at,
     tick_factors,
 )
 from quad_dob_env.so3 import mat_vec_tuple
@@ -298,7 +298,7 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, rotors, r
         row = step_count[i]
         vehicle = vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag)
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        battery = battery_scale_at(i, row, dt, rotors, rotor_state)
+        battery = thrust_path_at(i, row, dt, rotors, rotor_state, vehicle)
         r0, w0 = R, w
         total = (0.0, 0.0, 0.0, 0.0)
         any_saturated, diverged, end = False, False, begin

@@ -15,7 +15,14 @@ from quad_dob_env.dynamics import (
     advance_vehicle,
     lag_factor,
 )
-from quad_dob_env.dynamics.rotors import lagged_output, mean_square_speeds, motor_target
+from quad_dob_env.dynamics.rotors import (
+    lagged_each,
+    lagged_output,
+    mean_square_speeds,
+    motor_target,
+    speed_lag_factors,
+)
+from quad_dob_env.dynamics.throttle import rotor_thrusts_of, throttle_state
 from quad_dob_env.so3 import cross_tuple, mat_mul_tuple, mat_vec_tuple
 
 
@@ -72,9 +79,15 @@ def fly_tick(i, x, v, R, w, start, thrust, moment, actuation, actuator, rotors, 
     command, saturated = actuate_vehicle(thrust, moment, code, mixer, max_rotor, max_total,
                                          moment_limit)
     if rotors[0]:
-        target = motor_target(command, battery, rotors)
+        if rotors[12]:  # the throttle map (speed motors): ω_c = sqrt(T / (κ_s k_F))
+            true_thrusts, ceiling = rotor_thrusts_of(command, battery[1], battery[2],
+                                                     rotors[13], rotors[14])
+            saturated = saturated or ceiling
+            target = motor_target(true_thrusts, 1.0 / rotor_state[0][i], rotors)
+        else:
+            target = motor_target(command, battery[0], rotors)
         if rotors[1]:  # the nominal model's k_F times the mean of ω² over the tick
-            squares = mean_square_speeds(start, target, time_constant, tick_dt)
+            squares = mean_square_speeds(start, target, time_constant, tick_dt, rotors[11])
             k = rotors[3]
             mean = (k * squares[0], k * squares[1], k * squares[2], k * squares[3])
         else:
@@ -82,7 +95,11 @@ def fly_tick(i, x, v, R, w, start, thrust, moment, actuation, actuator, rotors, 
     else:
         target = command
         mean = lagged_output(start, command, mean_factor)
-    end = lagged_output(start, target, end_factor)
+    if rotors[0] and rotors[1] and rotors[11] > 0.0:
+        end = lagged_each(start, target, speed_lag_factors(start, target, time_constant,
+                                                           rotors[11], tick_dt))
+    else:
+        end = lagged_output(start, target, end_factor)
     xn, vn, Rn, wn = advance_vehicle(x, v, R, w, start, target, time_constant, to_wrench,
                                      tables, row, own, i, vehicle, tick_dt, substeps, law,
                                      rotors, rotor_state[0][i], first_sample)
@@ -100,10 +117,17 @@ def tick_factors(time_constant, tick_dt):
 
 
 @njit(cache=True, inline="always")
-def battery_scale_at(i, row, dt, rotors, rotor_state):
-    """The thrust per command the battery leaves vehicle i at step ``row``:
-    ``(1 - sag_rate t)²`` (1 without thrust uncertainty)."""
+def thrust_path_at(i, row, dt, rotors, rotor_state, vehicle):
+    """What the battery leaves vehicle i at step ``row`` (``vehicle``: its physics), as
+    (thrust per command, throttle per believed newton, full-throttle thrust [N]): with the
+    throttle map (``dynamics.throttle``) its last two at the true hover throttle
+    ``t_h0 + r t``; else thrust uncertainty's ``(1 - sag_rate t)²`` (1 without it) first."""
+    if rotors[12]:
+        per_newton, full = throttle_state(
+            rotor_state[2][i] + rotor_state[3][i] * row * dt, rotor_state[4][i],
+            0.25 * vehicle[0] * vehicle[1], rotors[15], rotors[13], rotors[14])
+        return 1.0, per_newton, full
     if not rotors[0]:
-        return 1.0
+        return 1.0, 0.0, 0.0
     left = max(1.0 - rotor_state[1][i] * row * dt, 0.0)  # an empty pack makes no thrust
-    return left * left
+    return left * left, 0.0, 0.0

@@ -32,11 +32,23 @@ class VehicleLoop:
     def __init__(self, scenario: Scenario, actuator: Actuator, n: int, action_mode: str,
                  estimate: tuple[bool, NDArray, NDArray]) -> None:
         vehicle = scenario.vehicle
+        up, down = scenario.rotor_time_constants
+        self.throttle = scenario.throttle_map
         self.model = RotorModel.of(vehicle, scenario.speed_motors, scenario.thrust_uncertainty,
-                                   scenario.rotor_aerodynamics)
+                                   scenario.rotor_aerodynamics, 0.0 if down == up else down,
+                                   self.throttle)
         self.uncertain = scenario.thrust_uncertainty
         self.thrust_scale = np.ones(n)
         self.sag_rate = np.zeros(n)
+        # the throttle map's draws: true hover throttle at the start, its drift [1/s], and
+        # the estimate over the truth, 1 + ε
+        self.hover_throttle = np.ones(n)
+        self.hover_throttle_drift = np.zeros(n)
+        self.hover_estimate_factor = np.ones(n)
+        # the model mismatch's draws: each told value over the truth (the truth's scale is
+        # its inverse; the thrust coefficient's is ``thrust_scale``)
+        self.tolerance = scenario.model_tolerance
+        self.told_over_true = np.ones((n, 3))  # mass, inertia, thrust coefficient
         self.ticks = scenario.inner_ticks
         self.active = scenario.inner_rate is not None
         # thrust_rates' rate loop is the inner loop, when there is one
@@ -56,8 +68,17 @@ class VehicleLoop:
             return hover
         return np.sqrt(np.maximum(hover, 0.0) / self.model.thrust_coefficient)
 
-    def rotor_state(self) -> tuple[NDArray, NDArray]:
-        return (self.thrust_scale, self.sag_rate)
+    def rotor_state(self) -> tuple[NDArray, ...]:
+        return (self.thrust_scale, self.sag_rate, self.hover_throttle,
+                self.hover_throttle_drift, self.hover_estimate_factor)
+
+    def hover_throttle_estimate(self, time: NDArray) -> NDArray:
+        """The autopilot's hover throttle t̂_h at each vehicle's ``time`` [s] (the throttle
+        map's; 1 without it)."""
+        if self.throttle is None:
+            return np.ones_like(time, dtype=float)
+        return (self.hover_throttle + self.hover_throttle_drift * time) * (
+            self.hover_estimate_factor)
 
     def start(self, index: int, child: np.random.Generator | None) -> None:
         """Vehicle ``index``'s draws for a new episode, from a stream spawned off ``child``
@@ -67,14 +88,43 @@ class VehicleLoop:
             stream = child.spawn(1)[0]
             self.thrust_scale[index] = stream.uniform(*THRUST_SCALE_RANGE)
             self.sag_rate[index] = stream.uniform(*SAG_RATE_RANGE)
+        elif self.throttle is not None or self.tolerance is not None:
+            # one stream, a fixed order: the throttle map's draws, then the model's
+            stream = child.spawn(1)[0]
+            mapping = self.throttle
+            if mapping is not None:
+                self.hover_throttle[index] = stream.uniform(*mapping.hover_throttle)
+                self.hover_throttle_drift[index] = stream.uniform(*mapping.hover_throttle_drift)
+                error = mapping.hover_estimate_error
+                self.hover_estimate_factor[index] = 1.0 + stream.uniform(-error, error)
+            tolerance = self.tolerance
+            if tolerance is not None:
+                bounds = np.array([tolerance.mass, tolerance.inertia,
+                                   tolerance.thrust_coefficient])
+                self.told_over_true[index] = 1.0 + stream.uniform(-bounds, bounds)
+                self.thrust_scale[index] = 1.0 / self.told_over_true[index, 2]
+
+    def truth_scales(self, index: int) -> NDArray:
+        """Vehicle ``index``'s true mass and inertia over the told (nominal) ones."""
+        return 1.0 / self.told_over_true[index, :2]
 
     @property
     def needs_streams(self) -> bool:
-        return self.uncertain
+        return self.uncertain or self.throttle is not None or self.tolerance is not None
 
     def sampled(self, index: int) -> dict[str, float]:
         """What was drawn for vehicle ``index`` (for ``info["sampled"]``)."""
+        drawn = {}
+        if self.throttle is not None:
+            drawn.update(hover_throttle=float(self.hover_throttle[index]),
+                         hover_throttle_drift=float(self.hover_throttle_drift[index]),
+                         hover_estimate_factor=float(self.hover_estimate_factor[index]))
+        if self.tolerance is not None:
+            told = self.told_over_true[index]
+            drawn.update(mass_told_over_true=float(told[0]),
+                         inertia_told_over_true=float(told[1]),
+                         thrust_coefficient_told_over_true=float(told[2]))
         if not self.uncertain:
-            return {}
+            return drawn
         return {"thrust_scale": float(self.thrust_scale[index]),
                 "battery_sag_rate": float(self.sag_rate[index])}

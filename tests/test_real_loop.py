@@ -1,0 +1,256 @@
+"""Benchmark v3's loop factors (the real vehicle's lag and thrust path), each held to an
+oracle written here from its equation, independent of the kernels' closed forms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from gymnasium.utils import seeding
+
+from quad_dob_env.envs import QuadrotorBatch
+from quad_dob_env.params import VEHICLES
+from quad_dob_env.scenarios import make_scenario
+
+PAPER = VEHICLES["paper"]
+K_F = PAPER.thrust_coefficient
+DT = 0.01
+HOVER_ROTOR = PAPER.hover_thrust / 4
+STILL = {"initial_position_noise": 0.0, "initial_attitude_noise": 0.0}
+
+
+def _core(scenario, n=1, action_mode="rotor_thrusts", seeds=None):
+    core = QuadrotorBatch(scenario, n, action_mode=action_mode)
+    seeds = list(range(1, n + 1)) if seeds is None else seeds
+    core.reset(np.arange(n), [seeding.np_random(s)[0] for s in seeds])
+    return core
+
+
+def _mean_square(start, command, tau, elapsed, points=4001):
+    """The mean of ω(t)² over ``elapsed`` for ω = c + (s - c) e^{-t/τ} (τ per rotor), by
+    composite Simpson quadrature."""
+    t = np.linspace(0.0, elapsed, points)
+    omega = command[:, None] + (start - command)[:, None] * np.exp(-t / tau[:, None])
+    y = omega**2
+    h = t[1] - t[0]
+    integral = h / 3 * (y[:, 0] + y[:, -1] + 4 * y[:, 1:-1:2].sum(1) + 2 * y[:, 2:-1:2].sum(1))
+    return integral / elapsed
+
+
+def _rotor_actions(core, thrusts):
+    allocation = PAPER.allocation_matrix
+    return core.action_map.to_actions(thrusts.sum()[None], (allocation[1:] @ thrusts)[None])
+
+
+# --- the lag chain: motors spinning up and down at their own rates -------------------------
+
+@pytest.mark.parametrize(("scale", "inner_rate"), [(1.0, None), (1.5, None), (1.0, 400.0)])
+def test_each_rotor_speeds_up_and_slows_with_its_own_time_constant(scale, inner_rate):
+    """Rotors commanded up follow e^{-t/τ_up}, those commanded down e^{-t/τ_down} (both
+    times the scale); when the command reverses, each rotor switches; the reported thrust
+    is k_F times the mean of ω² under the right exponential."""
+    up, down = 0.03, 0.08
+    scenario = make_scenario("hover-calm", speed_motors=True, motor_time_constants=(up, down),
+                             motor_time_constant_scale=scale, inner_rate=inner_rate, **STILL)
+    assert scenario.rotor_time_constants == (up * scale, down * scale)
+    core = _core(scenario)
+    omega0 = math.sqrt(HOVER_ROTOR / K_F)
+    omega = np.full(4, omega0)
+    for factors in ([1.2, 1.1, 0.9, 0.8], [0.85, 1.3, 1.0, 1.05]):
+        thrusts = HOVER_ROTOR * np.array(factors)
+        command = np.sqrt(thrusts / K_F)
+        actions = _rotor_actions(core, thrusts)
+        for _ in range(6):
+            tau = np.where(command > omega, up, down) * scale
+            expected = command + (omega - command) * np.exp(-DT / tau)
+            mean = K_F * _mean_square(omega, command, tau, DT)
+            core.step(actions)
+            np.testing.assert_allclose(core.actuator_state[0], expected, rtol=1e-9)
+            np.testing.assert_allclose(core.applied.rotor_thrusts[0], mean, rtol=1e-9)
+            omega = expected
+
+
+def test_equal_time_constants_fly_the_vehicles_one_bit_for_bit():
+    """(τ, τ) given is the vehicle's own τ: the same flight to the last bit."""
+    tau = PAPER.motor_time_constant
+    flights = []
+    for given in (None, (tau, tau)):
+        scenario = make_scenario("hover-calm", speed_motors=True, motor_time_constants=given)
+        core = _core(scenario, action_mode="thrust_moments")
+        actions = np.array([[0.3, 0.1, -0.2, 0.05]])
+        for _ in range(20):
+            core.step(actions)
+        flights.append((core.state.position.copy(), core.actuator_state.copy()))
+    assert np.array_equal(flights[0][0], flights[1][0])
+    assert np.array_equal(flights[0][1], flights[1][1])
+
+
+@pytest.mark.parametrize(("given", "message"), [
+    ((0.03,), "spin-up, spin-down"), ((0.03, -0.01), "motor_time_constants"),
+    ((0.03, float("nan")), "motor_time_constants"), ("fast", "spin-up, spin-down")])
+def test_bad_motor_time_constants_are_refused(given, message):
+    with pytest.raises(ValueError, match=message):
+        make_scenario("hover-calm", speed_motors=True, motor_time_constants=given)
+
+
+def test_motor_time_constants_need_speed_motors():
+    with pytest.raises(ValueError, match="speed_motors=True"):
+        make_scenario("hover-calm", motor_time_constants=(0.03, 0.05))
+
+
+# --- the thrust path: throttle map, battery, the autopilot's belief ------------------------
+
+def _throttle_for(fraction, factor):
+    """The u in [0, ∞) with (1 - κ) u + κ u² = fraction, from numpy's polynomial roots."""
+    if factor == 0:
+        return fraction
+    roots = np.roots([factor, 1 - factor, -fraction])
+    return float(max(r.real for r in roots if abs(r.imag) < 1e-12))
+
+
+@pytest.mark.parametrize("autopilot_factor", [0.0, 0.3])
+def test_the_throttle_map_turns_believed_thrust_into_the_rotors_truth(autopilot_factor):
+    """Per step: t_h = t_h0 + r t, t̂_h = t_h (1 + ε); u = the autopilot's model inverted at
+    t̂_h T_c / T̂_h, held at 1; T = T_full ((1 - κ) u + κ u²) with T_full holding the
+    weight at the output the setpoint t_h asks for; the rotors lag to sqrt(T / k_F); the
+    ceiling is reported as saturation."""
+    factor = 0.6
+    mapping = {"thrust_model_factor": factor, "hover_throttle": (0.44, 0.51),
+               "hover_throttle_drift": (2e-4, 6e-4), "hover_estimate_error": 0.05,
+               "autopilot_thrust_model_factor": autopilot_factor}
+    scenario = make_scenario("hover-calm", speed_motors=True, thrust_uncertainty=False,
+                             throttle_map=mapping, **STILL)
+    core = _core(scenario, seeds=[7])
+    drawn = core.sampled[0]
+    hover0, drift = drawn["hover_throttle"], drawn["hover_throttle_drift"]
+    estimate = drawn["hover_estimate_factor"]
+    assert 0.44 <= hover0 <= 0.51 and 2e-4 <= drift <= 6e-4 and abs(estimate - 1) <= 0.05
+    tau = PAPER.motor_time_constant
+    omega = core.actuator_state[0].copy()
+    believed_hover = PAPER.hover_thrust / 4
+    for row, factors in enumerate([[1.2, 1.1, 0.9, 0.8]] * 5 + [[2.4, 1.0, 1.0, 1.0]] * 3):
+        thrusts = HOVER_ROTOR * np.array(factors)
+        t = row * DT
+        true_hover = hover0 + drift * t
+        np.testing.assert_allclose(core.loop.hover_throttle_estimate(core.time)[0],
+                                   true_hover * estimate, rtol=1e-12)
+        hover_output = _throttle_for(true_hover, autopilot_factor)
+        full = (PAPER.mass * PAPER.gravity / 4) / ((1 - factor) * hover_output
+                                                   + factor * hover_output**2)
+        throttle = np.array([_throttle_for(true_hover * estimate * c / believed_hover,
+                                           autopilot_factor) for c in thrusts])
+        ceiling = bool(np.any(throttle > 1))
+        throttle = np.minimum(throttle, 1.0)
+        true = full * ((1 - factor) * throttle + factor * throttle**2)
+        command = np.sqrt(true / K_F)
+        omega = command + (omega - command) * math.exp(-DT / tau)
+        core.step(_rotor_actions(core, thrusts))
+        np.testing.assert_allclose(core.actuator_state[0], omega, rtol=1e-9)
+        assert bool(core.applied.saturated[0]) == ceiling
+    assert ceiling  # the last steps asked for more than full throttle on rotor 0
+
+
+def test_a_calibrated_autopilot_gets_the_thrust_it_asks_for():
+    """κ_ap = κ, no estimate error and no drift: below the ceiling each rotor settles on
+    exactly the thrust the mixer asked for, whatever the pack's hover throttle."""
+    mapping = {"thrust_model_factor": 0.5, "autopilot_thrust_model_factor": 0.5,
+               "hover_throttle": (0.3, 0.6)}
+    scenario = make_scenario("hover-calm", speed_motors=True, thrust_uncertainty=False,
+                             throttle_map=mapping, **STILL)
+    core = _core(scenario, seeds=[11])
+    thrusts = HOVER_ROTOR * np.array([1.3, 0.7, 1.0, 1.1])
+    actions = _rotor_actions(core, thrusts)
+    for _ in range(120):  # 1.2 s, 30 time constants
+        core.step(actions)
+    np.testing.assert_allclose(K_F * core.actuator_state[0] ** 2, thrusts, rtol=1e-9)
+
+
+def test_a_linear_autopilot_over_a_quadratic_rotor_gives_more_thrust_per_newton():
+    """κ_ap = 0 over κ > 0: around hover, ∂T/∂T_c = ((1 - κ) + 2κ t_h) / ((1 - κ) + κ t_h),
+    the gain a force following the commanded acceleration comes from."""
+    factor, hover = 0.6, 0.47
+    mapping = {"thrust_model_factor": factor, "hover_throttle": (hover, hover)}
+    scenario = make_scenario("hover-calm", speed_motors=True, thrust_uncertainty=False,
+                             throttle_map=mapping, **STILL)
+    settled = []
+    for extra in (-0.01, 0.0, 0.01):
+        core = _core(scenario)
+        actions = _rotor_actions(core, HOVER_ROTOR * np.full(4, 1 + extra))
+        for _ in range(120):
+            core.step(actions)
+        settled.append(K_F * core.actuator_state[0, 0] ** 2)
+    np.testing.assert_allclose(settled[1], HOVER_ROTOR, rtol=1e-9)
+    # a central difference is exact on the quadratic
+    gain = (settled[2] - settled[0]) / (0.02 * HOVER_ROTOR)
+    expected = ((1 - factor) + 2 * factor * hover) / ((1 - factor) + factor * hover)
+    np.testing.assert_allclose(gain, expected, rtol=1e-7)
+
+
+def test_the_throttle_map_draws_from_its_own_stream():
+    """Turning the map on changes no other draw: the start is the same to the bit."""
+    starts = []
+    for mapping in (None, {"thrust_model_factor": 0.5, "hover_throttle": (0.4, 0.5)}):
+        scenario = make_scenario("hover-calm", speed_motors=True, thrust_uncertainty=False,
+                                 throttle_map=mapping)
+        core = _core(scenario, n=3, seeds=[4, 5, 6])
+        starts.append((core.state.position.copy(), core.state.rotation.copy()))
+    assert np.array_equal(starts[0][0], starts[1][0])
+    assert np.array_equal(starts[0][1], starts[1][1])
+
+
+@pytest.mark.parametrize(("mapping", "message"), [
+    ({"thrust_model_factor": 1.5, "hover_throttle": (0.4, 0.5)}, "THR_MDL_FAC"),
+    ({"thrust_model_factor": 0.5, "hover_throttle": (0.5, 0.4)}, "low <= high"),
+    ({"thrust_model_factor": 0.5, "hover_throttle": 0.4}, r"\(low, high\) pair"),
+    ({"thrust_model_factor": 0.5, "hover_throttle": (0.4, 0.5),
+      "hover_estimate_error": 1.0}, "relative bound"),
+    ({"thrust_model_factor": 0.5, "hover_throttle": (0.4, 0.5), "voltage": 16},
+     "ThrottleMap field")])
+def test_bad_throttle_maps_are_refused(mapping, message):
+    with pytest.raises(ValueError, match=message):
+        make_scenario("hover-calm", speed_motors=True, thrust_uncertainty=False,
+                      throttle_map=mapping)
+
+
+@pytest.mark.parametrize("loop", [{"speed_motors": False}, {"speed_motors": True,
+                                                             "thrust_uncertainty": True}])
+def test_the_throttle_map_needs_speed_motors_and_replaces_thrust_uncertainty(loop):
+    with pytest.raises(ValueError, match="speed_motors=True, thrust_uncertainty=False"):
+        make_scenario("hover-calm", throttle_map={"thrust_model_factor": 0.5,
+                                                  "hover_throttle": (0.4, 0.5)}, **loop)
+
+
+# --- the controllers' model of the vehicle -------------------------------------------------
+
+def test_the_truth_is_the_told_model_over_a_factor_within_its_tolerance():
+    """Told = truth × factor, factor uniform in 1 ± tolerance: the core flies mass m/f_m,
+    inertia J/f_J, and rotors whose true thrust is k_F ω² / f_k while the telemetry says
+    k_F ω²; the difference is in the reported disturbance."""
+    tolerance = {"mass": 0.02, "inertia": 0.1, "thrust_coefficient": 0.05}
+    scenario = make_scenario("hover-calm", speed_motors=True, model_tolerance=tolerance,
+                             **STILL)
+    core = _core(scenario, n=4, action_mode="thrust_moments", seeds=[1, 2, 3, 4])
+    factors = np.array([[core.sampled[i][f"{name}_told_over_true"] for name in tolerance]
+                        for i in range(4)])
+    assert np.all(np.abs(factors - 1) <= list(tolerance.values()))
+    assert np.ptp(factors, axis=0).min() > 0  # drawn per vehicle
+    np.testing.assert_allclose(core.mass, PAPER.mass / factors[:, 0], rtol=1e-15)
+    np.testing.assert_allclose(core.inertia, PAPER.inertia_matrix / factors[:, 1, None, None],
+                               rtol=1e-15)
+    core.step(np.zeros((4, 4)))
+    omega_sq = core.actuator_state**2
+    told = K_F * omega_sq.sum(axis=1)
+    np.testing.assert_allclose(core.applied.thrust, told, rtol=0.02)  # the tick's mean
+    extra = told / factors[:, 2] - told  # true k_F ω² / f_k beyond the told k_F ω²
+    body_z = core.state.rotation[:, :, 2]
+    np.testing.assert_allclose(core.disturbance_force, extra[:, None] * body_z, rtol=1e-9,
+                               atol=1e-12)
+
+
+def test_bad_model_tolerances_are_refused():
+    with pytest.raises(ValueError, match="relative bound below 1"):
+        make_scenario("hover-calm", speed_motors=True, model_tolerance={"mass": 1.0})
+    with pytest.raises(ValueError, match="ModelTolerance field"):
+        make_scenario("hover-calm", speed_motors=True, model_tolerance={"weight": 0.1})
+
