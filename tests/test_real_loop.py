@@ -254,3 +254,29 @@ def test_bad_model_tolerances_are_refused():
     with pytest.raises(ValueError, match="ModelTolerance field"):
         make_scenario("hover-calm", speed_motors=True, model_tolerance={"weight": 0.1})
 
+
+# --- the values and their sources ----------------------------------------------------------
+
+def test_every_v3_value_has_a_source_and_every_range_holds_its_nominal():
+    import dataclasses
+
+    from quad_dob_env.benchmark_v3 import ABLATION_ENDS, REAL_LOOPS, V3_SOURCES
+
+    for name, loop in REAL_LOOPS.items():
+        assert name in VEHICLES
+        for field in dataclasses.fields(loop):
+            value = getattr(loop, field.name)
+            if dataclasses.is_dataclass(value):  # a record: each of its fields
+                keys = [f"{field.name}.{inner.name}" for inner in dataclasses.fields(value)]
+            else:
+                keys = [field.name]
+            for key in keys:
+                assert key in V3_SOURCES, f"{name}: {key} has no source"
+        for key, (low, high) in ABLATION_ENDS.items():
+            path = key.replace(".up", "").replace(".down", "").split(".")
+            value = loop
+            for part in path:
+                value = getattr(value, part)
+            if isinstance(value, tuple):
+                value = value[0 if key.endswith(".up") else 1]
+            assert low <= value <= high, f"{key}: {value} outside its ends {low}-{high}"
