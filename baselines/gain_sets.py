@@ -114,12 +114,22 @@ class GainSet(NamedTuple):
     scaled: bool = False
 
 
+# Until a benchmark's own search has run, a name flies the sets of the benchmark before it
+# (``tuned_for`` says so): v3's loop is v2's with the real vehicle's lag and thrust path.
+INHERITED_FROM = {"v3": "v2"}
+
+
 def gain_set(name: str, benchmark: str, vehicle: VehicleParams | str) -> GainSet:
     """The gain set ``name`` means in ``benchmark`` on ``vehicle`` (module docstring), looked
-    up by the vehicle's name."""
+    up by the vehicle's name; a benchmark with no set of that name for the vehicle nor the
+    fallback vehicle takes ``INHERITED_FROM``'s."""
     if benchmark not in BENCHMARKS:
         raise unknown_name_error("benchmark", benchmark, BENCHMARKS)
     params = get_vehicle(vehicle)
+    earlier = INHERITED_FROM.get(benchmark)
+    if earlier is not None and not any(
+            (name, benchmark, owner) in GAIN_SETS for owner in (params.name, FALLBACK_VEHICLE)):
+        return gain_set(name, earlier, params)
     options = GAIN_SETS.get((name, benchmark, params.name))
     if options is not None:
         return GainSet(dict(options), (benchmark, params.name))

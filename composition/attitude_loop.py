@@ -35,7 +35,15 @@ from quad_dob_env.dynamics import (
     vehicle_physics,
 )
 from quad_dob_env.envs.kernels import finish_vehicle_step
-from quad_dob_env.envs.ticks import fly_tick, inner_estimate, thrust_path_at, tick_factors
+from quad_dob_env.envs.ticks import (
+    filtered_rate,
+    fly_tick,
+    held_rate,
+    inner_estimate,
+    keep_pose,
+    thrust_path_at,
+    tick_factors,
+)
 from quad_dob_env.threads import run_over_batch
 
 
@@ -69,6 +77,7 @@ def attitude_loop_kernel(start, stop, addition, law, actions, action_map, actuat
         total = (0.0, 0.0, 0.0, 0.0)
         any_saturated, diverged = False, False
         seen_rotation, seen_rate = inner_estimate(i, R, w, inner, r0, w0)
+        seen_rate = held_rate(i, seen_rate, inner)  # the gyro low-pass's, when on
         for tick in range(ticks):
             own_thrust, own_moment = inner_command(i, seen_rotation, seen_rate, law, tick_dt)
             # the residual's part, and the limits a command in the action space has
@@ -88,7 +97,9 @@ def attitude_loop_kernel(start, stop, addition, law, actions, action_map, actuat
                 diverged = True
                 break
             x, v, R, w = xn, vn, Rn, wn
+            keep_pose(i, tick + 1, x, v, R, inner)
             rotation_after, rate_after = inner_estimate(i, R, w, inner, r0, w0)
+            rate_after = filtered_rate(i, rate_after, inner)
             # the law's own request, what the mixer makes of it (the PID's anti-windup),
             # what the motors gave (the observer)
             mixed_moment = own_moment

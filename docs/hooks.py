@@ -1,6 +1,7 @@
 """The docs pages generated from the code, and the MkDocs hook that holds them to it.
 
-- ``environments/ID.md``, one per registered id (``quad_dob_env.ENV_IDS``, ``ENV_IDS_V2``):
+- ``environments/ID.md``, one per registered id (``quad_dob_env.ENV_IDS``, ``ENV_IDS_V2``,
+  ``ENV_IDS_V3``):
   the env made with ``gym.make`` and its spaces, default scenario, loop, base controller,
   episode length and version history read off it.
 - ``cli.md``: ``quad-dob --help`` and each command's ``--help``, as the parser prints them.
@@ -20,6 +21,18 @@ from pathlib import Path
 
 DOCS = Path(__file__).parent
 
+# what each benchmark's loop is, in a line
+LOOPS = {
+    "v1": "the ideal loop (true state, instant actuators)",
+    "v2": "`mocap` sensing through a state estimator, the 200 Hz inner loop, speed motors, "
+          "thrust uncertainty and rotor aerodynamics",
+    "v3": "v2's loop with the real vehicle's lag and thrust path: measured motor time "
+          "constants, the autopilot's 30 Hz gyro low-pass, the pose's latency on the inner "
+          "loop's grid, the throttle map with the battery's spread and drift, vibration on "
+          "the IMU and the controllers' model off the truth",
+}
+
+
 def page_name(env_id: str) -> str:
     return f"environments/{env_id.replace('/', '-')}.md"
 
@@ -29,7 +42,8 @@ def generated_pages() -> dict[str, str]:
     import quad_dob_env
 
     pages = {page_name(env_id): env_page(env_id)
-             for env_id in [*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2]}
+             for env_id in [*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2,
+                            *quad_dob_env.ENV_IDS_V3]}
     pages["cli.md"] = cli_page()
     return pages
 
@@ -69,8 +83,8 @@ def env_page(env_id: str) -> str:
     residual = "Residual" in env_id
     version = env_id.rsplit("-", 1)[1]
     family = env_id.rsplit("-", 1)[0]
-    other = f"{family}-{'v1' if version == 'v2' else 'v2'}"
-    known = {*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2}
+    other = f"{family}-{'v2' if version != 'v2' else 'v1'}"
+    known = {*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2, *quad_dob_env.ENV_IDS_V3}
     spec = gym.spec(env_id)  # the entry points as registered
     entry, vector = spec.entry_point, spec.vector_entry_point
     rows = [
@@ -78,10 +92,7 @@ def env_page(env_id: str) -> str:
                     "num_envs=N, vectorization_mode=\"vector_entry_point\")`"),
         ("entry points", f"`{entry}`; vector: `{vector}`"),
         ("default scenario", f"`{scenario.name}`: {scenario.description}"),
-        ("loop", f"Benchmark {scenario.benchmark}: " + (
-            "the ideal loop (true state, instant actuators)" if scenario.benchmark == "v1"
-            else "`mocap` sensing through a state estimator, the 200 Hz inner loop, speed "
-                 "motors, thrust uncertainty and rotor aerodynamics")),
+        ("loop", f"Benchmark {scenario.benchmark}: " + LOOPS[scenario.benchmark]),
         ("vehicle", f"`{scenario.vehicle.name}`, {scenario.vehicle.mass:g} kg"),
         ("action space", f"`{env.action_space}`"),
         ("observation space", f"`{env.observation_space}`"),
@@ -105,7 +116,13 @@ def env_page(env_id: str) -> str:
                  "describes" if residual else "")
               + "; the [overview](../environments.md) has them in short.", ""]
     lines += ["## Version history", ""]
-    if version == "v2":
+    if version == "v3":
+        lines += [f"- v3 (2026-12-04): the scenario of `{other}` in Benchmark v3's loop (the "
+                  "real vehicle's lag and thrust path, every value sourced: "
+                  "[Benchmark v3](../benchmark-v3.md)); until v3's own search has run, its "
+                  "controllers fly the gains tuned for v2. "
+                  f"`{other}` stays registered and flies as before."]
+    elif version == "v2":
         lines += [f"- v2 (2026-12-02): the scenario of `{other}` in Benchmark v2's loop, its "
                   "controllers at the gains tuned for that loop"
                   + (f"; `{other}` stays registered and flies as before." if other in known

@@ -20,8 +20,11 @@ Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v1`` and
 ``QuadDOB/Track-v1`` (direct control), and ``QuadDOB/HoverResidual-v1`` and
 ``QuadDOB/TrackResidual-v1`` (a residual on top of ``base_controller``, default the
 recommended ``geometric-ndob:tuned``, in wind), and ``QuadDOB/TracksResidual-v1`` (the same
-on ``random-tracks``, the task distribution generalists train on); ``gym.make_vec(id, num_envs=N,
-vectorization_mode="vector_entry_point")`` gives the native ``QuadrotorVectorEnv`` for each.
+on ``random-tracks``, the task distribution generalists train on); the ``-v2`` and ``-v3``
+ids fly the same scenarios (but the paper's wrench-actuated helix) in Benchmark v2's and
+v3's loops (``benchmark``; v3's sourced values in ``benchmark_v3``);
+``gym.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")`` gives the native
+``QuadrotorVectorEnv`` for each.
 ``wrappers`` sits below ``envs``. The envs' version history is in ``QuadrotorEnv``'s
 docstring.
 """
@@ -54,10 +57,14 @@ ENV_IDS_V2 = {
     "QuadDOB/TracksResidual-v2": "random-tracks",
 }
 
+# Benchmark v3's loop (the real vehicle's lag and thrust path) on the same scenarios
+ENV_IDS_V3 = {env_id.replace("-v2", "-v3"): scenario for env_id, scenario in ENV_IDS_V2.items()}
+BENCHMARK_OF_ID = {**{env_id: "v2" for env_id in ENV_IDS_V2},
+                   **{env_id: "v3" for env_id in ENV_IDS_V3}}
 
 
 def _register() -> None:
-    for env_id, scenario in {**ENV_IDS, **ENV_IDS_V2}.items():
+    for env_id, scenario in {**ENV_IDS, **ENV_IDS_V2, **ENV_IDS_V3}.items():
         if env_id in gym.registry:
             continue
         residual = "Residual" in env_id
@@ -74,7 +81,8 @@ def _register() -> None:
                      # and its spec reports that length (envs.limits)
                      kwargs={"scenario": scenario,
                              **({"base_controller": DEFAULT_BASE_CONTROLLER} if residual else {}),
-                             **({"benchmark": "v2"} if env_id in ENV_IDS_V2 else {})})
+                             **({"benchmark": BENCHMARK_OF_ID[env_id]}
+                                if env_id in BENCHMARK_OF_ID else {})})
 
 
 _register()
@@ -82,6 +90,7 @@ _register()
 __all__ = [
     "ENV_IDS",
     "ENV_IDS_V2",
+    "ENV_IDS_V3",
     "SENSING_PRESETS",
     "VEHICLES",
     "Measurement",

@@ -1,13 +1,19 @@
-"""Benchmark v1 or v2, as one scenario option (``Scenario.benchmark``).
+"""Benchmark v1, v2 or v3, as one scenario option (``Scenario.benchmark``).
 
 ``"v1"`` is the loop v1 measured: ideal sensing, one controller at the control rate, a lag
 on the thrust, no rotor aerodynamics. ``"v2"`` is the loop a real vehicle flies, parts 1
 and 2 of Benchmark v2 together: ``mocap`` sensing, the inner loop at ``V2_INNER_RATE``
 (the smallest multiple of the control rate at or above it), motors on rotor speed, thrust
-uncertainty and rotor aerodynamics (with the drag they act through). A loop field given
-with the scenario (``sensing="ideal"``, ``speed_motors=False``, ``inner_rate=0``, ...)
-keeps its value under either benchmark: that is how one factor is switched off in turn.
-Imports nothing above ``validation``.
+uncertainty and rotor aerodynamics (with the drag they act through). ``"v3"`` is v2's loop
+with the real vehicle's lag and thrust path (``quad_dob_env.benchmark_v3``, every value
+sourced): the motors' measured time constants, the autopilot's gyro low-pass and the pose
+latency on the inner loop's tick grid, the throttle map with the battery under it in place
+of thrust uncertainty, vibration on the IMU and the controllers' model off the truth.
+
+A loop field given with the scenario (``sensing="ideal"``, ``speed_motors=False``,
+``inner_rate=0``, ...) keeps its value under any benchmark: that is how one factor is
+switched off in turn. v3's own factors are switched off with ``False`` (``gyro_cutoff``: 0).
+Imports nothing above ``benchmark_v3``.
 """
 
 from __future__ import annotations
@@ -15,9 +21,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from quad_dob_env.benchmark_v3 import REAL_LOOPS, butterworth_gain
 from quad_dob_env.validation import unknown_name_error
 
-BENCHMARKS = ("v1", "v2")
+BENCHMARKS = ("v1", "v2", "v3")
 # Benchmark v2's inner loop [Hz]: PX4's attitude loop rate (IMU_INTEG_RATE, 200 Hz by
 # default; its rate loop runs at IMU_GYRO_RATEMAX, 400 Hz), over the 100 Hz position loop
 # of dt = 0.01 s. There the full v2 loop with the base at N = 1024 keeps 0.38-0.43 of v1's
@@ -25,33 +32,69 @@ BENCHMARKS = ("v1", "v2")
 # "Speed of the vehicle loop").
 V2_INNER_RATE = 200.0
 V2_SENSING = "mocap"
-# the fields a benchmark sets where the scenario leaves them None
-LOOP_FIELDS = ("sensing", "inner_rate", "speed_motors", "thrust_uncertainty",
-               "rotor_aerodynamics", "drag")
+# the fields a benchmark sets where the scenario leaves them None: v2's, then v3's own
+V2_LOOP_FIELDS = ("sensing", "inner_rate", "speed_motors", "thrust_uncertainty",
+                  "rotor_aerodynamics", "drag")
+V3_LOOP_FIELDS = ("motor_time_constants", "throttle_map", "model_tolerance", "gyro_cutoff",
+                  "imu_vibration", "pose_latency_on_ticks")
+LOOP_FIELDS = V2_LOOP_FIELDS + V3_LOOP_FIELDS
 
 
-def v2_inner_rate(dt: float) -> float:
-    """The smallest whole multiple of 1/dt at or above ``V2_INNER_RATE``."""
-    return math.ceil(V2_INNER_RATE * dt - 1e-9) / dt
+def v2_inner_rate(dt: float, rate: float = V2_INNER_RATE) -> float:
+    """The smallest whole multiple of 1/dt at or above ``rate`` (v2's by default)."""
+    return math.ceil(rate * dt - 1e-9) / dt
+
+
+def v3_loop(vehicle: Any, name: str) -> dict[str, Any]:
+    """v3's own loop fields for ``vehicle`` (a ``VehicleParams``), from its sourced values."""
+    if vehicle.name not in REAL_LOOPS:
+        raise ValueError(f"benchmark='v3' flies sourced values of the real vehicle's loop, "
+                         f"which exist for the vehicles {sorted(REAL_LOOPS)}; scenario "
+                         f"{name!r} flies {vehicle.name!r}: use one of those, or "
+                         "benchmark='v2'")
+    real = REAL_LOOPS[vehicle.name]
+    # the rotors' hover frequency [Hz], where their vibration sits
+    rotor_frequency = math.sqrt(vehicle.hover_thrust / 4 / vehicle.thrust_coefficient) / (
+        2 * math.pi)
+    return {"motor_time_constants": real.motor_time_constants,
+            "throttle_map": real.throttle_map, "model_tolerance": real.model_tolerance,
+            "gyro_cutoff": real.gyro_cutoff,
+            "imu_vibration": (real.gyroscope_vibration, real.accelerometer_vibration
+                              * butterworth_gain(rotor_frequency, real.accelerometer_cutoff)),
+            "pose_latency_on_ticks": True}
+
+
+# what "off" is for each of v3's own fields when given, and what it resolves to
+_V3_OFF = {"motor_time_constants": (False, None), "throttle_map": (False, None),
+           "model_tolerance": (False, None), "gyro_cutoff": (0, None),
+           "imu_vibration": (False, None), "pose_latency_on_ticks": (False, False)}
 
 
 def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str,
-                name: str) -> dict[str, Any]:
+                name: str, vehicle: Any = None) -> dict[str, Any]:
     """The loop fields of a scenario flown under ``benchmark``: those ``given`` (not None)
-    as they are, the rest the benchmark's; ``inner_rate`` 0 means none."""
+    as they are, the rest the benchmark's; ``inner_rate`` 0 means none, and v3's own fields
+    given "off" (``_V3_OFF``) none."""
     if benchmark not in BENCHMARKS:
         raise unknown_name_error("benchmark", benchmark, BENCHMARKS)
-    v2 = benchmark == "v2"
-    if v2 and actuation != "rotors":
-        raise ValueError(f"benchmark='v2' flies rotors (speed motors, rotor aerodynamics), but "
-                         f"scenario {name!r} flies actuation={actuation!r}, the paper's "
-                         "wrench: the paper-* scenarios are v1-only (benchmark='v1')")
-    defaults = {"sensing": V2_SENSING if v2 else None,
-                "inner_rate": v2_inner_rate(dt) if v2 else None,
-                "speed_motors": v2, "thrust_uncertainty": v2, "rotor_aerodynamics": v2,
+    loop = benchmark in ("v2", "v3")
+    if loop and actuation != "rotors":
+        raise ValueError(f"benchmark={benchmark!r} flies rotors (speed motors, rotor "
+                         f"aerodynamics), but scenario {name!r} flies actuation={actuation!r},"
+                         " the paper's wrench: the paper-* scenarios are v1-only "
+                         "(benchmark='v1')")
+    v3 = benchmark == "v3"
+    rate = REAL_LOOPS[vehicle.name].inner_rate if v3 and vehicle.name in REAL_LOOPS else (
+        V2_INNER_RATE)
+    defaults = {"sensing": V2_SENSING if loop else None,
+                "inner_rate": v2_inner_rate(dt, rate) if loop else None,
+                "speed_motors": loop, "thrust_uncertainty": benchmark == "v2",
+                "rotor_aerodynamics": loop,
                 # the air-relative velocity the rotors' aerodynamics act on
-                "drag": v2}
-    resolved = {key: defaults[key] if given[key] is None else given[key]
+                "drag": loop,
+                **(v3_loop(vehicle, name) if v3 else {
+                    key: off for key, (_, off) in _V3_OFF.items()})}
+    resolved = {key: defaults[key] if given.get(key) is None else given[key]
                 for key in LOOP_FIELDS}
     if given["rotor_aerodynamics"] is None and given["drag"] is not None:
         # drag switched off by hand takes the rotors' aerodynamics (which act through the
@@ -59,12 +102,40 @@ def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str
         resolved["rotor_aerodynamics"] = resolved["rotor_aerodynamics"] and bool(given["drag"])
     if isinstance(resolved["inner_rate"], (int, float)) and resolved["inner_rate"] == 0:
         resolved["inner_rate"] = None
+    for key, (_, none) in _V3_OFF.items():
+        value = resolved[key]
+        if value is False or (key == "gyro_cutoff" and value == 0):
+            resolved[key] = none
+    if v3 and given["thrust_uncertainty"] and given.get("throttle_map") is None:
+        # v2's thrust draws asked for by hand under v3 replace its throttle map
+        resolved["throttle_map"] = None
+    # a part of the loop switched off by hand takes the v3 factors that act through it
+    # with it, unless they were given too (then the scenario refuses the pair)
+    needs = {"throttle_map": not resolved["speed_motors"],
+             "motor_time_constants": not resolved["speed_motors"],
+             "model_tolerance": not resolved["speed_motors"],
+             "gyro_cutoff": resolved["inner_rate"] is None,
+             "imu_vibration": not has_imu(resolved["sensing"])}
+    for key, missing in needs.items():
+        if missing and given.get(key) is None:
+            resolved[key] = None
     return resolved
+
+
+def has_imu(sensing: Any) -> bool:
+    """Whether ``sensing`` (a preset name, a record, a dict of one's fields or None) carries
+    an IMU: a sensor suite does, the ideal state and ``SensorNoise`` do not."""
+    if sensing is None or sensing == "ideal":
+        return False
+    if isinstance(sensing, str):
+        return True  # another preset is a suite; an unknown name is refused later
+    if isinstance(sensing, dict):
+        return "imu" in sensing
+    return hasattr(sensing, "imu")
 
 
 def scenario_options_for(options: dict[str, Any] | None, benchmark: str | None
                          ) -> dict[str, Any]:
     """``options`` for ``make_scenario`` with ``benchmark`` beneath them (what an env's
-    ``benchmark=`` keyword, the ``-v2`` ids', adds: an option given wins)."""
+    ``benchmark=`` keyword, the ``-v2`` and ``-v3`` ids', adds: an option given wins)."""
     return {**({} if benchmark is None else {"benchmark": benchmark}), **(options or {})}
-

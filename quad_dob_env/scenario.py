@@ -84,11 +84,16 @@ class Scenario:
     # [s] added to every reading (pose, IMU, rotors alike), resolved on the control grid
     # (the first step at or after it)
     extra_latency: float = 0.0
+    # Benchmark v3: the pose fix's latency (its own plus extra_latency) resolved on the inner
+    # loop's tick grid, not the control grid: at 50 Hz a 10 ms pipeline stays 10 ms (a
+    # SensorSuite's pose; the IMU and rotor telemetry stay on the control grid)
+    pose_latency_on_ticks: bool | None = None
     # the rotors' time constant is the vehicle's times this (needs motor_lag or speed_motors)
     motor_time_constant_scale: float = 1.0
     # [s] the rotor speed's time constants (spin-up, spin-down) on speed motors, in place of
-    # the vehicle's one ``motor_time_constant`` for both (None); ``motor_time_constant_scale``
-    # scales both
+    # the vehicle's one ``motor_time_constant`` for both; ``motor_time_constant_scale``
+    # scales both. Here and in the v3 fields below, None is as ``benchmark`` says (v3 sets
+    # its sourced values, v1 and v2 none) and False is off
     motor_time_constants: tuple[float, float] | None = None
     # Benchmark v2's vehicle loop, one switch per factor (``quad_dob_env.dynamics.rotors``),
     # each off giving v1's flight bit for bit; None: as ``benchmark`` says (v1: off, v2: on;
@@ -106,6 +111,13 @@ class Scenario:
     # the rotors' thrust per throttle, the autopilot's belief of it and the battery under
     # both, drawn per episode; it replaces thrust_uncertainty and needs speed motors
     throttle_map: ThrottleMap | None = None
+    # [Hz] Benchmark v3: the autopilot's gyro low-pass (2nd-order Butterworth, at the inner
+    # rate) on the rates every inner law reads; None: none. Needs an inner loop
+    gyro_cutoff: float | None = None
+    # Benchmark v3: the rotors' vibration on the IMU as the autopilot's filters leave it,
+    # (gyroscope [rad/s], accelerometer [m/s²]) RMS per axis, white on every reading; needs a
+    # SensorSuite's IMU (``sensing``)
+    imu_vibration: tuple[float, float] | None = None
     # Benchmark v3: the controllers' model of the vehicle (mass, inertia, thrust
     # coefficient) off the truth within these tolerances, drawn per episode
     model_tolerance: ModelTolerance | None = None
@@ -147,7 +159,7 @@ class Scenario:
                            ("throttle_map", ThrottleMap),
                            ("model_tolerance", ModelTolerance)):
             value = getattr(self, name)
-            if value is not None and not isinstance(value, kind):
+            if value is not None and value is not False and not isinstance(value, kind):
                 if not isinstance(value, dict):
                     raise ValueError(f"Scenario.{name} must be a {kind.__name__}, a dict of its "
                                      f"fields or None, got {value!r}")
@@ -166,6 +178,7 @@ class Scenario:
             sensing = self.sensors
         object.__setattr__(self, "sensing", sensing)
         object.__setattr__(self, "sensors", sensing if isinstance(sensing, SensorNoise) else None)
+        self._check_vibration()
         object.__setattr__(self, "extra_latency",
                            as_finite(self.extra_latency, "Scenario.extra_latency", 0.0))
         scale = as_finite(self.motor_time_constant_scale, "Scenario.motor_time_constant_scale",
@@ -235,10 +248,25 @@ class Scenario:
         object.__setattr__(self, "loop_given", dict(given))
         if given["sensing"] is None:
             given["sensing"] = self.sensors  # SensorNoise is sensing too
-        dt = as_finite(self.dt, "Scenario.dt", MIN_DT) if self.benchmark == "v2" else 0.01
+        dt = as_finite(self.dt, "Scenario.dt", MIN_DT) if self.benchmark != "v1" else 0.01
         for key, value in loop_fields(self.benchmark, given, dt, self.actuation,
-                                      self.name).items():
+                                      self.name, self.vehicle).items():
             object.__setattr__(self, key, value)
+
+    def _check_vibration(self) -> None:
+        given = self.imu_vibration
+        if given is None:
+            return
+        if not isinstance(given, (tuple, list)) or len(given) != 2:
+            raise ValueError(f"Scenario.imu_vibration must be (gyroscope [rad/s], "
+                             f"accelerometer [m/s²]) RMS, or None, got {given!r}")
+        pair = tuple(as_finite(value, f"Scenario.imu_vibration[{k}]", 0.0)
+                     for k, value in enumerate(given))
+        if not isinstance(self.sensing, SensorSuite):
+            raise ValueError(f"Scenario.imu_vibration shakes an IMU, but scenario "
+                             f"{self.name!r} senses {self.sensing!r}: give sensing a suite "
+                             "with an IMU ('mocap', 'gnss-imu')")
+        object.__setattr__(self, "imu_vibration", pair)
 
     def _check_motor_time_constants(self) -> None:
         given = self.motor_time_constants
@@ -267,6 +295,9 @@ class Scenario:
         return up * self.motor_time_constant_scale, down * self.motor_time_constant_scale
 
     def _check_rotor_factors(self) -> None:
+        if not isinstance(self.pose_latency_on_ticks, (bool, np.bool_)):
+            raise ValueError(f"Scenario.pose_latency_on_ticks must be True or False (None: as "
+                             f"the benchmark says), got {self.pose_latency_on_ticks!r}")
         for name in ("speed_motors", "thrust_uncertainty", "rotor_aerodynamics"):
             value = getattr(self, name)
             if not isinstance(value, (bool, np.bool_)):
@@ -302,6 +333,16 @@ class Scenario:
                                  f"{self.substeps} needs {round(ticks) * self.substeps} physics "
                                  f"intervals a step; at most {MAX_SUBSTEPS}")
             object.__setattr__(self, "inner_rate", float(rate))
+        if self.gyro_cutoff is not None:
+            if self.inner_rate is None:
+                raise ValueError(f"Scenario.gyro_cutoff filters the rates the inner loop "
+                                 f"reads, but scenario {self.name!r} has no inner loop: set "
+                                 "inner_rate (or benchmark='v2')")
+            cutoff = as_finite(self.gyro_cutoff, "Scenario.gyro_cutoff", 0.0, strictly=True)
+            if cutoff >= self.inner_rate / 2:
+                raise ValueError(f"Scenario.gyro_cutoff must be below the inner loop's Nyquist "
+                                 f"frequency, {self.inner_rate / 2:g} Hz, got {cutoff:g}")
+            object.__setattr__(self, "gyro_cutoff", cutoff)
 
     @property
     def inner_ticks(self) -> int:

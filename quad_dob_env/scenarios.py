@@ -342,7 +342,7 @@ _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "random-tracks": ("vehicle", "wind_scale"), "tunnel-tracks": ("vehicle", "wind_scale"),
     "random-lemniscates": ("vehicle", "wind_scale"),
     "heldout-tracks": ("vehicle", "wind_scale"), "heldout-hops": ("vehicle", "wind_scale"),
-    **{f"figure8-wind-{speed:g}": ("vehicle", "turbulence_intensity")
+    **{f"figure8-wind-{speed:g}": ("vehicle", "turbulence_intensity", "benchmark")
        for speed in FIGURE8_WINDS},
 }
 

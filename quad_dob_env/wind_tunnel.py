@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 
+from quad_dob_env.benchmark_v3 import REAL_LOOPS
 from quad_dob_env.disturbances import Constant, Disturbance, Dryden
 from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.scenario import Scenario
@@ -22,9 +23,10 @@ FIGURE8_HEIGHT = 2.15
 # are more turbulent than closed tunnels (Dougherty 2022, as cited by Stefan-Zavala et al.
 # 2024). Our assumption: 5 % of the mean wind (σ_u / U), MIL-F-8785C Dryden spectra.
 FIGURE8_TURBULENCE_INTENSITY = 0.05
-# Neural-Fly's position loop runs at 50 Hz; the figure-8s fly v2's 100 Hz all the same,
-# because latencies are resolved on the control grid (quad_dob_env.sensing.stage): at 50 Hz
-# the mocap's 10 ms, and the tuning margin's 10 ms, would each become 20 ms.
+# Neural-Fly's position loop runs at 50 Hz. v1 and v2 fly the figure-8s at 100 Hz, because
+# their latencies are resolved on the control grid (quad_dob_env.sensing.stage): at 50 Hz the
+# mocap's 10 ms would become 20 ms. v3 flies 50 Hz with the pose's latency on the inner
+# loop's tick grid, where 10 ms stays 10 ms.
 
 
 def tunnel_wind(speed: float, intensity: float, height: float, direction: float | None,
@@ -47,7 +49,17 @@ def tunnel_wind(speed: float, intensity: float, height: float, direction: float 
 
 
 def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fly",
-                 turbulence_intensity: float = FIGURE8_TURBULENCE_INTENSITY) -> Scenario:
+                 turbulence_intensity: float | None = None, benchmark: str = "v1") -> Scenario:
+    """The figure-8 at ``wind_speed``. Under ``benchmark="v3"`` it flies Neural-Fly's 50 Hz
+    outer loop and the tunnel turbulence v3 sources (``benchmark_v3``), its sensing and drag
+    as v3 sets them; v1 and v2 fly 100 Hz, ``FIGURE8_TURBULENCE_INTENSITY`` and mocap
+    sensing, drag and a motor lag pinned, as they always have."""
+    params = get_vehicle(vehicle)
+    v3 = benchmark == "v3"
+    real = REAL_LOOPS.get(params.name) if v3 else None
+    if turbulence_intensity is None:
+        turbulence_intensity = (real.tunnel_turbulence_intensity if real is not None
+                                else FIGURE8_TURBULENCE_INTENSITY)
     speed = as_finite(wind_speed, "wind_speed", 0.0)
     intensity = as_finite(turbulence_intensity, "turbulence_intensity", 0.0)
     figure8 = Harmonic(offset=(0.0, 0.0, FIGURE8_HEIGHT),
@@ -56,10 +68,12 @@ def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fl
     # the mean wind and the turbulence it carries past
     disturbance = tunnel_wind(speed, intensity, FIGURE8_HEIGHT, math.pi)
     return Scenario(
-        name=f"figure8-wind-{speed:g}", vehicle=get_vehicle(vehicle), trajectory=figure8,
-        duration=30.0, disturbance=disturbance, drag=True, motor_lag=True, floor_height=0.0,
-        initial_position=tuple(start.position[0]), initial_velocity=tuple(start.velocity[0]),
-        sensing="mocap", settle_time=5.0,
+        name=f"figure8-wind-{speed:g}", vehicle=params, trajectory=figure8,
+        duration=30.0, disturbance=disturbance, drag=None if v3 else True, motor_lag=not v3,
+        floor_height=0.0, initial_position=tuple(start.position[0]),
+        initial_velocity=tuple(start.velocity[0]), sensing=None if v3 else "mocap",
+        settle_time=5.0, benchmark=benchmark,
+        dt=1.0 / real.figure8_control_rate if real is not None else 0.01,
         description=f"Neural-Fly's wind-tunnel figure-8: x = 1.25 sin t, z = "
                     f"{FIGURE8_HEIGHT:g} + 0.75 sin 2t, heading fixed, {speed:g} m/s of wind "
                     f"along -x with {100 * intensity:g} % turbulence; mocap sensing; scored "

@@ -218,19 +218,86 @@ def _vehicle_loop_options(d: _Draw, scenario: str, options: dict[str, Any]) -> N
                 d.invalid.append(key)
 
 
-def _v2_id(rng: np.random.Generator, config: dict[str, Any], scenario: str,
-           options: dict[str, Any]) -> None:
-    """Now and then the drawn id's ``-v2`` counterpart (Benchmark v2's loop beneath the
-    options), from a stream of its own so no other draw moves; refused where the flown
-    scenario has no rotors and the options leave the benchmark to the id."""
-    v2 = config["env_id"].replace("-v1", "-v2")
-    if v2 == config["env_id"] or v2 not in quad_dob_env.ENV_IDS_V2 or rng.random() > 0.1:
-        return
-    config["env_id"] = v2
+# the vehicles Benchmark v3 has sourced values for (quad_dob_env.benchmark_v3.REAL_LOOPS)
+V3_VEHICLES = ("paper", "neural-fly")
+
+
+def _v3_options(d: _Draw, scenario: str, options: dict[str, Any]) -> None:
+    """Now and then Benchmark v3 (refused where the scenario has no rotors or its vehicle no
+    sourced values) and each of v3's own factors: off, at a value of its own (refused where
+    the part of the loop it acts through is off), or at a bad value. From a stream of its
+    own, so every other draw of a configuration is what it was without them."""
+    own = _Draw(d.rng.spawn(1)[0], d.bad)
+    own.invalid, own.huge = d.invalid, d.huge
+    d = own
     defaults = _actuation_and_drag(scenario)
-    if defaults is not None and "benchmark" not in options and options.get(
-            "actuation", defaults[0]) != "rotors" and "benchmark" not in config["invalid"]:
+    if defaults is None or "benchmark" in options or not d.chance(0.08):
+        return
+    options["benchmark"] = "v3"
+    if options.get("actuation", defaults[0]) != "rotors":
+        d.invalid.append("benchmark v3 without rotors")
+    if options.get("vehicle", _default_vehicle(scenario)) not in (*V3_VEHICLES, "mavic",
+                                                                   "Paper", 7):
+        d.invalid.append("benchmark v3 on a vehicle without sourced values")
+    dt = options.get("dt", 0.01)
+    inner = options.get("inner_rate", math.ceil(200.0 * dt - 1e-9) / dt if isinstance(
+        dt, float) and dt > 0 else 200.0)
+    no_imu = options.get("sensing") == "ideal" or (
+        options.get("sensors") is not None and "sensing" not in options)
+    values = {"motor_time_constants": ((0.03, 0.08), (0.03,), None),
+              "throttle_map": ({"thrust_model_factor": 0.5, "hover_throttle": (0.45, 0.5)},
+                               {"thrust_model_factor": 2.0, "hover_throttle": (0.4, 0.5)},
+                               "thrust_uncertainty" if options.get("thrust_uncertainty")
+                               else None),
+              "model_tolerance": ({"mass": 0.05, "inertia": 0.1}, {"mass": 1.5}, None),
+              "gyro_cutoff": (20.0, -5.0, "inner_rate" if not isinstance(inner, float)
+                              or inner / 2 <= 20.0 else None),
+              "imu_vibration": ((0.01, 0.5), (-0.1, 0.0), "sensing" if no_imu else None),
+              "pose_latency_on_ticks": (True, "yes", None)}
+    for key, (value, bad, conflict) in values.items():
+        if not d.chance(0.3):
+            continue
+        if d.bad_chance(0.1):
+            options[key] = bad
+            d.invalid.append(key)
+        elif d.chance(0.4):
+            options[key] = 0 if key == "gyro_cutoff" else False
+        else:
+            options[key] = value
+            if conflict is not None:
+                d.invalid.append(f"{key} with {conflict}")
+
+
+@functools.cache
+def _default_vehicle(scenario: str) -> str | None:
+    """A named scenario's default vehicle (None: no such scenario)."""
+    try:
+        return scenario_registry.make_scenario(scenario).vehicle.name
+    except (ValueError, TypeError):
+        return None
+
+
+def _later_id(rng: np.random.Generator, config: dict[str, Any], scenario: str,
+              options: dict[str, Any]) -> None:
+    """Now and then the drawn id's ``-v2`` or ``-v3`` counterpart (that benchmark's loop
+    beneath the options), from a stream of its own so no other draw moves; refused where
+    the options leave the benchmark to the id and the flown scenario has no rotors (or,
+    for v3, its vehicle has no sourced values)."""
+    version = "-v2" if rng.random() < 0.5 else "-v3"
+    later = config["env_id"].replace("-v1", version)
+    if (later == config["env_id"] or later not in {**quad_dob_env.ENV_IDS_V2,
+                                                   **quad_dob_env.ENV_IDS_V3}
+            or rng.random() > 0.1):
+        return
+    config["env_id"] = later
+    defaults = _actuation_and_drag(scenario)
+    if defaults is None or "benchmark" in options or "benchmark" in config["invalid"]:
+        return
+    if options.get("actuation", defaults[0]) != "rotors":
         config["invalid"].append("benchmark")
+    elif version == "-v3" and options.get("vehicle", _default_vehicle(scenario)) not in (
+            *V3_VEHICLES, "mavic", "Paper", 7):
+        config["invalid"].append("benchmark v3 on a vehicle without sourced values")
 
 
 @functools.cache
@@ -312,6 +379,7 @@ def _scenario_options(d: _Draw, scenario: str) -> dict[str, Any]:
         if foreign not in builder:
             d.invalid.append(f"foreign option {foreign}")
             options[foreign] = 1.0 if foreign != "wind" else "light"
+    _v3_options(d, scenario, options)
     _bound_tables(options, scenario)
     return options
 
@@ -464,7 +532,7 @@ def draw_config(seed: int, index: int) -> dict[str, Any]:
                   wrappers=_wrappers(d, mode),
                   invalid=d.invalid, huge=d.huge, upstream_invalid=upstream_invalid,
                   memory_hungry=False)
-    _v2_id(np.random.default_rng([seed, index, 2]), config, scenario or default, options)
+    _later_id(np.random.default_rng([seed, index, 2]), config, scenario or default, options)
     if d.chance(0.03):
         hungry = dict(d.pick(MEMORY_HUNGRY))
         config["env_id"] = hungry.pop("env_id") or config["env_id"]

@@ -69,8 +69,8 @@ def test_the_inner_rate_is_the_first_multiple_of_the_control_rate_at_200_hz():
 def test_the_papers_wrench_scenarios_are_v1_only_and_names_are_checked():
     with pytest.raises(ValueError, match="paper-\\* scenarios are v1-only"):
         make_scenario("paper-II", benchmark="v2")
-    with pytest.raises(ValueError, match="unknown benchmark 'v3'; valid: v1, v2"):
-        make_scenario("hover-calm", benchmark="v3")
+    with pytest.raises(ValueError, match="unknown benchmark 'v4'; valid: v1, v2, v3"):
+        make_scenario("hover-calm", benchmark="v4")
 
 
 def test_the_v2_ids_fly_benchmark_v2_and_the_v1_ids_stay_v1():
@@ -97,3 +97,92 @@ def test_the_v2_ids_fly_benchmark_v2_and_the_v1_ids_stay_v1():
     vector.reset(seed=0)
     observation, *_ = vector.step(np.zeros((2, 4), np.float32))
     assert np.all(np.isfinite(observation))
+
+
+# --- Benchmark v3 ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("vehicle", ["paper", "neural-fly"])
+@pytest.mark.parametrize("name", ["hover-calm", "dryden-helix-gusts", "takeoff-landing-wind"])
+def test_benchmark_v3_sets_every_factor_from_its_sourced_values(name, vehicle):
+    import math
+
+    from quad_dob_env.benchmark_v3 import REAL_LOOPS
+    from quad_dob_env.params import VEHICLES
+
+    scenario = make_scenario(name, benchmark="v3", vehicle=vehicle)
+    real = REAL_LOOPS[vehicle]
+    assert scenario.sensing == SENSING_PRESETS["mocap"] and scenario.pose_latency_on_ticks
+    assert scenario.inner_rate == real.inner_rate and scenario.inner_ticks == 2
+    assert scenario.speed_motors and scenario.rotor_aerodynamics and scenario.drag
+    assert not scenario.thrust_uncertainty  # the throttle map replaces its draws
+    assert scenario.motor_time_constants == real.motor_time_constants
+    assert scenario.throttle_map == real.throttle_map
+    assert scenario.model_tolerance == real.model_tolerance
+    assert scenario.gyro_cutoff == real.gyro_cutoff
+    # the accelerometer's vibration at the rotors' hover frequency, after the 30 Hz filter
+    params = VEHICLES[vehicle]
+    frequency = math.sqrt(params.hover_thrust / 4 / params.thrust_coefficient) / (2 * math.pi)
+    left = real.accelerometer_vibration / math.sqrt(1 + (frequency / 30.0) ** 4)
+    assert scenario.imu_vibration == pytest.approx((0.0, left), rel=1e-12)
+    assert 0.5 < left < 1.0  # 15 m/s² at 130-140 Hz, by 0.05
+
+
+def test_each_v3_factor_switches_off_alone():
+    off = {"motor_time_constants": False, "throttle_map": False, "model_tolerance": False,
+           "gyro_cutoff": 0, "imu_vibration": False, "pose_latency_on_ticks": False}
+    for key, value in off.items():
+        scenario = make_scenario("dryden-helix-gusts", benchmark="v3", **{key: value})
+        assert getattr(scenario, key) in (None, False), key
+        for other in off.keys() - {key}:
+            assert getattr(scenario, other) not in (None, False), (key, other)
+    everything = make_scenario("dryden-helix-gusts", benchmark="v3", **off)
+    v2 = make_scenario("dryden-helix-gusts", benchmark="v2", thrust_uncertainty=False)
+    assert all(getattr(everything, key) == getattr(v2, key) for key in LOOP_FIELDS)
+    # v2's thrust draws asked for under v3 replace the throttle map
+    drawn = make_scenario("dryden-helix-gusts", benchmark="v3", thrust_uncertainty=True)
+    assert drawn.thrust_uncertainty and drawn.throttle_map is None
+
+
+def test_v3_needs_a_vehicle_with_sourced_values():
+    with pytest.raises(ValueError, match="exist for the vehicles"):
+        make_scenario("hover-calm", benchmark="v3", vehicle="crazyflie")
+
+
+def test_the_figure8s_fly_neural_flys_50_hz_and_v3s_turbulence_in_v3_only():
+    from quad_dob_env.benchmark_v3 import REAL_LOOPS
+    from quad_dob_env.wind_tunnel import FIGURE8_TURBULENCE_INTENSITY
+
+    for benchmark in ("v1", "v2"):
+        scenario = make_scenario("figure8-wind-12.1", benchmark=benchmark)
+        assert scenario.dt == 0.01 and scenario.sensing == SENSING_PRESETS["mocap"]
+    v3 = make_scenario("figure8-wind-12.1", benchmark="v3")
+    assert v3.dt == pytest.approx(1 / 50) and v3.inner_ticks == 4
+    v2 = make_scenario("figure8-wind-12.1", benchmark="v2")
+    ratio = REAL_LOOPS["neural-fly"].tunnel_turbulence_intensity / FIGURE8_TURBULENCE_INTENSITY
+    assert v3.disturbance.sigmas[0] == pytest.approx(ratio * v2.disturbance.sigmas[0])
+    assert v3.disturbance.sigmas[0] == pytest.approx(0.04 * 12.1)
+
+
+def test_until_v3_is_tuned_a_name_flies_its_v2_gains_and_says_so():
+    from quad_dob_baselines.gain_sets import gain_set
+
+    for name in ("geometric-ndob:tuned", "indi", "pid"):
+        for vehicle in ("paper", "neural-fly"):
+            inherited, own = gain_set(name, "v3", vehicle), gain_set(name, "v2", vehicle)
+            assert inherited == own and inherited.tuned_for[0] == "v2"
+
+
+def test_a_loop_part_switched_off_takes_the_v3_factors_acting_through_it():
+    """Ideal sensing has no IMU to shake, no inner loop no gyro filter, no speed motors no
+    throttle map, motor time constants nor k_F to mistake; given explicitly, each pair is
+    refused with the reason."""
+    bare = make_scenario("dryden-helix-gusts", benchmark="v3", sensing="ideal", inner_rate=0,
+                         speed_motors=False)
+    assert bare.imu_vibration is None and bare.gyro_cutoff is None
+    assert bare.throttle_map is None and bare.model_tolerance is None
+    assert bare.motor_time_constants is None and bare.pose_latency_on_ticks
+    with pytest.raises(ValueError, match="shakes an IMU"):
+        make_scenario("dryden-helix-gusts", benchmark="v3", sensing="ideal",
+                      imu_vibration=(0.0, 0.5))
+    with pytest.raises(ValueError, match="no inner loop"):
+        make_scenario("dryden-helix-gusts", benchmark="v3", inner_rate=0, gyro_cutoff=30.0)

@@ -63,14 +63,6 @@ def test_no_module_reads_another_objects_private_attributes(folder):
     assert not offences, "\n".join(offences)
 
 
-def test_no_module_is_over_400_lines():
-    long = [f"{path.relative_to(ROOT)} ({count} lines)"
-            for folder in ("quad_dob_env", "baselines", "composition", "training")
-            for path in _modules(folder)
-            if (count := len(path.read_text().splitlines())) > 400]
-    assert not long, long
-
-
 def test_the_scans_catch_what_they_look_for():
     # the same scans on sources that break each rule
     bad_import = ast.parse("def f():\n    from quad_dob_baselines import make_controller\n")

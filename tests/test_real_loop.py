@@ -280,3 +280,151 @@ def test_every_v3_value_has_a_source_and_every_range_holds_its_nominal():
             if isinstance(value, tuple):
                 value = value[0 if key.endswith(".up") else 1]
             assert low <= value <= high, f"{key}: {value} outside its ends {low}-{high}"
+
+
+# --- the autopilot's gyro low-pass ---------------------------------------------------------
+
+def _butterworth_oracle(cutoff, rate):
+    """(b, a) of the bilinear transform of H(s) = Ω² / (s² + √2 Ω s + Ω²), Ω prewarped:
+    polynomials in z⁻¹ multiplied out with numpy, normalised to a0 = 1."""
+    period = 1.0 / rate
+    omega = 2.0 / period * math.tan(math.pi * cutoff * period)
+    c = 2.0 / period  # s = c (1 - z⁻¹) / (1 + z⁻¹)
+    minus, plus = np.array([1.0, -1.0]), np.array([1.0, 1.0])
+    numerator = omega**2 * np.convolve(plus, plus)
+    denominator = (c**2 * np.convolve(minus, minus) + math.sqrt(2) * omega * c
+                   * np.convolve(minus, plus) + omega**2 * np.convolve(plus, plus))
+    return numerator / denominator[0], denominator / denominator[0]
+
+
+@pytest.mark.parametrize(("cutoff", "rate"), [(30.0, 200.0), (20.0, 400.0), (45.0, 100.0)])
+def test_the_gyro_low_pass_is_the_prewarped_butterworth(cutoff, rate):
+    from quad_dob_env.envs.ticks import butterworth_coefficients
+
+    b, a = _butterworth_oracle(cutoff, rate)
+    coefficients = butterworth_coefficients(cutoff, rate)
+    np.testing.assert_allclose(coefficients, [*b, *a[1:]], rtol=1e-12, atol=1e-15)
+    z = np.exp(-1j * 2 * math.pi * np.array([0.0, cutoff]) / rate)  # z⁻¹ at DC and the cutoff
+    response = np.polyval(b[::-1], z) / np.polyval(a[::-1], z)
+    np.testing.assert_allclose(np.abs(response), [1.0, math.sqrt(0.5)], rtol=1e-12)
+
+
+def test_the_rate_loop_reads_the_gyro_low_pass_stepped_once_a_tick():
+    """thrust_rates with one inner tick a step, no motor lag, ideal sensing: the filter's
+    input is the true rate at each step's end (y = b·x - a·y, difference equation written
+    here, settled at rest), and each step's moment is the rate law on its last output,
+    M = J k (ω_cmd - y) + y × J y."""
+    from quad_dob_env.envs.actions import MAX_RATE_COMMAND, RATE_GAIN
+
+    cutoff, rate = 30.0, 100.0
+    scenario = make_scenario("hover-calm", inner_rate=rate, gyro_cutoff=cutoff, **STILL)
+    assert scenario.inner_ticks == 1
+    core = _core(scenario, action_mode="thrust_rates")
+    b, a = _butterworth_oracle(cutoff, rate)
+    inputs, outputs = [np.zeros(3)] * 2, [np.zeros(3)] * 2  # settled on the initial rates
+    J = PAPER.inertia_matrix
+    generator = np.random.default_rng(0)
+    for _ in range(25):
+        # small yaw requests: the mixer gives yaw what headroom is left, and clips beyond it
+        actions = np.concatenate([[0.0], generator.uniform(-0.3, 0.3, 2),
+                                  generator.uniform(-0.01, 0.01, 1)])[None]
+        held = outputs[-1]
+        command = actions[0, 1:] * MAX_RATE_COMMAND
+        expected = J @ (RATE_GAIN * (command - held)) + np.cross(held, J @ held)
+        core.step(actions)
+        np.testing.assert_allclose(core.applied.moment[0], expected, rtol=1e-9, atol=1e-12)
+        x = core.state.angular_velocity[0].copy()
+        y = (b[0] * x + b[1] * inputs[-1] + b[2] * inputs[-2] - a[1] * outputs[-1]
+             - a[2] * outputs[-2])
+        inputs.append(x)
+        outputs.append(y)
+        np.testing.assert_allclose(core.loop.gyro_output[0], y, rtol=1e-9, atol=1e-13)
+    assert np.abs(outputs[-1] - inputs[-1]).max() > 1e-3  # the filter did lag the rates
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    ({"gyro_cutoff": 30.0}, "no inner loop"),
+    ({"gyro_cutoff": 100.0, "inner_rate": 200.0}, "Nyquist"),
+    ({"gyro_cutoff": -1.0, "inner_rate": 200.0}, "gyro_cutoff")])
+def test_bad_gyro_cutoffs_are_refused(options, message):
+    with pytest.raises(ValueError, match=message):
+        make_scenario("hover-calm", **options)
+
+
+# --- vibration on the IMU --------------------------------------------------------------------
+
+def test_vibration_adds_its_own_white_noise_to_every_imu_reading():
+    """Each reading's white noise becomes sqrt(σ² + v²) for the sensor's σ = density / √dt:
+    flown open loop with the same seed, the readings of two vibration levels differ from
+    the still one's in the ratio (k₂ - 1) / (k₁ - 1), k = sqrt(σ² + v²) / σ (the same
+    draws, scaled; no bias, so the white part is all of a reading's error)."""
+    from quad_dob_env.sensing.models import MOCAP
+
+    imu = {"gyroscope_noise_density": 1e-3, "accelerometer_noise_density": 2e-3,
+           "gyroscope_bias_walk": 0.0, "accelerometer_bias_walk": 0.0}
+    suite = {"name": "still-imu", "pose": MOCAP.pose, "imu": imu, "rotors": MOCAP.rotors,
+             "estimator": MOCAP.estimator}
+    levels = [(0.0, 0.0), (0.01, 0.3), (0.03, 0.7)]
+    readings = []
+    for vibration in levels:
+        scenario = make_scenario("hover-calm", sensing=suite, imu_vibration=vibration)
+        core = _core(scenario, seeds=[5])
+        actions = _rotor_actions(core, HOVER_ROTOR * np.array([1.01, 1.0, 0.99, 1.0]))
+        flight = []
+        for _ in range(20):
+            core.step(actions)
+            flight.append(np.concatenate([core.measurement.gyroscope[0],
+                                          core.measurement.accelerometer[0]]))
+        readings.append(np.array(flight))
+    sigma = np.array([1e-3] * 3 + [2e-3] * 3) / math.sqrt(DT)
+    k = [np.sqrt(sigma**2 + np.repeat(v, 3) ** 2) / sigma for v in levels[1:]]
+    first, second = readings[1] - readings[0], readings[2] - readings[0]
+    np.testing.assert_allclose(second, first * (k[1] - 1) / (k[0] - 1), rtol=1e-6, atol=1e-12)
+    assert np.abs(first).max() > 0.1  # the accelerometer's vibration is there
+
+
+def test_vibration_needs_an_imu():
+    with pytest.raises(ValueError, match="shakes an IMU"):
+        make_scenario("hover-calm", imu_vibration=(0.0, 0.5))
+    with pytest.raises(ValueError, match="imu_vibration"):
+        make_scenario("hover-calm", sensing="mocap", imu_vibration=(0.0, -0.5))
+
+
+# --- the pose's latency on the physics grid --------------------------------------------------
+
+def _still_mocap(latency):
+    from quad_dob_env.sensing.models import MOCAP
+
+    return {"name": "still-mocap", "estimator": MOCAP.estimator, "rotors": MOCAP.rotors,
+            "pose": {"kind": "mocap", "rate": 100.0, "latency": latency, "position_std": 0.0},
+            "imu": {"gyroscope_noise_density": 0.0, "accelerometer_noise_density": 0.0,
+                    "gyroscope_bias_walk": 0.0, "accelerometer_bias_walk": 0.0}}
+
+
+@pytest.mark.parametrize(("latency", "extra"), [(0.010, 0.0), (0.005, 0.020), (0.015, 0.0)])
+def test_at_50_hz_the_pose_fix_keeps_its_latency_on_the_tick_grid(latency, extra):
+    """A 50 Hz loop with a 200 Hz inner loop (5 ms ticks): the fix read at step k is the
+    true pose at t_k - (latency + extra), found by flying the same open-loop commands at
+    200 Hz with the truth in view; on the control grid it would be 20 ms stale."""
+    options = {"inner_rate": 200.0, "speed_motors": True, **STILL}
+    fast = _core(make_scenario("hover-calm", dt=0.005, **options))
+    slow = _core(make_scenario("hover-calm", dt=0.02, sensing=_still_mocap(latency),
+                               extra_latency=extra, pose_latency_on_ticks=True, **options))
+    late_ticks = round((latency + extra) / 0.005)
+    assert slow.sensing.delays[0] == late_ticks // 4
+    thrusts = HOVER_ROTOR * np.array([1.3, 1.0, 0.8, 1.1])  # a climb, pitching and yawing
+    truth = [(fast.state.position[0].copy(), fast.state.rotation[0].copy())]
+    for _ in range(48):
+        fast.step(_rotor_actions(fast, thrusts))
+        truth.append((fast.state.position[0].copy(), fast.state.rotation[0].copy()))
+    depth = slow.sensing.ring.shape[0]
+    for k in range(1, 12):
+        slow.step(_rotor_actions(slow, thrusts))
+        q = slow.sensing.delays[0]
+        if 4 * k < late_ticks:  # before the start: the reset's reading
+            continue
+        # the fix read now: taken at step k - q, r ticks before that step's end
+        row = slow.sensing.ring[(k - q) % depth, 0]
+        position, rotation = truth[4 * k - late_ticks]
+        np.testing.assert_allclose(row[0:3], position, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(row[3:12], rotation.ravel(), rtol=0, atol=1e-12)

@@ -135,7 +135,9 @@ class QuadrotorBatch:
             (self.applied.thrust, self.disturbance_force, self.mass, self.applied.rotor_thrusts),
             self.vehicle, scenario.dt,
             hover=(self.vehicle.hover_thrust,
-                   self.actuator.to_rotors @ self.actuator.hover_output()))
+                   self.actuator.to_rotors @ self.actuator.hover_output()),
+            vibration=scenario.imu_vibration or (0.0, 0.0),
+            ticks=scenario.inner_ticks if scenario.pose_latency_on_ticks else 1)
         # the kernels write the true state's observation here; a policy reads ``obs`` (the
         # same array for the identity, else rebuilt from the measurement)
         self._true_obs = self.obs if self.sensing.identity else np.zeros_like(self.obs)
@@ -147,7 +149,8 @@ class QuadrotorBatch:
         self._initial_rotation = scenario.initial_rotation_matrix()
         m = self.sensing.measurement
         self.loop = VehicleLoop(scenario, self.actuator, n, action_mode,
-                                (not self.sensing.identity, m.rotation, m.angular_velocity))
+                                (not self.sensing.identity, m.rotation, m.angular_velocity),
+                                (self.sensing.pose_tick, *self.sensing.pose_state))
         self._hover_output = self.loop.hover_output(self.actuator.hover_output())
         self.attitude_loop = None  # flies a controller's attitude law at the inner rate
 

@@ -23,8 +23,11 @@ from quad_dob_env.dynamics import (
 )
 from quad_dob_env.dynamics.rotors import nominal_wrench, rotor_wrench, speeds_of_output
 from quad_dob_env.envs.ticks import (
+    filtered_rate,
     fly_tick,
+    held_rate,
     inner_estimate,
+    keep_pose,
     rate_law,
     thrust_path_at,
     tick_factors,
@@ -306,6 +309,7 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, rotors, r
             f_t, m_t = f_cmd, m_cmd
             if rates:
                 seen_rotation, seen_rate = inner_estimate(i, R, w, inner, r0, w0)
+                seen_rate = held_rate(i, seen_rate, inner)
                 f_t, m_t = rate_law(actions, i, f_cmd, seen_rotation, seen_rate, vehicle[2],
                                     inner)
             xn, vn, Rn, wn, next_end, mean, hit, _ = fly_tick(
@@ -320,6 +324,9 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, rotors, r
                 diverged = True
                 break
             x, v, R, w = xn, vn, Rn, wn
+            keep_pose(i, tick + 1, x, v, R, inner)
+            if rates:  # the gyro low-pass samples the tick's end
+                filtered_rate(i, inner_estimate(i, R, w, inner, r0, w0)[1], inner)
         finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated, actions,
                             actuator, rotors, rotor_state, position, velocity, rotation,
                             angular_velocity, step_count, reference_row, tables, own,

@@ -127,10 +127,16 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     ``max_position_error``, ``max_tilt``, ``max_body_rate``, ``reward_position_scale``,
     ``reward_effort_weight``, ``render_mode`` (``rgb_array``: ``render()`` returns a frame,
     headless; ``human``: a window at the control rate), ``invalid_actions`` (``raise`` or
-    ``terminate``), ``benchmark`` (``"v1"`` or ``"v2"``, beneath ``scenario_options``:
-    ``quad_dob_env.benchmark``; the ``-v2`` ids set ``"v2"``).
+    ``terminate``), ``benchmark`` (``"v1"``, ``"v2"`` or ``"v3"``, beneath
+    ``scenario_options``: ``quad_dob_env.benchmark``; the ``-v2`` and ``-v3`` ids set theirs).
 
     ## Version history
+    - v3 (2026-12): the ids ``QuadDOB/Hover-v3``, ``HoverResidual-v3``, ``TrackResidual-v3``
+      and ``TracksResidual-v3`` fly the v2 ids' scenarios under ``benchmark="v3"``: v2's
+      loop with the real vehicle's lag and thrust path (``quad_dob_env.benchmark_v3``, every
+      value sourced), the figure-8s at Neural-Fly's 50 Hz. Until v3's own search has run, a
+      controller name flies its v2 gains (``quad_dob_baselines.gain_sets.INHERITED_FROM``).
+      The v1 and v2 ids stay registered and fly as before, bit for bit.
     - v2, residual options (2026-12, no id bumped: the defaults fly as before, bit for bit):
       the residual's ``authority_signal`` (``"force"``, as before, or ``"wind"``: the
       low-passed horizontal force estimate, which stays shut in calm air under noisy

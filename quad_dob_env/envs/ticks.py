@@ -7,6 +7,8 @@ in ``quad_dob_composition.attitude_loop``) from the inner-rate estimate, then
 and the composition's loop both call these, so each equation is written once.
 """
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -47,6 +49,58 @@ def inner_estimate(i, R, w, inner, start_rotation, start_rate):
     rates = inner[7]
     return (mat_mul_tuple(error, R),
             (w[0] + rates[i, 0] - w0[0], w[1] + rates[i, 1] - w0[1], w[2] + rates[i, 2] - w0[2]))
+
+
+def butterworth_coefficients(cutoff: float, rate: float) -> tuple[float, ...]:
+    """A 2nd-order Butterworth low-pass at ``cutoff`` [Hz] sampled at ``rate`` [Hz], by the
+    bilinear transform prewarped at the cutoff: (b0, b1, b2, a1, a2) of
+    ``y_k = b0 x_k + b1 x_{k-1} + b2 x_{k-2} - a1 y_{k-1} - a2 y_{k-2}``."""
+    k = math.tan(math.pi * cutoff / rate)  # the prewarped cutoff, ω_c T / 2
+    norm = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
+    b0 = k * k * norm
+    return (b0, 2.0 * b0, b0, 2.0 * (k * k - 1.0) * norm,
+            (1.0 - math.sqrt(2.0) * k + k * k) * norm)
+
+
+@njit(cache=True, inline="always")
+def filtered_rate(i, rate, inner):
+    """The gyro low-pass (``inner[8]``: on, its coefficients, state (N, 3, 2) and last
+    output (N, 3)) stepped once with vehicle i's ``rate``, in transposed direct form II;
+    returns its output (the input itself when off)."""
+    on, (b0, b1, b2, a1, a2), state, output = inner[8]
+    if not on:
+        return rate
+    out = [0.0, 0.0, 0.0]
+    for k in range(3):
+        x = rate[k]
+        y = b0 * x + state[i, k, 0]
+        state[i, k, 0] = b1 * x - a1 * y + state[i, k, 1]
+        state[i, k, 1] = b2 * x - a2 * y
+        output[i, k] = y
+        out[k] = y
+    return (out[0], out[1], out[2])
+
+
+@njit(cache=True, inline="always")
+def held_rate(i, rate, inner):
+    """What the gyro low-pass last gave vehicle i (``rate`` itself when off)."""
+    if not inner[8][0]:
+        return rate
+    output = inner[8][3]
+    return (output[i, 0], output[i, 1], output[i, 2])
+
+
+@njit(cache=True, inline="always")
+def keep_pose(i, tick, x, v, R, inner):
+    """Vehicle i's state after tick ``tick`` (counted from 1) where the pose fix is taken
+    within the step (``inner[9]``: that tick, 0 for none, and the arrays it goes to)."""
+    when, position, velocity, rotation = inner[9]
+    if tick == when:
+        for k in range(3):
+            position[i, k] = x[k]
+            velocity[i, k] = v[k]
+            for c in range(3):
+                rotation[i, k, c] = R[3 * k + c]
 
 
 @njit(cache=True, inline="always")

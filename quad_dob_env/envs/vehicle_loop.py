@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 from quad_dob_env.dynamics import Actuator
 from quad_dob_env.dynamics.rotors import RotorModel
 from quad_dob_env.envs.actions import MAX_RATE_COMMAND, RATE_GAIN
+from quad_dob_env.envs.ticks import butterworth_coefficients
 from quad_dob_env.scenarios import Scenario
 
 # Per-episode true thrust coefficient over the nominal: air density from 0 °C to 30 °C at
@@ -30,7 +31,8 @@ class VehicleLoop:
     """The rotor model, the thrust draws and the inner loop of one core's scenario."""
 
     def __init__(self, scenario: Scenario, actuator: Actuator, n: int, action_mode: str,
-                 estimate: tuple[bool, NDArray, NDArray]) -> None:
+                 estimate: tuple[bool, NDArray, NDArray],
+                 pose: tuple[int, NDArray, NDArray, NDArray] | None = None) -> None:
         vehicle = scenario.vehicle
         up, down = scenario.rotor_time_constants
         self.throttle = scenario.throttle_map
@@ -54,9 +56,22 @@ class VehicleLoop:
         # thrust_rates' rate loop is the inner loop, when there is one
         self.rates = self.active and action_mode == "thrust_rates"
         has_estimate, rotation, rate = estimate
+        # the autopilot's gyro low-pass on the rates every inner law reads (v3), stepped
+        # once a tick at its end; its state starts settled on the scenario's initial rates
+        cutoff = scenario.gyro_cutoff
+        self.gyro_filter = cutoff is not None and self.active
+        self._gyro_coefficients = (butterworth_coefficients(cutoff, scenario.inner_rate)
+                                   if self.gyro_filter else (0.0,) * 5)
+        self._initial_rate = np.array(scenario.initial_angular_velocity, dtype=float)
+        self.gyro_state, self.gyro_output = np.zeros((n, 3, 2)), np.zeros((n, 3))
         self.inner = (self.ticks, self.rates, RATE_GAIN, MAX_RATE_COMMAND,
                       np.array(actuator.moment_limit, dtype=float),
-                      bool(has_estimate and self.active), rotation, rate)
+                      bool(has_estimate and self.active), rotation, rate,
+                      (self.gyro_filter, self._gyro_coefficients, self.gyro_state,
+                       self.gyro_output),
+                      # where the sensing takes the pose fix within a step (0: its end)
+                      pose if pose is not None else (0, np.zeros((1, 3)), np.zeros((1, 3)),
+                                                     np.zeros((1, 3, 3))))
 
     @property
     def speed_motors(self) -> bool:
@@ -84,6 +99,12 @@ class VehicleLoop:
         """Vehicle ``index``'s draws for a new episode, from a stream spawned off ``child``
         (the episode's child of its generator, whose own draws are the sensors'; None when
         nothing needs it): spawning draws nothing from it."""
+        if self.gyro_filter:  # settled: output = input = the initial rates
+            b0, _, b2, _, a2 = self._gyro_coefficients
+            rate = self._initial_rate
+            self.gyro_output[index] = rate
+            self.gyro_state[index, :, 0] = (1.0 - b0) * rate
+            self.gyro_state[index, :, 1] = (b2 - a2) * rate
         if self.uncertain:
             stream = child.spawn(1)[0]
             self.thrust_scale[index] = stream.uniform(*THRUST_SCALE_RANGE)

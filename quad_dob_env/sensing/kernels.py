@@ -67,7 +67,8 @@ def rotor_speed(rotor_thrust, thrust_coefficient):
 
 
 @njit(cache=True, nogil=True)
-def take_readings_kernel(start, stop, indices, step_count, position, velocity, rotation,
+def take_readings_kernel(start, stop, indices, step_count, pose_position, pose_velocity,
+                         pose_rotation, position, velocity, rotation,
                          angular_velocity, thrust, force, mass, rotor_thrusts,
                          thrust_coefficient, hover_thrust, hover_rotor_thrusts, keys,
                          true_bias, pose, imu, rotors, state_noise, ring, reset):
@@ -76,7 +77,9 @@ def take_readings_kernel(start, stop, indices, step_count, position, velocity, r
     exist). A source whose standard deviations are all zero draws nothing: its reading is
     the same, and no other source's noise depends on it.
 
-    The gyroscope reads the body rate now; the accelerometer the specific force of the step
+    The pose fix reads ``pose_*`` (the state now, or where the step passed the pose's
+    latency on the physics grid: ``SensingStage.pose_tick``); the gyroscope reads the body
+    rate now; the accelerometer the specific force of the step
     (its mean thrust, with the drag and disturbance at its end). At a reset nothing is
     applied yet and the rotors turn at hover: the readings are ``hover_thrust``'s and
     ``hover_rotor_thrusts``'. Their white noise has the std density / √dt, the density's
@@ -114,13 +117,14 @@ def take_readings_kernel(start, stop, indices, step_count, position, velocity, r
                 _normals(keys[i, POSE_KEY], step, 10, g)
             for k in range(3):
                 std = vertical_std if k == 2 else position_std
-                row[POSITION + k] = position[i, k] + std * g[k]
-                row[VELOCITY + k] = velocity[i, k] + velocity_std * g[6 + k]
-            turned = mat_mul_tuple(R, exp_tuple((attitude_std * g[3], attitude_std * g[4],
-                                                 attitude_std * g[5])))
+                row[POSITION + k] = pose_position[i, k] + std * g[k]
+                row[VELOCITY + k] = pose_velocity[i, k] + velocity_std * g[6 + k]
+            seen = matrix_entries(pose_rotation[i])
+            turned = mat_mul_tuple(seen, exp_tuple((attitude_std * g[3], attitude_std * g[4],
+                                                    attitude_std * g[5])))
             for k in range(9):
                 row[ROTATION + k] = turned[k]
-            row[HEADING] = wrap_angle(heading_of(R) + heading_std * g[9])
+            row[HEADING] = wrap_angle(heading_of(seen) + heading_std * g[9])
         # the IMU, its biases walking first
         if imu_noisy:
             _normals(keys[i, IMU_KEY], step, 12, g)

@@ -41,13 +41,17 @@ class SensingStage:
       true state's own arrays (v1's loop, bit for bit); the IMU fields are ideal readings.
     - a ``SensorNoise``: the true state plus its Gaussian noise, ``delay_steps`` plus the
       extra latency late (no estimator); so is None with an extra latency, noise-free.
-    - a ``SensorSuite``: its sensors, each late by its own latency plus the extra one, and
-      the estimator (``quad_dob_env.sensing.estimator``) fusing them.
+    - a ``SensorSuite``: its sensors, each late by its own latency plus the extra one (with
+      ``ticks`` > 1, the pose's resolved on the grid of ``ticks`` intervals a step: its
+      fix is taken where the step passes it, ``pose_tick``, the rest on the control grid), and
+      the estimator (``quad_dob_env.sensing.estimator``) fusing them; ``vibration`` (gyro
+      [rad/s], accelerometer [m/s²], RMS per axis) adds to its IMU's white noise.
     """
 
     def __init__(self, sensing: SensorSuite | SensorNoise | None, extra_latency: float,
                  truth: VehicleState, physics: tuple, vehicle: VehicleParams,
-                 dt: float, hover: tuple[float, NDArray[np.float64]] | None = None) -> None:
+                 dt: float, hover: tuple[float, NDArray[np.float64]] | None = None,
+                 vibration: tuple[float, float] = (0.0, 0.0), ticks: int = 1) -> None:
         n = truth.n
         self.sensing, self.dt, self.gravity = sensing, float(dt), float(vehicle.gravity)
         self.truth = truth
@@ -63,6 +67,10 @@ class SensingStage:
         self.keys = np.zeros((n, KEYS), dtype=np.uint64)
         self.true_bias = np.zeros((n, 6))
         self.estimating = isinstance(sensing, SensorSuite)
+        # the tick after which a step's pose fix is taken (0: its end), and the state there
+        # (the kernels write it: ``QuadrotorBatch``'s inner loop)
+        self.pose_tick = 0
+        self.pose_state = (truth.position, truth.velocity, truth.rotation)
         self._fresh = False
         self._state_noise = (0.0, 0.0, 0.0, 0.0)
         self._imu = (0.0,) * 6
@@ -75,13 +83,25 @@ class SensingStage:
                           pose.vertical_std, pose.attitude_std, pose.velocity_std,
                           pose.heading_std)
             root = math.sqrt(dt)
-            self._imu = (imu.gyroscope_noise_density / root,
-                         imu.accelerometer_noise_density / root,
+            # vibration (v3): white noise of its own RMS on every reading, the rotors' effect
+            # left by the autopilot's filters, added to the sensor's own in quadrature
+            gyro_vibration, accelerometer_vibration = vibration
+            self._imu = (math.hypot(imu.gyroscope_noise_density / root, gyro_vibration),
+                         math.hypot(imu.accelerometer_noise_density / root,
+                                    accelerometer_vibration),
                          imu.gyroscope_bias_walk * root, imu.accelerometer_bias_walk * root,
                          imu.gyroscope_initial_bias, imu.accelerometer_initial_bias)
             self._rotors = (sensing.rotors.speed_std,)
             self.delays = (delay_steps(pose.latency, dt) + extra,
                            delay_steps(imu.latency, dt) + extra)
+            if ticks > 1:
+                # the pose's latency on the physics grid (``ticks`` intervals a step): a fix
+                # read ``q`` steps late was taken ``r`` ticks before its step's end
+                late = delay_steps(pose.latency + extra_latency, dt / ticks)
+                # the IMU, on the control grid, is read no later than the pose (which the
+                # estimator needs): v3's own latencies are whole steps for it
+                self.delays = (late // ticks, min(self.delays[1], late // ticks))
+                self.pose_tick = ticks - late % ticks if late % ticks else 0
             self.rotor_delay = delay_steps(sensing.rotors.latency, dt) + extra
             if self.delays[1] > self.delays[0]:
                 raise ValueError(
@@ -103,6 +123,8 @@ class SensingStage:
                                      float(sensing.attitude_std), float(sensing.rate_std))
             self.delays = (state_delay, state_delay)
             self.rotor_delay = state_delay
+        if self.pose_tick:
+            self.pose_state = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3)))
         # the estimator integrates over the IMU's last two readings: one slot more
         depth = max(*self.delays, self.rotor_delay) + 1 + int(self.estimating)
         lag = max(self.delays[0] - self.delays[1], 0)
@@ -140,7 +162,9 @@ class SensingStage:
             return
         thrust, force, mass, rotor_thrusts = self.physics
         truth, m = self.truth, self.measurement
-        run_over_batch(take_readings_kernel, len(indices), indices, step_count,
+        pose_at = (truth.position, truth.velocity, truth.rotation) if reset else (
+            self.pose_state)
+        run_over_batch(take_readings_kernel, len(indices), indices, step_count, *pose_at,
                        truth.position, truth.velocity, truth.rotation, truth.angular_velocity,
                        thrust, force, mass, rotor_thrusts, self.thrust_coefficient,
                        self._hover[0], self._hover[1], self.keys, self.true_bias,
