@@ -143,11 +143,13 @@ def _sweep(args: argparse.Namespace) -> int:
 
 
 def _benchmark_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--benchmark", default=None, choices=["v1", "v2"],
+    parser.add_argument("--benchmark", default=None, choices=["v1", "v2", "v3"],
                         help="the loop every scenario is flown in: v2, the vehicle's own "
                         "(mocap sensing, inner loop, motors, thrust uncertainty, rotor "
-                        "aerodynamics; the gains tuned for it), or v1, the ideal loop, to "
-                        "reproduce v1's tables (default: v2)")
+                        "aerodynamics; the gains tuned for it), v3, v2's with the real "
+                        "vehicle's lag and thrust path (docs/benchmark-v3.md; v2's gains "
+                        "until v3's search has run), or v1, the ideal loop, to reproduce "
+                        "v1's tables (default: v2)")
 
 
 def _trust_pickle_option(command: argparse.ArgumentParser) -> None:
@@ -330,6 +332,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="local processes (default: every core); with --ray-address "
                        "local, Ray's CPUs")
     sweep.set_defaults(handler=_sweep)
+    from quad_dob_training.wind_tunnel_tool import add_parser as add_wind_tunnel
+
+    add_wind_tunnel(commands)
     listing = commands.add_parser(
         "list", help="list env ids, scenarios with their feasibility margins, wind presets, "
         "controllers, policies and vehicles")

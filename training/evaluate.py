@@ -12,8 +12,9 @@ Writes ``evaluation.md``, ``evaluation.csv``, ``evaluation.json`` (the rows with
 provenance, in the schema others' results merge by: ``quad_dob_training.results``),
 ``evaluation.png`` (bars with their 95 % intervals) and the interactive ``report.html``
 (figures of the first seed), or prints the rows as JSON. JSON and CSV keys:
-``{score}_mean``, ``_std``, ``_low``, ``_high`` for each score, ``{score}_diff_mean``,
-``_diff_low``, ``_diff_high`` against ``baseline``.
+``{score}_mean``, ``_std``, ``_low``, ``_high`` for each score (and for the settled RMS
+per axis, ``rms_position_settled_{x,y,z}``), ``{score}_diff_mean``, ``_diff_low``,
+``_diff_high`` against ``baseline``; ``z_share_settled`` = Σ rms_z² / Σ rms² over the seeds.
 """
 
 from __future__ import annotations
@@ -48,6 +49,8 @@ SCORES = (("rms_position_settled", "RMS ‖e_x‖ [m]"),
           ("rms_tilt_settled", "RMS tilt [rad]"),
           ("rms_heading_settled", "RMS heading [rad]"),
           ("rms_moment", "effort: RMS ‖M‖ [N m]"))
+# the settled RMS position error per axis, each with its mean, std and interval as SCORES
+AXIS_SCORES = tuple(f"rms_position_settled_{axis}" for axis in "xyz")
 # what the controllers read against the truth (zero with ideal sensing)
 ESTIMATOR_SCORES = ("rms_estimate_position_settled", "rms_estimate_velocity_settled",
                     "rms_estimate_attitude_settled")
@@ -186,12 +189,17 @@ def _row(scenario: str, policy: str, seeds: list[int], metrics: list[dict],
          baseline: str | None, reference: list[dict] | None) -> dict:
     row: dict = {"scenario": scenario, "policy": policy,
                  "seeds": f"{seeds[0]}-{seeds[-1]}" if len(seeds) > 1 else str(seeds[0])}
-    for key, _ in SCORES:
+    for key in (*(key for key, _ in SCORES), *AXIS_SCORES):
         values = np.array([m[key] for m in metrics], dtype=float)
         interval = bootstrap_mean(values)
         row[f"{key}_mean"] = interval.mean
         row[f"{key}_std"] = float(values.std())
         row[f"{key}_low"], row[f"{key}_high"] = interval.low, interval.high
+    # the vertical share of the squared settled error, pooled over the seeds (rms² as the
+    # axes' sum, which it is: the share then cannot round above 1)
+    squares = sum(m[key] ** 2 for m in metrics for key in AXIS_SCORES)
+    row["z_share_settled"] = (sum(m["rms_position_settled_z"] ** 2 for m in metrics) / squares
+                              if squares > 0 else float("nan"))
     for key in ESTIMATOR_SCORES:
         values = np.array([m.get(key, np.nan) for m in metrics], dtype=float)
         row[f"{key}_mean"] = float(values.mean())

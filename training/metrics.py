@@ -86,6 +86,9 @@ def flight_metrics(flight: Flight) -> dict[str, float | str | None]:
            for name, key in (("attitude", "geodesic"), ("tilt", "tilt"),
                              ("heading", "heading"))},
         "rms_position_settled": float(_rms(norm[settled])),
+        # per axis: where the settled error lies (the figure-8s' vertical share)
+        **{f"rms_position_settled_{axis}": float(value) for axis, value in
+           zip("xyz", _rms(position_error[settled]), strict=True)},
         **{f"rms_{name}_settled": float(_rms(attitude[key][settled]))
            for name, key in (("attitude", "geodesic"), ("tilt", "tilt"),
                              ("heading", "heading"))},

@@ -1,0 +1,291 @@
+"""``quad-dob wind-tunnel``: the four simulated counterparts of Neural-Fly's controllers
+(``wind_tunnel.COUNTERPARTS``) on the figure-8 in 0, 4.2, 8.5 and 12.1 m/s of wind, and,
+given a folder of Neural-Fly's experiment CSVs, their real flights, each side scored by the
+same code (``flight_statistics``) over the same whole laps after 5 s.
+
+Each (controller, wind) flies one vector env of one vehicle per seed; its ``info`` at each
+step becomes a ``FlightLog`` (``flight_logs.InfoRecorder``). With ``--neural-fly`` the
+simulated flights last the logs' span (50 s) and both sides are scored over the whole laps
+both hold. Prints the published RMS beside the simulated one per wind, the simulated
+statistics, and with the logs each real run beside its counterpart (the runs without one
+real only); writes ``wind_tunnel.json`` (every statistic) and PNG figures under ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from quad_dob_training.flight_logs import NEURAL_FLY_METHODS, FlightLog
+from quad_dob_training.flight_statistics import (
+    HARMONICS,
+    SKIP,
+    LogStatistics,
+    fa_reconstruction_rms,
+    lap_window,
+    log_statistics,
+)
+from quad_dob_training.wind_tunnel import COUNTERPARTS, NEURAL_FLY_RMS, WIND_SPEEDS, side_by_side
+
+# Neural-Fly's method -> the simulated controller that stands for it (NF, NF-T: none)
+SIMULATED_OF = {method: spec for method, label in NEURAL_FLY_METHODS.items()
+                for spec, real in COUNTERPARTS.items() if real == label}
+# the sim's first whole lap after 5 s ends at 4π s: a shorter flight has none to score
+MIN_DURATION = 4 * math.pi
+
+
+def default_benchmark() -> str:
+    """v3 once the simulator has it (``quad_dob_env.benchmark.BENCHMARKS``), else v2."""
+    from quad_dob_env.benchmark import BENCHMARKS
+
+    return "v3" if "v3" in BENCHMARKS else "v2"
+
+
+def fly_logs(spec: str, scenario: Any, seeds: list[int], wind_speed: float | None = None
+             ) -> list[FlightLog]:
+    """One episode of controller ``spec`` per seed in ``scenario``, all in one vector env,
+    each as the ``FlightLog`` its ``info`` makes (stopped at its episode's end)."""
+    from quad_dob_composition import make_vector_env
+    from quad_dob_training.flight_logs import InfoRecorder
+    from quad_dob_training.policies import make_policy
+
+    policy = make_policy(spec)
+    if policy.model is not None:
+        raise ValueError(f"{spec!r} is a trained model; the wind tunnel flies controllers "
+                         f"by name: {', '.join(COUNTERPARTS)}")
+    env = make_vector_env(len(seeds), scenario, **policy.env_kwargs())
+    _, info = env.reset(seed=[int(seed) for seed in seeds])
+    recorder, actions = InfoRecorder(len(seeds)), np.zeros((len(seeds), 4))
+    for _ in range(scenario.steps):
+        recorder.add(info)  # the state this step's command is planned from, and the command
+        _, _, terminated, truncated, info = env.step(actions)  # a residual of zero
+        if not recorder.ended(terminated, truncated):
+            break
+    env.close()
+    return recorder.logs(env.core.vehicle,
+                         [f"simulated: {spec}, {scenario.name}, seed {s}" for s in seeds],
+                         method=spec, condition=scenario.name, wind_speed=wind_speed)
+
+
+def flat(statistics: LogStatistics) -> dict[str, float]:
+    """The scalars of ``statistics`` by a dotted name (``rms.z``, ``harmonics.2.z``, ...)."""
+    found = asdict(statistics)
+    values: dict[str, float] = {"laps": statistics.window.laps}
+    for key, value in found.items():
+        if key == "harmonics":
+            values.update({f"harmonics.{h['harmonic']}.{axis}": h["amplitude"][axis]
+                           for h in value for axis in "xyz"})
+        elif isinstance(value, dict) and key != "window":
+            values.update({f"{key}.{name}": entry for name, entry in value.items()})
+        elif key != "window":
+            values[key] = value
+    return values
+
+
+def pooled(per_seed: list[dict[str, float]]) -> dict[str, float]:
+    """The mean over the seeds of each statistic; the z share pooled, Σ rms_z² / Σ rms²."""
+    if not per_seed:
+        return {}
+    mean = {key: float(np.mean([values[key] for values in per_seed])) for key in per_seed[0]}
+    squares = sum(values["rms_total"] ** 2 for values in per_seed)
+    z_squares = sum(values["rms.z"] ** 2 for values in per_seed)
+    mean["z_share"] = z_squares / squares if squares > 0 else float("nan")
+    return mean
+
+
+def simulate(benchmark: str, seeds: list[int], duration: float | None,
+             laps_wanted: set[int]) -> list[dict[str, Any]]:
+    """Every counterpart in every wind: per seed the RMS after 5 s and the statistics over
+    its own whole laps, and over each count in ``laps_wanted`` (a real log's)."""
+    from quad_dob_env.scenarios import make_scenario
+
+    options: dict[str, Any] = {"benchmark": benchmark}
+    if duration is not None:
+        options["duration"] = duration
+    results = []
+    for wind in WIND_SPEEDS:
+        scenario = make_scenario(f"figure8-wind-{wind}", **options)
+        for spec in COUNTERPARTS:
+            logs = fly_logs(spec, scenario, seeds, float(wind))
+            scored = [log for log in logs if not log.crashed]
+            own = lap_window(scored[0]).laps if scored else 0
+            by_laps = {str(laps): [flat(log_statistics(log, laps)) for log in scored]
+                       for laps in {own, *laps_wanted} if 1 <= laps <= own}
+            results.append({
+                "policy": spec, "counterpart": COUNTERPARTS[spec], "wind_speed": float(wind),
+                "scenario": scenario.name, "duration": scenario.duration,
+                "flights": len(logs), "crashes": int(sum(log.crashed for log in logs)),
+                # the seeds of the per-seed statistics: a lost flight is not scored on laps
+                "scored_seeds": [seed for seed, log in zip(seeds, logs, strict=True)
+                                 if not log.crashed],
+                "thrust_source": logs[0].thrust_source, "laps": own,
+                "rms_after_skip": [float(np.sqrt(np.mean(np.sum(
+                    (log.p - log.p_d)[log.t >= SKIP] ** 2, axis=1)))) for log in logs],
+                "per_seed": by_laps, "mean": {laps: pooled(values)
+                                              for laps, values in by_laps.items()}})
+    return results
+
+
+def compare_real(real: list[FlightLog], simulated: list[dict[str, Any]]
+                 ) -> list[dict[str, Any]]:
+    """Each real log's statistics, its fa reconstruction's RMS against its own fa, and its
+    counterpart's mean over the same number of whole laps (None: no counterpart)."""
+    rows = []
+    for log in real:
+        spec = SIMULATED_OF.get(log.method)
+        match = next((run for run in simulated if run["policy"] == spec
+                      and run["wind_speed"] == log.wind_speed), None)
+        laps = lap_window(log).laps
+        if match is not None:
+            laps = min(laps, match["laps"]) or laps
+        statistics = flat(log_statistics(log, laps))
+        fa_rms = asdict(fa_reconstruction_rms(log)) if log.fa is not None else None
+        rows.append({"file": Path(log.source).name, "method": log.method,
+                     "condition": log.condition, "wind_speed": log.wind_speed,
+                     "counterpart": spec if match is not None else None,
+                     "laps": laps, "statistics": statistics,
+                     "fa_reconstruction_rms": fa_rms,
+                     "simulated": None if match is None else match["mean"].get(str(laps))})
+    return rows
+
+
+COLUMNS = (("laps", "laps", 1.0, ".0f"), ("rms.x", "RMS x", 1e3, ".1f"),
+           ("rms.y", "y", 1e3, ".1f"), ("rms.z", "z", 1e3, ".1f"),
+           ("rms_total", "all [mm]", 1e3, ".1f"), ("mean.x", "mean x", 1e3, ".1f"),
+           ("mean.y", "y", 1e3, ".1f"), ("mean.z", "z [mm]", 1e3, ".1f"),
+           ("z_share", "z share", 1.0, ".2f"),
+           *((f"harmonics.{k}.{axis}", f"{axis} at {k} rad/s [mm]", 1e3, ".1f")
+             for axis in "xz" for k in HARMONICS),
+           ("fa_z_fit.a", "fit a [kg]", 1.0, ".3f"), ("fa_z_fit.b", "b [kg/s]", 1.0, ".3f"),
+           ("fa_z_fit.c", "c [N]", 1.0, ".2f"), ("fa_z_fit.r_squared", "R²", 1.0, ".2f"),
+           ("fa_z_fit.tau", "τ [ms]", 1e3, ".0f"), ("mean_fa_x", "mean fa_x [N]", 1.0, ".2f"),
+           ("hover_throttle_start", "hover start", 1.0, ".3f"),
+           ("hover_throttle_end", "end", 1.0, ".3f"))
+
+
+def _cells(values: dict[str, float] | None) -> list[str]:
+    if not values:
+        return ["—"] * len(COLUMNS)
+    return ["—" if values.get(key) is None or not np.isfinite(values[key])
+            else format(values[key] * scale, spec) for key, _, scale, spec in COLUMNS]
+
+
+def statistics_table(first: list[str], rows: list[tuple[list[str], dict | None]]) -> str:
+    header = [*first, *(label for _, label, _, _ in COLUMNS)]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join([*names, *_cells(values)]) + " |" for names, values in rows]
+    return "\n".join(lines)
+
+
+def report(benchmark: str, simulated: list[dict], real_rows: list[dict]) -> str:
+    """The tables ``quad-dob wind-tunnel`` prints."""
+    rows = [{"scenario": run["scenario"], "policy": run["policy"],
+             "rms_position_settled_mean": float(np.mean(run["rms_after_skip"])),
+             "crashes": run["crashes"]} for run in simulated]
+    parts = [f"Benchmark {benchmark}: RMS position error after {SKIP:g} s [mm], the "
+             "simulated mean over the seeds beside Neural-Fly's published figure",
+             side_by_side(rows, "controller"), "",
+             "Simulated, over the whole laps after 5 s (mean over the seeds; z share "
+             "pooled: Σ rms_z² / Σ rms²)",
+             statistics_table(["controller", "wind [m/s]", "lost"], [
+                 ([run["policy"], f"{run['wind_speed']:g}", str(run["crashes"])],
+                  run["mean"].get(str(run["laps"]))) for run in simulated])]
+    if real_rows:
+        table = []
+        for row in real_rows:
+            name = f"{row['method']} {row['condition']}"
+            table.append(([name, "real"], row["statistics"]))
+            if row["counterpart"] is not None:
+                table.append(([name, f"sim: {row['counterpart']}"], row["simulated"]))
+        alone = sum(row["counterpart"] is None for row in real_rows)
+        parts += ["", f"Neural-Fly's runs beside their simulated counterparts over the same "
+                      f"whole laps ({alone} runs without a counterpart: real only)",
+                  statistics_table(["run", "side"], table)]
+    return "\n".join(parts)
+
+
+def _plain(value: Any) -> Any:
+    """JSON's own types; NaN as null."""
+    if isinstance(value, dict):
+        return {str(key): _plain(entry) for key, entry in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(entry) for entry in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if np.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+def main(benchmark: str | None, seeds: str, neural_fly: Path | None, out: Path,
+         duration: float | None = None) -> int:
+    """The command: fly, score, print, and write ``wind_tunnel.json`` and the figures."""
+    from quad_dob_training.evaluate import parse_seeds
+    from quad_dob_training.flight_logs import read_neural_fly_folder
+    from quad_dob_training.wind_tunnel_plots import write_figures
+
+    benchmark = benchmark or default_benchmark()
+    real = [] if neural_fly is None else read_neural_fly_folder(neural_fly)
+    if duration is None and real:
+        # the logs' span, on the simulation's 10 ms grid
+        duration = round(max(float(log.t[-1] - log.t[0]) for log in real), 2)
+    if duration is not None and duration < MIN_DURATION:
+        raise ValueError(f"--duration {duration:g} s holds no whole lap after {SKIP:g} s: the "
+                         f"figure-8's first one ends at 4π = {MIN_DURATION:.2f} s; give "
+                         f"{MIN_DURATION:.2f} s or more")
+    seed_list = parse_seeds(seeds, round((duration or 30.0) / 0.01))
+    simulated = simulate(benchmark, seed_list, duration,
+                         {lap_window(log).laps for log in real})
+    real_rows = compare_real(real, simulated)
+    print(report(benchmark, simulated, real_rows))
+    out.mkdir(parents=True, exist_ok=True)
+    document = {"benchmark": benchmark, "seeds": seed_list, "skip": SKIP,
+                "published_rms": {label: dict(zip(WIND_SPEEDS, values, strict=True))
+                                  for label, values in NEURAL_FLY_RMS.items()},
+                "simulated": simulated, "real": real_rows}
+    (out / "wind_tunnel.json").write_text(json.dumps(_plain(document), indent=1) + "\n")
+    figures = write_figures(simulated, real_rows, out)
+    print(f"\nwrote {out / 'wind_tunnel.json'}, " + ", ".join(path.name for path in figures))
+    return 0
+
+
+def command(args: argparse.Namespace) -> int:
+    """``quad-dob wind-tunnel``'s handler."""
+    from quad_dob_training.cli_checks import _writable_folder
+
+    _writable_folder(args.out, "--out")
+    return main(args.benchmark, args.seeds, args.neural_fly, args.out, args.duration)
+
+
+def add_parser(commands: Any) -> None:
+    """The ``wind-tunnel`` subcommand of ``quad-dob``."""
+    from quad_dob_env.benchmark import BENCHMARKS
+    from quad_dob_training.cli_checks import _positive_float
+
+    tunnel = commands.add_parser(
+        "wind-tunnel", help="fly the counterparts of Neural-Fly's controllers on the "
+        "wind-tunnel figure-8s and score them, and optionally Neural-Fly's own logs, by the "
+        "same code over the same whole laps")
+    tunnel.add_argument("--benchmark", default=None, choices=list(BENCHMARKS),
+                        help="the loop the figure-8s are flown in (default: the newest, "
+                        f"{default_benchmark()})")
+    tunnel.add_argument("--seeds", default="9001-9020",
+                        help="a count N (seeds 0..N-1) or a range A-B (default: %(default)s)")
+    tunnel.add_argument("--neural-fly", type=Path, default=None, metavar="DIR",
+                        help="also read Neural-Fly's custom_figure8_<METHOD>_<COND>.csv from "
+                        "DIR (your copy of their data/experiment; their terms: personal and "
+                        "educational use) and score them beside the simulation, which then "
+                        "flies their span (default: none)")
+    tunnel.add_argument("--duration", type=_positive_float, default=None,
+                        help="seconds each simulated flight lasts, 12.57 or more (default: "
+                        "the logs' span with --neural-fly, else the scenario's 30)")
+    tunnel.add_argument("--out", type=Path, default=Path("results/wind-tunnel"),
+                        help="folder for wind_tunnel.json and the PNG figures "
+                        "(default: %(default)s)")
+    tunnel.set_defaults(handler=command)
