@@ -6,7 +6,7 @@ Run by hand (not part of the test suite): ``python benchmarks/throughput.py``. P
 markdown tables; docs/speed.md quotes them. Compilation happens before timing starts.
 ``--sensing-only`` runs the sensing table alone; ``--loop-only`` the vehicle-loop table
 (Benchmark v2: v1, part 1's sensing, each of part 2's factors on top of it, and the full
-v2 loop, in one run).
+v2 and v3 loops, in one run); ``--benchmarks-only`` v1's, v2's and v3's whole loops alone.
 """
 
 from __future__ import annotations
@@ -174,16 +174,25 @@ LOOP_VARIANTS: tuple[tuple[str, dict, bool], ...] = (
                                                           "inner_rate": V2_INNER_RATE}, True),
     ("full v2 loop, inner 300 Hz", {**FULL_LOOP, "inner_rate": 300.0}, True),
     ("full v2 loop, inner 400 Hz", {**FULL_LOOP, "inner_rate": 400.0}, True),
+    ("full v3 loop (benchmark='v3')", {"benchmark": "v3"}, True),
+)
+# the benchmarks' whole loops alone (``--benchmarks-only``): issue 40's speed target is v3's
+# env-steps/s at least half v1's in one run
+BENCHMARK_VARIANTS: tuple[tuple[str, dict, bool], ...] = (
+    LOOP_VARIANTS[0],
+    ("full v2 loop (benchmark='v2')", {"benchmark": "v2"}, True),
+    ("full v3 loop (benchmark='v3')", {"benchmark": "v3"}, True),
 )
 
 
-def print_loop_table(n: int, steps: int, repeats: int) -> None:
-    """Every ``LOOP_VARIANTS`` residual env (the geometric-ndob:tuned base, zero residual)
-    on ``WINDY`` at ``n`` vehicles, built and warmed first, then timed interleaved
-    ``repeats`` times; the median of each and its ratio to v1's."""
+def print_loop_table(n: int, steps: int, repeats: int,
+                     variants: tuple[tuple[str, dict, bool], ...] = LOOP_VARIANTS) -> None:
+    """Every one of ``variants``' residual envs (the geometric-ndob:tuned base, zero
+    residual) on ``WINDY`` at ``n`` vehicles, built and warmed first, then timed
+    interleaved ``repeats`` times; the median of each and its ratio to v1's."""
     envs = [ResidualVectorEnv(n, WINDY, scenario_options=options,
                               base_controller="geometric-ndob:tuned", compiled=compiled)
-            for _, options, compiled in LOOP_VARIANTS]
+            for _, options, compiled in variants]
     actions = [np.zeros((n, 4)) for _ in envs]
     for env, action in zip(envs, actions, strict=True):
         compiled_and_warm(env)
@@ -198,7 +207,7 @@ def print_loop_table(n: int, steps: int, repeats: int) -> None:
     print("| loop | env-steps/s | spread (min-max) / median | / v1 | µs per env-step |")
     print("|---|---|---|---|---|")
     reference = statistics.median(rates[0])
-    for (label, _, _), measured in zip(LOOP_VARIANTS, rates, strict=True):
+    for (label, _, _), measured in zip(variants, rates, strict=True):
         median = statistics.median(measured)
         spread = (max(measured) - min(measured)) / median
         print(f"| {label} | {median:,.0f} | {spread:.2f} | {median / reference:.2f} | "
@@ -237,14 +246,17 @@ def main() -> None:
                         help="interleaved repeats per variant in the sensing table (median)")
     parser.add_argument("--loop-only", action="store_true",
                         help="run the vehicle-loop table alone (v1, sensing, v2's factors)")
+    parser.add_argument("--benchmarks-only", action="store_true",
+                        help="run the whole loops alone: v1, v2 and v3")
     args = parser.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, numpy {np.__version__}")
     if args.sensing_only:
         print_sensing_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
         return
-    if args.loop_only:
-        print_loop_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
+    if args.loop_only or args.benchmarks_only:
+        print_loop_table(args.sensing_size, args.sensing_steps, args.sensing_repeats,
+                         BENCHMARK_VARIANTS if args.benchmarks_only else LOOP_VARIANTS)
         return
     print(f"\ncalm: {CALM} (no wind, no drag, instant motors); windy: {WINDY} (Dryden "
           "moderate + gusts, drag, motor lag)\n")
