@@ -115,10 +115,12 @@ def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str
              "motor_time_constants": not resolved["speed_motors"],
              "model_tolerance": not resolved["speed_motors"],
              "gyro_cutoff": resolved["inner_rate"] is None,
-             "imu_vibration": not has_imu(resolved["sensing"])}
+             "imu_vibration": not has_imu(resolved["sensing"]),
+             # the pose's latency on ticks is a sensor suite's pose fix's
+             "pose_latency_on_ticks": not has_imu(resolved["sensing"])}
     for key, missing in needs.items():
         if missing and given.get(key) is None:
-            resolved[key] = None
+            resolved[key] = _V3_OFF[key][1]
     return resolved
 
 

@@ -179,6 +179,7 @@ class Scenario:
         object.__setattr__(self, "sensing", sensing)
         object.__setattr__(self, "sensors", sensing if isinstance(sensing, SensorNoise) else None)
         self._check_vibration()
+        self._check_pose_ticks()
         object.__setattr__(self, "extra_latency",
                            as_finite(self.extra_latency, "Scenario.extra_latency", 0.0))
         scale = as_finite(self.motor_time_constant_scale, "Scenario.motor_time_constant_scale",
@@ -268,6 +269,12 @@ class Scenario:
                              "with an IMU ('mocap', 'gnss-imu')")
         object.__setattr__(self, "imu_vibration", pair)
 
+    def _check_pose_ticks(self) -> None:
+        if self.pose_latency_on_ticks and not isinstance(self.sensing, SensorSuite):
+            raise ValueError(f"Scenario.pose_latency_on_ticks resolves a sensor suite's pose "
+                             f"latency, but scenario {self.name!r} senses {self.sensing!r}: "
+                             "give sensing a suite ('mocap', 'gnss-imu')")
+
     def _check_motor_time_constants(self) -> None:
         given = self.motor_time_constants
         if given is None:
@@ -313,10 +320,11 @@ class Scenario:
                                  f"{self.name!r} flies speed_motors={self.speed_motors}, "
                                  f"thrust_uncertainty={self.thrust_uncertainty}: set "
                                  "speed_motors=True, thrust_uncertainty=False")
-        if self.model_tolerance is not None and not (self.speed_motors or self.throttle_map):
+        if (self.model_tolerance is not None and self.model_tolerance.thrust_coefficient
+                and not self.speed_motors):
             raise ValueError(f"Scenario.model_tolerance's thrust coefficient is the speed "
                              f"motors' k_F, but scenario {self.name!r} flies without them: "
-                             "set speed_motors=True")
+                             "set speed_motors=True, or leave its thrust_coefficient 0")
         if self.rotor_aerodynamics and not self.drag:
             raise ValueError(f"Scenario.rotor_aerodynamics acts on the air-relative velocity, "
                              f"but scenario {self.name!r} flies without drag: set drag=True")

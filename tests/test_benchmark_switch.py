@@ -180,9 +180,33 @@ def test_a_loop_part_switched_off_takes_the_v3_factors_acting_through_it():
                          speed_motors=False)
     assert bare.imu_vibration is None and bare.gyro_cutoff is None
     assert bare.throttle_map is None and bare.model_tolerance is None
-    assert bare.motor_time_constants is None and bare.pose_latency_on_ticks
+    assert bare.motor_time_constants is None and not bare.pose_latency_on_ticks
     with pytest.raises(ValueError, match="shakes an IMU"):
         make_scenario("dryden-helix-gusts", benchmark="v3", sensing="ideal",
                       imu_vibration=(0.0, 0.5))
     with pytest.raises(ValueError, match="no inner loop"):
         make_scenario("dryden-helix-gusts", benchmark="v3", inner_rate=0, gyro_cutoff=30.0)
+    with pytest.raises(ValueError, match="sensor suite's pose"):
+        make_scenario("dryden-helix-gusts", benchmark="v3", sensing="ideal",
+                      pose_latency_on_ticks=True)
+
+
+# Benchmark v2's flights as the tree before v3 flew them (commit 6f88fe6, seed 9001, the
+# final position); 1e-9 m for another CPU's rounding. Each takes another path of the loop:
+# the observer base's attitude law at the inner rate, INDI's telemetry and accelerometer,
+# the PID on the 100 Hz figure-8 in the tunnel's wind.
+V2_FLIGHTS = {
+    ("geometric-ndob:tuned", "dryden-helix-gusts"): (4.009589050037291, -0.041685704265926334,
+                                                     2.6813530765863334),
+    ("indi", "gusty-hover"): (0.008469252533514908, 0.002267221469312653, 0.9979112091415328),
+    ("pid", "figure8-wind-12.1"): (-1.3819999582130391, -0.051324623373188105,
+                                   1.9451770142693015),
+}
+
+
+@pytest.mark.parametrize(("name", "scenario"), list(V2_FLIGHTS))
+def test_benchmark_v2_flies_as_before_v3(name, scenario):
+    flown = make_scenario(scenario, benchmark="v2")
+    record = fly(make_controller(name, flown.vehicle, "v2"), flown, seed=9001)[0]
+    np.testing.assert_allclose(record.position[-1], V2_FLIGHTS[(name, scenario)], rtol=0,
+                               atol=1e-9)

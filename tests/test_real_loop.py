@@ -109,41 +109,50 @@ def _throttle_for(fraction, factor):
     return float(max(r.real for r in roots if abs(r.imag) < 1e-12))
 
 
-@pytest.mark.parametrize("autopilot_factor", [0.0, 0.3])
-def test_the_throttle_map_turns_believed_thrust_into_the_rotors_truth(autopilot_factor):
+@pytest.mark.parametrize(("autopilot_factor", "tolerance"), [
+    (0.0, None), (0.3, None), (0.0, {"mass": 0.05, "inertia": 0.1, "thrust_coefficient": 0.05})])
+def test_the_throttle_map_turns_believed_thrust_into_the_rotors_truth(autopilot_factor,
+                                                                       tolerance):
     """Per step: t_h = t_h0 + r t, t̂_h = t_h (1 + ε); u = the autopilot's model inverted at
     t̂_h T_c / T̂_h, held at 1; T = T_full ((1 - κ) u + κ u²) with T_full holding the
-    weight at the output the setpoint t_h asks for; the rotors lag to sqrt(T / k_F); the
-    ceiling is reported as saturation."""
+    *true* weight at the output the setpoint t_h asks for while the autopilot divides by
+    the *told* one; the rotors lag to sqrt(T / k_F,true); the ceiling (here below the
+    mixer's own limit) is reported as saturation."""
     factor = 0.6
     mapping = {"thrust_model_factor": factor, "hover_throttle": (0.44, 0.51),
                "hover_throttle_drift": (2e-4, 6e-4), "hover_estimate_error": 0.05,
                "autopilot_thrust_model_factor": autopilot_factor}
     scenario = make_scenario("hover-calm", speed_motors=True, thrust_uncertainty=False,
-                             throttle_map=mapping, **STILL)
+                             throttle_map=mapping, model_tolerance=tolerance, **STILL)
     core = _core(scenario, seeds=[7])
     drawn = core.sampled[0]
     hover0, drift = drawn["hover_throttle"], drawn["hover_throttle_drift"]
     estimate = drawn["hover_estimate_factor"]
+    # told over true: the truth's mass and k_F are the told ones over these
+    told_mass = drawn.get("mass_told_over_true", 1.0)
+    told_k = drawn.get("thrust_coefficient_told_over_true", 1.0)
+    assert tolerance is None or min(abs(told_mass - 1), abs(told_k - 1)) > 1e-3
     assert 0.44 <= hover0 <= 0.51 and 2e-4 <= drift <= 6e-4 and abs(estimate - 1) <= 0.05
     tau = PAPER.motor_time_constant
     omega = core.actuator_state[0].copy()
     believed_hover = PAPER.hover_thrust / 4
-    for row, factors in enumerate([[1.2, 1.1, 0.9, 0.8]] * 5 + [[2.4, 1.0, 1.0, 1.0]] * 3):
+    # 2.3 x hover stays under the mixer's 25 N a rotor, over full throttle at these draws
+    assert 2.3 * HOVER_ROTOR < PAPER.max_rotor_thrust
+    for row, factors in enumerate([[1.2, 1.1, 0.9, 0.8]] * 5 + [[2.3, 1.0, 1.0, 1.0]] * 3):
         thrusts = HOVER_ROTOR * np.array(factors)
         t = row * DT
         true_hover = hover0 + drift * t
         np.testing.assert_allclose(core.loop.hover_throttle_estimate(core.time)[0],
                                    true_hover * estimate, rtol=1e-12)
         hover_output = _throttle_for(true_hover, autopilot_factor)
-        full = (PAPER.mass * PAPER.gravity / 4) / ((1 - factor) * hover_output
-                                                   + factor * hover_output**2)
+        full = (PAPER.mass / told_mass * PAPER.gravity / 4) / ((1 - factor) * hover_output
+                                                               + factor * hover_output**2)
         throttle = np.array([_throttle_for(true_hover * estimate * c / believed_hover,
                                            autopilot_factor) for c in thrusts])
         ceiling = bool(np.any(throttle > 1))
         throttle = np.minimum(throttle, 1.0)
         true = full * ((1 - factor) * throttle + factor * throttle**2)
-        command = np.sqrt(true / K_F)
+        command = np.sqrt(true / (K_F / told_k))
         omega = command + (omega - command) * math.exp(-DT / tau)
         core.step(_rotor_actions(core, thrusts))
         np.testing.assert_allclose(core.actuator_state[0], omega, rtol=1e-9)
@@ -205,6 +214,8 @@ def test_the_throttle_map_draws_from_its_own_stream():
     ({"thrust_model_factor": 0.5, "hover_throttle": 0.4}, r"\(low, high\) pair"),
     ({"thrust_model_factor": 0.5, "hover_throttle": (0.4, 0.5),
       "hover_estimate_error": 1.0}, "relative bound"),
+    ({"thrust_model_factor": 0.5, "hover_throttle": (0.4, 0.5),
+      "hover_throttle_drift": (-1e-3, 0.0)}, "0 <= low"),
     ({"thrust_model_factor": 0.5, "hover_throttle": (0.4, 0.5), "voltage": 16},
      "ThrottleMap field")])
 def test_bad_throttle_maps_are_refused(mapping, message):
@@ -261,9 +272,12 @@ def test_every_v3_value_has_a_source_and_every_range_holds_its_nominal():
     import dataclasses
 
     from quad_dob_env.benchmark_v3 import ABLATION_ENDS, REAL_LOOPS, V3_SOURCES
+    from quad_dob_env.sensing.models import SENSING_PRESETS
 
     for name, loop in REAL_LOOPS.items():
         assert name in VEHICLES
+        # v3 flies the mocap preset's pose, whose latency is the one sourced here
+        assert SENSING_PRESETS["mocap"].pose.latency == loop.pose_latency
         for field in dataclasses.fields(loop):
             value = getattr(loop, field.name)
             if dataclasses.is_dataclass(value):  # a record: each of its fields
@@ -309,19 +323,27 @@ def test_the_gyro_low_pass_is_the_prewarped_butterworth(cutoff, rate):
     np.testing.assert_allclose(np.abs(response), [1.0, math.sqrt(0.5)], rtol=1e-12)
 
 
-def test_the_rate_loop_reads_the_gyro_low_pass_stepped_once_a_tick():
+@pytest.mark.parametrize(("initial_rate", "tolerance"), [
+    ((0.0, 0.0, 0.0), None), ((0.3, -0.2, 0.05), None), ((0.0, 0.0, 0.0), {"inertia": 0.2})])
+def test_the_rate_loop_reads_the_gyro_low_pass_stepped_once_a_tick(initial_rate, tolerance):
     """thrust_rates with one inner tick a step, no motor lag, ideal sensing: the filter's
     input is the true rate at each step's end (y = b·x - a·y, difference equation written
-    here, settled at rest), and each step's moment is the rate law on its last output,
-    M = J k (ω_cmd - y) + y × J y."""
+    here, settled on the initial rates), and each step's moment is the rate law on its last
+    output, M = J k (ω_cmd - y) + y × J y, with the told (nominal) J under a model
+    tolerance."""
     from quad_dob_env.envs.actions import MAX_RATE_COMMAND, RATE_GAIN
 
     cutoff, rate = 30.0, 100.0
-    scenario = make_scenario("hover-calm", inner_rate=rate, gyro_cutoff=cutoff, **STILL)
+    scenario = make_scenario("hover-calm", inner_rate=rate, gyro_cutoff=cutoff,
+                             initial_angular_velocity=initial_rate, model_tolerance=tolerance,
+                             **STILL)
     assert scenario.inner_ticks == 1
     core = _core(scenario, action_mode="thrust_rates")
+    if tolerance is not None:  # the truth is off the told inertia
+        assert abs(core.sampled[0]["inertia_told_over_true"] - 1) > 1e-3
     b, a = _butterworth_oracle(cutoff, rate)
-    inputs, outputs = [np.zeros(3)] * 2, [np.zeros(3)] * 2  # settled on the initial rates
+    start = np.array(initial_rate)
+    inputs, outputs = [start] * 2, [start] * 2  # settled on the initial rates
     J = PAPER.inertia_matrix
     generator = np.random.default_rng(0)
     for _ in range(25):
@@ -428,3 +450,46 @@ def test_at_50_hz_the_pose_fix_keeps_its_latency_on_the_tick_grid(latency, extra
         position, rotation = truth[4 * k - late_ticks]
         np.testing.assert_allclose(row[0:3], position, rtol=0, atol=1e-12)
         np.testing.assert_allclose(row[3:12], rotation.ravel(), rtol=0, atol=1e-12)
+
+
+def test_the_model_tolerance_composes_with_v2s_thrust_draws():
+    """v2's thrust uncertainty asked for under v3 replaces the throttle map, not the model
+    tolerance: the true k_F is thrust uncertainty's draw over the told factor."""
+    scenario = make_scenario("hover-calm", benchmark="v3", thrust_uncertainty=True)
+    assert scenario.throttle_map is None and scenario.model_tolerance is not None
+    core = _core(scenario, seeds=[3])
+    drawn = core.sampled[0]
+    alone = _core(make_scenario("hover-calm", benchmark="v3", thrust_uncertainty=True,
+                                model_tolerance=False), seeds=[3]).sampled[0]
+    assert drawn["thrust_scale"] == pytest.approx(
+        alone["thrust_scale"] / drawn["thrust_coefficient_told_over_true"], rel=1e-12)
+    assert drawn["battery_sag_rate"] == alone["battery_sag_rate"]
+
+
+def test_an_attitude_law_reads_the_gyro_low_pass_too():
+    """The attitude-loop path (a controller's law at the inner rate) steps the same filter
+    once a tick: with one tick a step and ideal sensing its output after each step is the
+    difference equation over the true rates at the steps' ends."""
+    import gymnasium as gym
+
+    import quad_dob_env  # noqa: F401  (registers the ids)
+    from quad_dob_composition import ReferencePolicy
+
+    cutoff, rate = 30.0, 100.0
+    env = gym.make("QuadDOB/Track-v1", scenario="dryden-helix-gusts",
+                   scenario_options={"inner_rate": rate, "gyro_cutoff": cutoff})
+    policy = ReferencePolicy("geometric-ndob:tuned", env)
+    obs, _ = env.reset(seed=3)
+    core = env.unwrapped.core
+    assert core.attitude_loop is not None
+    b, a = _butterworth_oracle(cutoff, rate)
+    start = core.state.angular_velocity[0].copy()
+    inputs, outputs = [start] * 2, [start] * 2
+    for _ in range(30):
+        obs, *_ = env.step(policy.predict(obs)[0])
+        x = core.state.angular_velocity[0].copy()
+        y = (b[0] * x + b[1] * inputs[-1] + b[2] * inputs[-2] - a[1] * outputs[-1]
+             - a[2] * outputs[-2])
+        inputs.append(x)
+        outputs.append(y)
+        np.testing.assert_allclose(core.loop.gyro_output[0], y, rtol=1e-9, atol=1e-12)

@@ -58,7 +58,7 @@ class ThrottleMap:
     - ``hover_throttle`` (low, high): the true hover throttle at the start, drawn uniformly
       (one pack among many);
     - ``hover_throttle_drift`` (low, high) [1/s]: its climb through the flight, drawn
-      uniformly;
+      uniformly, in [0, 0.01];
     - ``hover_estimate_error`` e: the autopilot's estimate is the truth times ``1 + ε``,
       ε uniform in [-e, e].
     """
@@ -78,8 +78,10 @@ class ThrottleMap:
             object.__setattr__(self, name, value)
         object.__setattr__(self, "hover_throttle",
                            _pair(self.hover_throttle, "hover_throttle", 1e-3, 1.0))
+        # a draining pack's hover throttle only climbs (and stays above 0, so a rotor's
+        # full-throttle thrust stays finite)
         object.__setattr__(self, "hover_throttle_drift",
-                           _pair(self.hover_throttle_drift, "hover_throttle_drift", -0.01, 0.01))
+                           _pair(self.hover_throttle_drift, "hover_throttle_drift", 0.0, 0.01))
         error = as_finite(self.hover_estimate_error, "ThrottleMap.hover_estimate_error", 0.0)
         if error >= 1.0:
             raise ValueError("ThrottleMap.hover_estimate_error is a relative bound below 1, got "

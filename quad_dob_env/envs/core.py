@@ -282,7 +282,7 @@ class QuadrotorBatch:
         """
         self.prepare_step()
         self._actions[...] = (actions if self.loop.rates else self.action_map.flown(
-            actions, self.measurement.angular_velocity, self.inertia))  # the gyro's, not truth
+            actions, self.measurement.angular_velocity, self.loop.told_inertia(self.inertia)))
         if self.attitude_loop is not None:  # a controller's attitude law at the inner rate
             self.attitude_loop.fly(self._actions)
         else:

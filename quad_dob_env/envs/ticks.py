@@ -107,8 +107,13 @@ def keep_pose(i, tick, x, v, R, inner):
 def rate_law(actions, i, thrust, R, w, inertia, inner):
     """``thrust_rates``' inner loop: ``M = J k_ω (ω_cmd - ω) + ω × J ω`` (Lee et al. 2010,
     eq. 16's rate and gyroscopic terms), ``ω_cmd = a₁..₃ · max_rate``, each moment clipped
-    to its limit as the action map would."""
+    to its limit as the action map would; J is the inertia the autopilot is told, the
+    vehicle's ``inertia`` times ``inner[10][i]``."""
     gain, max_rate, limit = inner[2], inner[3], inner[4]
+    told = inner[10][i]  # the controller's inertia over the truth (v3's model tolerance)
+    inertia = (inertia[0] * told, inertia[1] * told, inertia[2] * told, inertia[3] * told,
+               inertia[4] * told, inertia[5] * told, inertia[6] * told, inertia[7] * told,
+               inertia[8] * told)
     error = (min(max(actions[i, 1], -1.0), 1.0) * max_rate - w[0],
              min(max(actions[i, 2], -1.0), 1.0) * max_rate - w[1],
              min(max(actions[i, 3], -1.0), 1.0) * max_rate - w[2])

@@ -71,7 +71,9 @@ class VehicleLoop:
                        self.gyro_output),
                       # where the sensing takes the pose fix within a step (0: its end)
                       pose if pose is not None else (0, np.zeros((1, 3)), np.zeros((1, 3)),
-                                                     np.zeros((1, 3, 3))))
+                                                     np.zeros((1, 3, 3))),
+                      # the told inertia over the truth, which thrust_rates' rate loop flies
+                      self.told_over_true[:, 1])
 
     @property
     def speed_motors(self) -> bool:
@@ -109,8 +111,9 @@ class VehicleLoop:
             stream = child.spawn(1)[0]
             self.thrust_scale[index] = stream.uniform(*THRUST_SCALE_RANGE)
             self.sag_rate[index] = stream.uniform(*SAG_RATE_RANGE)
-        elif self.throttle is not None or self.tolerance is not None:
-            # one stream, a fixed order: the throttle map's draws, then the model's
+        if self.throttle is not None or self.tolerance is not None:
+            # one stream, a fixed order: the throttle map's draws, then the model's (after
+            # thrust uncertainty's own stream, when both fly)
             stream = child.spawn(1)[0]
             mapping = self.throttle
             if mapping is not None:
@@ -123,7 +126,15 @@ class VehicleLoop:
                 bounds = np.array([tolerance.mass, tolerance.inertia,
                                    tolerance.thrust_coefficient])
                 self.told_over_true[index] = 1.0 + stream.uniform(-bounds, bounds)
-                self.thrust_scale[index] = 1.0 / self.told_over_true[index, 2]
+                drawn = self.thrust_scale[index] if self.uncertain else 1.0
+                self.thrust_scale[index] = drawn / self.told_over_true[index, 2]
+
+    def told_inertia(self, inertia: NDArray) -> NDArray:
+        """The inertia (N, 3, 3) an autopilot's rate loop is told for the vehicles' true
+        ``inertia``: the same array without a model tolerance."""
+        if self.tolerance is None:
+            return inertia
+        return inertia * self.told_over_true[:, 1, None, None]
 
     def truth_scales(self, index: int) -> NDArray:
         """Vehicle ``index``'s true mass and inertia over the told (nominal) ones."""
@@ -147,5 +158,5 @@ class VehicleLoop:
                          thrust_coefficient_told_over_true=float(told[2]))
         if not self.uncertain:
             return drawn
-        return {"thrust_scale": float(self.thrust_scale[index]),
+        return {**drawn, "thrust_scale": float(self.thrust_scale[index]),
                 "battery_sag_rate": float(self.sag_rate[index])}
