@@ -13,7 +13,7 @@ of thrust uncertainty, vibration on the IMU and the controllers' model off the t
 A loop field given with the scenario (``sensing="ideal"``, ``speed_motors=False``,
 ``inner_rate=0``, ...) keeps its value under any benchmark: that is how one factor is
 switched off in turn. v3's own factors are switched off with ``False`` (``gyro_cutoff``: 0).
-Imports nothing above ``benchmark_v3``.
+Imports nothing above ``benchmark_v3`` and ``sensing.models``.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ import math
 from typing import Any
 
 from quad_dob_env.benchmark_v3 import REAL_LOOPS, butterworth_gain
+from quad_dob_env.sensing.models import SensorSuite, resolve_sensing
 from quad_dob_env.validation import unknown_name_error
 
 BENCHMARKS = ("v1", "v2", "v3")
@@ -64,17 +65,16 @@ def v3_loop(vehicle: Any, name: str) -> dict[str, Any]:
             "pose_latency_on_ticks": True}
 
 
-# what "off" is for each of v3's own fields when given, and what it resolves to
-_V3_OFF = {"motor_time_constants": (False, None), "throttle_map": (False, None),
-           "model_tolerance": (False, None), "gyro_cutoff": (0, None),
-           "imu_vibration": (False, None), "pose_latency_on_ticks": (False, False)}
+# what each of v3's own fields is when off (given as False, ``gyro_cutoff`` as 0)
+V3_OFF = {"motor_time_constants": None, "throttle_map": None, "model_tolerance": None,
+          "gyro_cutoff": None, "imu_vibration": None, "pose_latency_on_ticks": False}
 
 
 def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str,
                 name: str, vehicle: Any = None) -> dict[str, Any]:
     """The loop fields of a scenario flown under ``benchmark``: those ``given`` (not None)
     as they are, the rest the benchmark's; ``inner_rate`` 0 means none, and v3's own fields
-    given "off" (``_V3_OFF``) none."""
+    given "off" their ``V3_OFF`` value."""
     if benchmark not in BENCHMARKS:
         raise unknown_name_error("benchmark", benchmark, BENCHMARKS)
     loop = benchmark in ("v2", "v3")
@@ -92,8 +92,7 @@ def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str
                 "rotor_aerodynamics": loop,
                 # the air-relative velocity the rotors' aerodynamics act on
                 "drag": loop,
-                **(v3_loop(vehicle, name) if v3 else {
-                    key: off for key, (_, off) in _V3_OFF.items()})}
+                **(v3_loop(vehicle, name) if v3 else V3_OFF)}
     resolved = {key: defaults[key] if given.get(key) is None else given[key]
                 for key in LOOP_FIELDS}
     if given["rotor_aerodynamics"] is None and given["drag"] is not None:
@@ -102,38 +101,26 @@ def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str
         resolved["rotor_aerodynamics"] = resolved["rotor_aerodynamics"] and bool(given["drag"])
     if isinstance(resolved["inner_rate"], (int, float)) and resolved["inner_rate"] == 0:
         resolved["inner_rate"] = None
-    for key, (_, none) in _V3_OFF.items():
+    for key, off in V3_OFF.items():
         value = resolved[key]
         if value is False or (key == "gyro_cutoff" and value == 0):
-            resolved[key] = none
+            resolved[key] = off
     if v3 and given["thrust_uncertainty"] and given.get("throttle_map") is None:
         # v2's thrust draws asked for by hand under v3 replace its throttle map
         resolved["throttle_map"] = None
     # a part of the loop switched off by hand takes the v3 factors that act through it
     # with it, unless they were given too (then the scenario refuses the pair)
+    suite = isinstance(resolve_sensing(resolved["sensing"]), SensorSuite)
     needs = {"throttle_map": not resolved["speed_motors"],
              "motor_time_constants": not resolved["speed_motors"],
              "model_tolerance": not resolved["speed_motors"],
              "gyro_cutoff": resolved["inner_rate"] is None,
-             "imu_vibration": not has_imu(resolved["sensing"]),
-             # the pose's latency on ticks is a sensor suite's pose fix's
-             "pose_latency_on_ticks": not has_imu(resolved["sensing"])}
+             # a sensor suite's IMU and pose fix
+             "imu_vibration": not suite, "pose_latency_on_ticks": not suite}
     for key, missing in needs.items():
         if missing and given.get(key) is None:
-            resolved[key] = _V3_OFF[key][1]
+            resolved[key] = V3_OFF[key]
     return resolved
-
-
-def has_imu(sensing: Any) -> bool:
-    """Whether ``sensing`` (a preset name, a record, a dict of one's fields or None) carries
-    an IMU: a sensor suite does, the ideal state and ``SensorNoise`` do not."""
-    if sensing is None or sensing == "ideal":
-        return False
-    if isinstance(sensing, str):
-        return True  # another preset is a suite; an unknown name is refused later
-    if isinstance(sensing, dict):
-        return "imu" in sensing
-    return hasattr(sensing, "imu")
 
 
 def scenario_options_for(options: dict[str, Any] | None, benchmark: str | None

@@ -236,7 +236,7 @@ def _v3_options(d: _Draw, scenario: str, options: dict[str, Any]) -> None:
     options["benchmark"] = "v3"
     if options.get("actuation", defaults[0]) != "rotors":
         d.invalid.append("benchmark v3 without rotors")
-    if options.get("vehicle", _default_vehicle(scenario)) not in (*V3_VEHICLES, "mavic",
+    if options.get("vehicle", defaults[2]) not in (*V3_VEHICLES, "mavic",
                                                                    "Paper", 7):
         d.invalid.append("benchmark v3 on a vehicle without sourced values")
     dt = options.get("dt", 0.01)
@@ -268,15 +268,6 @@ def _v3_options(d: _Draw, scenario: str, options: dict[str, Any]) -> None:
                 d.invalid.append(f"{key} with {conflict}")
 
 
-@functools.cache
-def _default_vehicle(scenario: str) -> str | None:
-    """A named scenario's default vehicle (None: no such scenario)."""
-    try:
-        return scenario_registry.make_scenario(scenario).vehicle.name
-    except (ValueError, TypeError):
-        return None
-
-
 def _later_id(rng: np.random.Generator, config: dict[str, Any], scenario: str,
               options: dict[str, Any]) -> None:
     """Now and then the drawn id's ``-v2`` or ``-v3`` counterpart (that benchmark's loop
@@ -295,19 +286,20 @@ def _later_id(rng: np.random.Generator, config: dict[str, Any], scenario: str,
         return
     if options.get("actuation", defaults[0]) != "rotors":
         config["invalid"].append("benchmark")
-    elif version == "-v3" and options.get("vehicle", _default_vehicle(scenario)) not in (
+    elif version == "-v3" and options.get("vehicle", defaults[2]) not in (
             *V3_VEHICLES, "mavic", "Paper", 7):
         config["invalid"].append("benchmark v3 on a vehicle without sourced values")
 
 
 @functools.cache
-def _actuation_and_drag(scenario: str) -> tuple[str, bool] | None:
-    """A named scenario's default actuation and drag (None: no such scenario)."""
+def _actuation_and_drag(scenario: str) -> tuple[str, bool, str] | None:
+    """A named scenario's default actuation, drag and vehicle name (None: no such
+    scenario)."""
     try:
         built = scenario_registry.make_scenario(scenario)
     except (ValueError, TypeError):
         return None
-    return built.actuation, built.drag
+    return built.actuation, built.drag, built.vehicle.name
 
 
 def _scenario_options(d: _Draw, scenario: str) -> dict[str, Any]:

@@ -311,6 +311,14 @@ def _butterworth_oracle(cutoff, rate):
     return numerator / denominator[0], denominator / denominator[0]
 
 
+def _difference_equation(b, a, x, inputs, outputs):
+    """y = b0 x + b1 x₋₁ + b2 x₋₂ - a1 y₋₁ - a2 y₋₂, appended to the histories."""
+    y = b[0] * x + b[1] * inputs[-1] + b[2] * inputs[-2] - a[1] * outputs[-1] - a[2] * outputs[-2]
+    inputs.append(x)
+    outputs.append(y)
+    return y
+
+
 @pytest.mark.parametrize(("cutoff", "rate"), [(30.0, 200.0), (20.0, 400.0), (45.0, 100.0)])
 def test_the_gyro_low_pass_is_the_prewarped_butterworth(cutoff, rate):
     from quad_dob_env.envs.ticks import butterworth_coefficients
@@ -356,10 +364,7 @@ def test_the_rate_loop_reads_the_gyro_low_pass_stepped_once_a_tick(initial_rate,
         core.step(actions)
         np.testing.assert_allclose(core.applied.moment[0], expected, rtol=1e-9, atol=1e-12)
         x = core.state.angular_velocity[0].copy()
-        y = (b[0] * x + b[1] * inputs[-1] + b[2] * inputs[-2] - a[1] * outputs[-1]
-             - a[2] * outputs[-2])
-        inputs.append(x)
-        outputs.append(y)
+        y = _difference_equation(b, a, x, inputs, outputs)
         np.testing.assert_allclose(core.loop.gyro_output[0], y, rtol=1e-9, atol=1e-13)
     assert np.abs(outputs[-1] - inputs[-1]).max() > 1e-3  # the filter did lag the rates
 
@@ -488,8 +493,5 @@ def test_an_attitude_law_reads_the_gyro_low_pass_too():
     for _ in range(30):
         obs, *_ = env.step(policy.predict(obs)[0])
         x = core.state.angular_velocity[0].copy()
-        y = (b[0] * x + b[1] * inputs[-1] + b[2] * inputs[-2] - a[1] * outputs[-1]
-             - a[2] * outputs[-2])
-        inputs.append(x)
-        outputs.append(y)
+        y = _difference_equation(b, a, x, inputs, outputs)
         np.testing.assert_allclose(core.loop.gyro_output[0], y, rtol=1e-9, atol=1e-12)

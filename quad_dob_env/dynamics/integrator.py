@@ -194,18 +194,17 @@ def _stage_inputs(start, command, time_constant, to_wrench, tables, own, row, i,
                   rotors):
     """Thrust, moment, rotor speeds, force, torque and wind at grid sample ``grid``,
     ``elapsed`` s in (the rotor speeds are what the rotors' own model reads, when on)."""
-    factor = lag_factor(elapsed, time_constant)
     if rotors[0]:
         if rotors[1] and rotors[11] > 0.0:  # speed motors spinning up and down unequally
             output = lagged_each(start, command, speed_lag_factors(
                 start, command, time_constant, rotors[11], elapsed))
         else:
-            output = lagged_output(start, command, factor)
+            output = lagged_output(start, command, lag_factor(elapsed, time_constant))
         speeds = speeds_of_output(output, rotors)
         f, m = 0.0, (0.0, 0.0, 0.0)
     else:
         speeds = (0.0, 0.0, 0.0, 0.0)
-        f, m = actuator_wrench(start, command, factor, to_wrench)
+        f, m = actuator_wrench(start, command, lag_factor(elapsed, time_constant), to_wrench)
     return (f, m, speeds, sample(tables[0], row, own[0], i, grid),
             sample(tables[1], row, own[1], i, grid), sample(tables[2], row, own[2], i, grid))
 

@@ -325,7 +325,7 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, rotors, r
                 break
             x, v, R, w = xn, vn, Rn, wn
             keep_pose(i, tick + 1, x, v, R, inner)
-            if rates:  # the gyro low-pass samples the tick's end
+            if rates and inner[8][0]:  # the gyro low-pass samples the tick's end
                 filtered_rate(i, inner_estimate(i, R, w, inner, r0, w0)[1], inner)
         finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated, actions,
                             actuator, rotors, rotor_state, position, velocity, rotation,
