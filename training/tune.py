@@ -22,7 +22,17 @@ The procedure, the same for each controller (v1's as it was; v2's differences af
 
 Benchmark v3 (``--benchmark v3``) is v2's procedure with v3's margin (``MARGINS``: 20 ms of
 extra latency, twice v2's, and motors 1.5x slower, at once), started from the v2 set of the
-vehicle (or the paper vehicle's, scaled), where v2's search ended.
+vehicle (or the paper vehicle's, scaled), where v2's search ended, with two additions
+(``SLOWED_SEARCH``), because from v2's sets every one-gain step loses every margin flight
+and the count of lost flights has nothing to follow (docs/tuning-v3/README.md):
+
+- **Shortfall.** Between candidates that lose as many margin flights, the one whose lost
+  flights lasted longer wins (``shortfall``: the lost flights' missing share of their
+  duration, summed), before the objective does.
+- **A slowed start.** The descent starts from the best of the start set slowed in time by
+  each of ``TIME_SCALES`` (``slowed``: every gain times s to the power of its order in
+  1/s, ``TIME_ORDER``, so the closed loop is the same loop s times slower: a 1-D search
+  of bandwidth, the direction lag asks for, before the per-gain descent).
 
 Benchmark v2 (``--benchmark v2 --vehicle NAME``, the default):
 
@@ -102,6 +112,24 @@ MARGIN = {"extra_latency": 0.01, "motor_time_constant_scale": 1.5}
 # per benchmark: v3's is twice v2's latency (quad_dob_env.benchmark_v3.TUNING_MARGIN)
 MARGINS = {"v2": MARGIN, "v3": TUNING_MARGIN}
 TIE_TOLERANCE = 0.02
+# v3's search: the shortfall ranking and the slowed start (module docstring)
+SLOWED_SEARCH = frozenset({"v3"})
+TIME_SCALES = (1.0, 0.8, 0.64, 0.5, 0.4, 0.32, 0.25)
+# Each built-in gain's order in 1/s: under t -> t / s a law keeps its closed loop if every
+# gain of order k is multiplied by s^k (kx/m and kR/J are 1/s², kv/m and kΩ/J 1/s, an
+# integral gain 1/s³; estimator rates and filter cutoffs 1/s; PID's rate_kd, a ratio of
+# angular accelerations, 0; an SMC boundary is the surface's width, so its linear gain
+# eta/boundary is of order 1). Clamps and bounds (limits, disturbance_bound) are of order 0.
+TIME_ORDER = {
+    "kx_per_mass": 2, "kv_per_mass": 1, "kR": 2, "kOmega": 1, "ki_per_mass": 3,
+    "translational_rate": 1, "rotational_rate": 1, "filter_bandwidth": 1,
+    "force_cutoff": 1, "torque_cutoff": 1, "torque_second_cutoff": 1, "predictor_rate": 1,
+    "rotational_predictor_rate": 1,
+    "position_kp": 2, "position_kd": 1, "position_ki": 3, "attitude_kp": 1, "rate_kp": 1,
+    "rate_ki": 2, "rate_kd": 0,
+    "position_lambda": 1, "position_boundary": -1, "attitude_lambda": 1, "attitude_eta": 2,
+    "attitude_boundary": 1,
+}
 LOST_FLIGHT = 1.0  # [m] what a flight that ended early scores
 FACTORS = (0.5, 0.7, 1.4, 2.0)
 PASSES = 2
@@ -220,6 +248,17 @@ def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
             for key, value in scaled.items()}
 
 
+def slowed(gains: dict[str, float], scale: float) -> dict[str, float]:
+    """``gains`` for the same closed loop ``scale`` times as fast (``TIME_ORDER``: each gain
+    times ``scale`` to its order; gains without an order, and a scale of 1, unchanged).
+    The SMC's position boundary is of order -1 because its reaching gain, set by the
+    disturbance bound, is not scaled: eta / boundary is then of order 1."""
+    if scale == 1.0:
+        return dict(gains)
+    return {key: _rounded(value * scale ** TIME_ORDER[key]) if key in TIME_ORDER else value
+            for key, value in gains.items()}
+
+
 def tuning_scenario(name: str, benchmark: str = "v1", vehicle: str = "paper",
                     **options: Any) -> Scenario:
     """The tuning scenario ``name`` under ``benchmark`` on ``vehicle``, with ``options``.
@@ -248,19 +287,25 @@ def score(build: Callable[[], Controller], benchmark: str = "v1", vehicle: str =
           seeds: tuple[int, ...] = TUNING_SEEDS, **options: Any) -> dict[str, float]:
     """Per tuning scenario of ``benchmark`` on ``vehicle``, the mean settled RMS position
     error over ``seeds`` (lost flights count as ``LOST_FLIGHT``), their mean as
-    ``objective``, and ``lost``, how many flights ended early; ``options`` go to every
-    scenario (``MARGIN`` for the admissibility check)."""
+    ``objective``, ``lost``, how many flights ended early, and ``shortfall``, the share of
+    its duration each lost flight missed, summed (0 when none is lost, near 1 per flight
+    lost at once); ``options`` go to every scenario (``MARGIN`` for the admissibility
+    check)."""
     result: dict[str, float] = {}
     lost = 0
+    shortfall = 0.0
     for name in TUNING_SCENARIOS[benchmark]:
-        flights = fly_policy(Policy("candidate", build()),
-                             tuning_scenario(name, benchmark, vehicle, **options), list(seeds))
+        scenario = tuning_scenario(name, benchmark, vehicle, **options)
+        flights = fly_policy(Policy("candidate", build()), scenario, list(seeds))
         metrics = list(map(flight_metrics, flights))
         lost += sum(bool(m["crashed"]) for m in metrics)
+        shortfall += sum(1.0 - min(1.0, len(flight.time) * flight.dt / scenario.duration)
+                         for flight, m in zip(flights, metrics, strict=True) if m["crashed"])
         result[name] = float(np.mean([LOST_FLIGHT if m["crashed"] else m["rms_position_settled"]
                                       for m in metrics]))
     result["objective"] = float(np.mean(list(result.values())))
     result["lost"] = lost
+    result["shortfall"] = round(shortfall, 6)
     return result
 
 
@@ -273,49 +318,71 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
     geometric controller's own gains, in v2 those and the observer's rates) by coordinate
     descent. In v1 a candidate wins on the objective; in v2 first on how many tuning
     flights it loses under ``MARGIN`` (none: admissible), then on the objective, so the
-    descent walks to admissible sets before it sharpens them."""
+    descent walks to admissible sets before it sharpens them; in v3 (``SLOWED_SEARCH``)
+    the lost flights' shortfall comes between the two, and the descent starts from the
+    best slowed start (``slowed``)."""
     searched = searched_gains(controller, benchmark)
     caps = bandwidth_caps(controller)
     gains = start_gains(controller, benchmark, vehicle)
     history: list[dict] = []
+    finer = benchmark in SLOWED_SEARCH
 
-    def trial(candidate: dict[str, float], to_beat: tuple[int, float] | None
-              ) -> tuple[int, float] | None:
-        """The candidate's (flights lost under the margin, objective); None when it loses
-        more under the margin than ``to_beat`` (its objective is then not flown)."""
+    def trial(candidate: dict[str, float], to_beat: tuple[int, float, float] | None
+              ) -> tuple[int, float, float] | None:
+        """The candidate's (flights lost under the margin, their shortfall in v3, else 0,
+        objective); None when it is already worse under the margin than ``to_beat`` (its
+        objective is then not flown)."""
         build = lambda: make_controller(controller, vehicle, benchmark, **candidate)  # noqa: E731
-        lost = 0
+        under_margin = (0, 0.0)
         record: dict[str, Any] = {"gains": dict(candidate)}
         if benchmark != "v1":
             margin = score(build, benchmark, vehicle, seeds, **MARGINS[benchmark])
-            lost = int(margin["lost"])
-            record.update(margin_lost=lost, margin_objective=margin["objective"])
-            if to_beat is not None and lost > to_beat[0]:
+            under_margin = (int(margin["lost"]), margin["shortfall"] if finer else 0.0)
+            record.update(margin_lost=under_margin[0], margin_shortfall=margin["shortfall"],
+                          margin_objective=margin["objective"])
+            if to_beat is not None and under_margin > to_beat[:2]:
                 history.append(record)
                 return None
         record.update(score(build, benchmark, vehicle, seeds))
         history.append(record)
-        return lost, record["objective"]
+        return (*under_margin, record["objective"])
 
-    best = trial(gains, None)
-    assert best is not None
-    log(f"{controller}: the hand-set start scores {best[1]:.4f} m"
-        + (f", losing {best[0]} flights under the margin" if benchmark != "v1" else ""))
+    def described(value: tuple[int, float, float]) -> str:
+        if benchmark == "v1":
+            return f"objective {value[2]:.4f} m"
+        return (f"objective {value[2]:.4f} m, {value[0]} lost under the margin"
+                + (f", shortfall {value[1]:.2f}" if finer and value[0] else ""))
+
+    if finer and controller in SEARCHED:
+        # the slowed start: the best of the start set at each time scale
+        best = None
+        start = gains
+        for scale in TIME_SCALES:
+            candidate = slowed(start, scale)
+            value = trial(candidate, best)
+            log(f"{controller}: the start slowed x{scale:g} "
+                + ("is worse under the margin" if value is None else f"scores {described(value)}"))
+            if value is not None and (best is None or value < best):
+                best, gains = value, candidate
+        assert best is not None
+    else:
+        best = trial(gains, None)
+        assert best is not None
+        log(f"{controller}: the hand-set start scores {described(best)}")
     sweep = 0
     # two passes; in v2, up to EXTRA_PASSES more while the best still loses margin flights
     while sweep < passes or (best[0] and sweep < passes + EXTRA_PASSES):
         for name in searched:
-            start = gains[name]
+            start_value = gains[name]
             for factor in FACTORS:
-                candidate = {**gains, name: _rounded(start * factor)}
+                candidate = {**gains, name: _rounded(start_value * factor)}
                 if name in caps and candidate[name] > caps[name]:
                     continue  # v1's cap: a tenth of the sampling rate
                 value = trial(candidate, best)
                 if value is not None and _wins(value, best, name in caps,
                                                candidate[name] < gains[name]):
                     best, gains = value, candidate
-            log(f"  pass {sweep + 1}, {name}: {gains[name]:.4g} (objective {best[1]:.4f} m"
-                + (f", {best[0]} lost under the margin)" if benchmark != "v1" else ")"))
+            log(f"  pass {sweep + 1}, {name}: {gains[name]:.4g} ({described(best)})")
         sweep += 1
     if best[0]:
         log(f"{controller}: no admissible set found; the best loses {best[0]} flights under "
@@ -328,18 +395,19 @@ def _rounded(value: float) -> float:
     return round(value, 6) if abs(value) >= 1e-3 else float(f"{value:.6g}")
 
 
-def _wins(value: tuple[int, float], best: tuple[int, float], is_rate: bool,
+def _wins(value: tuple[int, float, float], best: tuple[int, float, float], is_rate: bool,
           slower: bool) -> bool:
-    """Whether a candidate's (lost under the margin, objective) beats the best so far. An
+    """Whether a candidate's (lost under the margin, shortfall, objective) beats the best so
+    far. An
     estimator's bandwidth (``BANDWIDTHS``: observer rates, INDI's and L1's filters)
     follows v1's tie rule: a slower one wins within ``TIE_TOLERANCE`` of the best
     objective, a faster one only beyond it (a faster estimator amplifies noise and delay
     for little)."""
-    if value[0] != best[0] or not is_rate:
+    if value[:2] != best[:2] or not is_rate:
         return value < best
     if slower:
-        return value[1] <= best[1] * (1 + TIE_TOLERANCE)
-    return value[1] < best[1] * (1 - TIE_TOLERANCE)
+        return value[2] <= best[2] * (1 + TIE_TOLERANCE)
+    return value[2] < best[2] * (1 - TIE_TOLERANCE)
 
 
 def observer_grid(log: Callable[[str], None] = print,
