@@ -84,6 +84,11 @@ class Scenario:
     # [s] added to every reading (pose, IMU, rotors alike), resolved on the control grid
     # (the first step at or after it)
     extra_latency: float = 0.0
+    # [s] the pose fix (a SensorSuite's) arrives this much later than the suite says, and
+    # its estimator, told the suite's latency, does not know it: latency on the outer
+    # loop's path alone (mocap pipeline, the link to the vehicle), not on the autopilot's
+    # own IMU and rotor telemetry (Benchmark v3's tuning margin, docs/benchmark-v3.md)
+    unmodelled_pose_latency: float = 0.0
     # Benchmark v3: the pose fix's latency (its own plus extra_latency) resolved on the inner
     # loop's tick grid, not the control grid: at 50 Hz a 10 ms pipeline stays 10 ms (a
     # SensorSuite's pose; the IMU and rotor telemetry stay on the control grid)
@@ -182,6 +187,8 @@ class Scenario:
         self._check_pose_ticks()
         object.__setattr__(self, "extra_latency",
                            as_finite(self.extra_latency, "Scenario.extra_latency", 0.0))
+        object.__setattr__(self, "unmodelled_pose_latency", as_finite(
+            self.unmodelled_pose_latency, "Scenario.unmodelled_pose_latency", 0.0))
         scale = as_finite(self.motor_time_constant_scale, "Scenario.motor_time_constant_scale",
                           0.0, strictly=True)
         if scale != 1.0 and not (self.motor_lag or self.speed_motors):

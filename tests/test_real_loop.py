@@ -457,6 +457,53 @@ def test_at_50_hz_the_pose_fix_keeps_its_latency_on_the_tick_grid(latency, extra
         np.testing.assert_allclose(row[3:12], rotation.ravel(), rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize(("dt", "on_ticks"), [(0.02, True), (0.01, False)])
+def test_an_unmodelled_pose_latency_delays_the_fix_alone_and_is_not_told_the_estimator(
+        dt, on_ticks):
+    """The fix read at step k is the true pose at t_k - (latency + unmodelled) (on the tick
+    grid or the control grid), while the IMU's delay and the lag the estimator is told
+    stay those of the suite's own latency, and 0 changes nothing."""
+    options = {"inner_rate": 200.0, "speed_motors": True, **STILL}
+    latency, unmodelled = 0.010, 0.020
+    fast = _core(make_scenario("hover-calm", dt=0.005, **options))
+    flown = {name: _core(make_scenario(
+        "hover-calm", dt=dt, sensing=_still_mocap(latency), pose_latency_on_ticks=on_ticks,
+        unmodelled_pose_latency=extra, **options)) for name, extra in (
+            ("told", 0.0), ("late", unmodelled))}
+    told, late = flown["told"].sensing, flown["late"].sensing
+    ticks = round(dt / 0.005)
+    late_ticks = round((latency + unmodelled) / 0.005)
+    if not on_ticks:  # on the control grid the fix is late by whole steps
+        late_ticks = ticks * math.ceil(round((latency + unmodelled) / dt, 9))
+    assert late.delays == (late_ticks // ticks, told.delays[1])
+    assert late.lag == told.lag == told.delays[0] - told.delays[1]
+    thrusts = HOVER_ROTOR * np.array([1.3, 1.0, 0.8, 1.1])
+    truth = [(fast.state.position[0].copy(), fast.state.rotation[0].copy())]
+    for _ in range(12 * ticks):
+        fast.step(_rotor_actions(fast, thrusts))
+        truth.append((fast.state.position[0].copy(), fast.state.rotation[0].copy()))
+    depth, q = late.ring.shape[0], late.delays[0]
+    for k in range(1, 12):
+        for core in flown.values():
+            core.step(_rotor_actions(core, thrusts))
+        # the IMU rows the attitude loop and the filter read are the same in both
+        np.testing.assert_array_equal(late.ring[k % depth, 0, 12:],
+                                      told.ring[k % told.ring.shape[0], 0, 12:])
+        if ticks * k < late_ticks:
+            continue
+        row = late.ring[(k - q) % depth, 0]
+        position, rotation = truth[ticks * k - late_ticks]
+        np.testing.assert_allclose(row[0:3], position, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(row[3:12], rotation.ravel(), rtol=0, atol=1e-12)
+
+
+def test_an_unmodelled_pose_latency_needs_a_pose_fix():
+    with pytest.raises(ValueError, match=r"unmodelled pose latency .* sensor suite"):
+        _core(make_scenario("hover-calm", unmodelled_pose_latency=0.02))
+    with pytest.raises(ValueError, match=r"Scenario\.unmodelled_pose_latency"):
+        make_scenario("hover-calm", unmodelled_pose_latency=-0.01)
+
+
 def test_the_model_tolerance_composes_with_v2s_thrust_draws():
     """v2's thrust uncertainty asked for under v3 replaces the throttle map, not the model
     tolerance: the true k_F is thrust uncertainty's draw over the told factor."""

@@ -54,7 +54,10 @@ def test_ideal_sensing_flies_v1s_flights(scenario, policy):
     flights = fly_policy(make_policy(policy), flown, [9001, 9002])
     for flight, (*position, length) in zip(flights, V1_FLIGHTS[scenario, policy], strict=True):
         assert len(flight.position) == length
-        np.testing.assert_allclose(flight.position[-1], position, rtol=0, atol=1e-9)
+        # a torch policy's matrix products round by the CPU's vector width (1.8e-9 m apart
+        # on a 2026-12-05 VM), still far below any change of an equation
+        tolerance = 1e-8 if policy == "residual" else 1e-9
+        np.testing.assert_allclose(flight.position[-1], position, rtol=0, atol=tolerance)
         np.testing.assert_array_equal(flight.estimated_position, flight.position)
 
 

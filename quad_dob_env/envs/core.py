@@ -137,7 +137,8 @@ class QuadrotorBatch:
             hover=(self.vehicle.hover_thrust,
                    self.actuator.to_rotors @ self.actuator.hover_output()),
             vibration=scenario.imu_vibration or (0.0, 0.0),
-            ticks=scenario.inner_ticks if scenario.pose_latency_on_ticks else 1)
+            ticks=scenario.inner_ticks if scenario.pose_latency_on_ticks else 1,
+            unmodelled_pose_latency=scenario.unmodelled_pose_latency)
         # the kernels write the true state's observation here; a policy reads ``obs`` (the
         # same array for the identity, else rebuilt from the measurement)
         self._true_obs = self.obs if self.sensing.identity else np.zeros_like(self.obs)

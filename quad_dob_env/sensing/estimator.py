@@ -90,12 +90,13 @@ def estimate_kernel(start, stop, indices, step_count, predict, ring, delays, per
     """One step of the filter for vehicles ``indices[start:stop]`` (module docstring), then
     the
     estimate into the ``out_`` arrays (``predict`` False at a reset: the estimate stays
-    where ``start_estimates_kernel`` put it). ``delays``: pose, IMU delay in steps;
+    where ``start_estimates_kernel`` put it). ``delays``: pose, IMU delay in steps, and the
+    lag the filter is told the fix has over the IMU (the two's difference, but for an
+    unmodelled pose latency);
     ``gains``: ω_p, ω_R, ω_v [rad/s]."""
-    pose_delay, imu_delay = delays
+    pose_delay, imu_delay, lag = delays
     position_bandwidth, attitude_bandwidth, velocity_bandwidth = gains
     depth, length = ring.shape[0], history.shape[0]
-    lag = max(pose_delay - imu_delay, 0)
     fix_period = period * dt
     for j in range(start, stop):
         i = indices[j]

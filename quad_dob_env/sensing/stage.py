@@ -51,7 +51,8 @@ class SensingStage:
     def __init__(self, sensing: SensorSuite | SensorNoise | None, extra_latency: float,
                  truth: VehicleState, physics: tuple, vehicle: VehicleParams,
                  dt: float, hover: tuple[float, NDArray[np.float64]] | None = None,
-                 vibration: tuple[float, float] = (0.0, 0.0), ticks: int = 1) -> None:
+                 vibration: tuple[float, float] = (0.0, 0.0), ticks: int = 1,
+                 unmodelled_pose_latency: float = 0.0) -> None:
         n = truth.n
         self.sensing, self.dt, self.gravity = sensing, float(dt), float(vehicle.gravity)
         self.truth = truth
@@ -102,6 +103,17 @@ class SensingStage:
                 # estimator needs): v3's own latencies are whole steps for it
                 self.delays = (late // ticks, min(self.delays[1], late // ticks))
                 self.pose_tick = ticks - late % ticks if late % ticks else 0
+            # the estimator compensates the lag it is told, not one the suite does not say
+            self.lag = max(self.delays[0] - self.delays[1], 0)
+            if unmodelled_pose_latency:
+                if ticks > 1:
+                    late = delay_steps(pose.latency + extra_latency + unmodelled_pose_latency,
+                                       dt / ticks)
+                    self.delays = (late // ticks, self.delays[1])
+                    self.pose_tick = ticks - late % ticks if late % ticks else 0
+                else:
+                    self.delays = (delay_steps(pose.latency + unmodelled_pose_latency, dt)
+                                   + extra, self.delays[1])
             self.rotor_delay = delay_steps(sensing.rotors.latency, dt) + extra
             if self.delays[1] > self.delays[0]:
                 raise ValueError(
@@ -112,10 +124,15 @@ class SensingStage:
             gains = sensing.estimator
             self._gains = (gains.position_bandwidth, gains.attitude_bandwidth,
                            gains.velocity_bandwidth)
-            check_stability(sensing.name, self._gains, dt, self.period,
-                            self.delays[0] - self.delays[1])
+            check_stability(sensing.name, self._gains, dt, self.period, self.lag)
         else:
+            if unmodelled_pose_latency:
+                raise ValueError(
+                    f"an unmodelled pose latency ({unmodelled_pose_latency:g} s) delays a "
+                    f"sensor suite's pose fix, but the sensing is {sensing!r}: give sensing "
+                    "a suite ('mocap', 'gnss-imu'), or use extra_latency")
             self.period = 1
+            self.lag = 0
             self._pose = (0, 1) + (0.0,) * 5
             state_delay = extra + (0 if sensing is None else int(sensing.delay_steps))
             if isinstance(sensing, SensorNoise):
@@ -127,8 +144,7 @@ class SensingStage:
             self.pose_state = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3)))
         # the estimator integrates over the IMU's last two readings: one slot more
         depth = max(*self.delays, self.rotor_delay) + 1 + int(self.estimating)
-        lag = max(self.delays[0] - self.delays[1], 0)
-        history = (lag + self.period + 1) if self.estimating else 1
+        history = (self.lag + self.period + 1) if self.estimating else 1
         check_memory(n * 8 * (depth * READING_WIDTH + history * HISTORY_WIDTH),
                      f"the sensing delay lines of {depth - 1:,} steps for {n:,} vehicles",
                      "use a shorter latency (SensorNoise.delay_steps, extra_latency)")
@@ -175,7 +191,8 @@ class SensingStage:
                 start_estimates_kernel(indices, truth.position, truth.velocity,
                                        truth.rotation, self.estimate_state, self.history)
             run_over_batch(estimate_kernel, len(indices), indices, step_count, not reset,
-                           self.ring, self.delays, self.period, self._pose[0], self._gains,
+                           self.ring, (*self.delays, self.lag), self.period, self._pose[0],
+                           self._gains,
                            self.dt, self.gravity, self.estimate_state, self.history,
                            m.position, m.velocity, m.rotation, m.angular_velocity)
         run_over_batch(measurement_kernel, len(indices), indices, step_count, self.ring,
