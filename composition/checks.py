@@ -30,6 +30,7 @@ import numpy as np
 
 from quad_dob_baselines import Controller, make_controller, plugins, user_controller
 from quad_dob_composition.envs import make_vector_env
+from quad_dob_env.benchmark import TOOLS_BENCHMARK
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.scenarios import make_scenario
 
@@ -43,7 +44,7 @@ GAIN_SCENARIO = "gusty-hover"
 
 
 def check_controller(controller: str | Any, vehicle: str = "paper",
-                     benchmark: str = "v2") -> list[str]:
+                     benchmark: str = TOOLS_BENCHMARK) -> list[str]:
     """Every problem found with ``controller`` (a name such as ``py:pkg.mod:Name``, or the
     class or factory itself), each a sentence saying what is wrong and what the interface
     wants; empty when it passes every check (module docstring)."""

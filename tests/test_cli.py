@@ -23,3 +23,32 @@ def test_console_script_rejects_an_unknown_command():
                             capture_output=True,
                             text=True)
     assert result.returncode == 2 and "invalid choice: 'fly'" in result.stderr
+
+
+def test_every_tool_flies_v3_unless_told(monkeypatch, tmp_path):
+    """evaluate (and --suite), tune and check-controller fly the newest benchmark when no
+    --benchmark is given, and the one given when it is; the leaderboard lays rows out by
+    v3's suite."""
+    import inspect
+
+    import quad_dob_composition.checks as checks
+    import quad_dob_training.evaluate as evaluate
+    import quad_dob_training.tune as tune
+
+    seen: list[tuple[str, str]] = []
+    monkeypatch.setattr(evaluate, "main", lambda *a, scenario_options, **k: seen.append(
+        ("evaluate", scenario_options["benchmark"])) or 0)
+    monkeypatch.setattr(tune, "main", lambda controllers, out, benchmark, *a, **k: seen.append(
+        ("tune", benchmark)) or 0)
+    monkeypatch.setattr(checks, "check_controller", lambda name, vehicle, benchmark: seen.append(
+        ("check-controller", benchmark)) or [])
+    out = str(tmp_path / "out")
+    for flags in ([], ["--benchmark", "v2"]):
+        assert main(["evaluate", "--out", out, *flags]) == 0
+        assert main(["evaluate", "--suite", "--out", out, *flags]) == 0
+        assert main(["tune", "--out", out, *flags]) == 0
+        assert main(["check-controller", "pid", *flags]) == 0
+    assert seen == [(tool, benchmark) for benchmark in ("v3", "v2") for tool in
+                    ("evaluate", "evaluate", "tune", "check-controller")]
+    assert inspect.signature(evaluate.leaderboard).parameters["benchmark"].default == "v3"
+    assert evaluate.SUITES["v3"] == evaluate.SUITES["v2"]

@@ -277,13 +277,11 @@ def test_the_adapter_takes_the_envs_thrust_setpoint_where_it_reports_one():
     assert reported.thrust_source == "info thrust_setpoint / hover_throttle"
 
 
-def test_the_wind_tunnel_picks_the_newest_benchmark(monkeypatch):
-    import quad_dob_env.benchmark as benchmark
+def test_the_wind_tunnel_counterparts_and_benchmark():
+    from quad_dob_env.benchmark import TOOLS_BENCHMARK
     from quad_dob_training.wind_tunnel_tool import SIMULATED_OF, default_benchmark
 
-    assert default_benchmark() == ("v3" if "v3" in benchmark.BENCHMARKS else "v2")
-    monkeypatch.setattr(benchmark, "BENCHMARKS", (*benchmark.BENCHMARKS, "v3"))
-    assert default_benchmark() == "v3"
+    assert default_benchmark() == TOOLS_BENCHMARK == "v3"
     assert SIMULATED_OF == {"baseline": "geometric-integral", "indi": "indi", "L1": "l1",
                             "NF-C": "geometric-ndob:tuned"}
 

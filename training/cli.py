@@ -12,6 +12,7 @@ import os
 import sys
 from pathlib import Path
 
+from quad_dob_env.benchmark import TOOLS_BENCHMARK
 from quad_dob_training.cli_checks import (
     MAX_TIMESTEPS,
     _delay_grid,
@@ -78,7 +79,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.benchmark is not None and options.get("benchmark", args.benchmark) != args.benchmark:
         raise ValueError(f"--benchmark {args.benchmark} and --scenario-option "
                          f"benchmark={options['benchmark']} disagree: give one")
-    options.setdefault("benchmark", args.benchmark or "v2")
+    options.setdefault("benchmark", args.benchmark or TOOLS_BENCHMARK)
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
                          args.json, args.baseline, args.suite, trust_pickle=args.trust_pickle,
                          scenario_options=options, delay_grid=args.delay_margins,
@@ -105,7 +106,7 @@ def _tune(args: argparse.Namespace) -> int:
     get_vehicle(args.vehicle)  # an unknown name fails here, naming the presets
     _writable_folder(args.out, "--out")
     return tune_main(None if args.controllers is None else _names(args.controllers), args.out,
-                     args.benchmark or "v2", args.vehicle, seeds=args.seeds,
+                     args.benchmark or TOOLS_BENCHMARK, args.vehicle, seeds=args.seeds,
                      passes=args.passes)
 
 
@@ -114,7 +115,8 @@ def _check_controller(args: argparse.Namespace) -> int:
     from quad_dob_env.params import get_vehicle
 
     get_vehicle(args.vehicle)
-    problems = check_controller(args.controller, args.vehicle, args.benchmark or "v2")
+    problems = check_controller(args.controller, args.vehicle,
+                                args.benchmark or TOOLS_BENCHMARK)
     for problem in problems:
         print(f"- {problem}")
     print(f"{args.controller}: " + (f"{len(problems)} problem(s)" if problems else
@@ -144,12 +146,12 @@ def _sweep(args: argparse.Namespace) -> int:
 
 def _benchmark_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--benchmark", default=None, choices=["v1", "v2", "v3"],
-                        help="the loop every scenario is flown in: v2, the vehicle's own "
-                        "(mocap sensing, inner loop, motors, thrust uncertainty, rotor "
-                        "aerodynamics; the gains tuned for it), v3, v2's with the real "
-                        "vehicle's lag and thrust path (docs/benchmark-v3.md; v2's gains "
-                        "until v3's search has run), or v1, the ideal loop, to reproduce "
-                        "v1's tables (default: v2)")
+                        help="the loop every scenario is flown in: v3, the real vehicle's "
+                        "lag and thrust path on v2's loop (docs/benchmark-v3.md; the gains "
+                        "tuned for it), v2, the vehicle's own loop (mocap sensing, inner "
+                        "loop, motors, thrust uncertainty, rotor aerodynamics), to reproduce "
+                        "v2's tables, or v1, the ideal loop, to reproduce v1's (default: "
+                        f"{TOOLS_BENCHMARK})")
 
 
 def _trust_pickle_option(command: argparse.ArgumentParser) -> None:

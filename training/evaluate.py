@@ -28,6 +28,7 @@ import numpy as np
 
 from quad_dob_baselines import gain_set
 from quad_dob_env import DEFAULT_BASE_CONTROLLER
+from quad_dob_env.benchmark import TOOLS_BENCHMARK
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.margins import check_grid, delay_margin
 from quad_dob_training.metrics import flight_metrics
@@ -80,6 +81,8 @@ SUITES = {
                         "figure8-wind-12.1"),
     },
 }
+# v3 flies v2's families in its own loop (the figure-8s at Neural-Fly's 50 Hz)
+SUITES["v3"] = SUITES["v2"]
 # the leaderboard's cells: mean [95 % CI]
 LEADERBOARD = (("rms_position_settled", "RMS ‖e_x‖ [m]"), ("rms_tilt_settled", "tilt [rad]"),
                ("rms_heading_settled", "heading [rad]"), ("rms_moment", "effort ‖M‖ [N m]"),
@@ -273,7 +276,7 @@ def _one_flight(row: dict) -> bool:
     return row.get("distinct_flights") == 1 and row["flights"] > 1
 
 
-def leaderboard(rows: list[dict], benchmark: str = "v2") -> str:
+def leaderboard(rows: list[dict], benchmark: str = TOOLS_BENCHMARK) -> str:
     """The suite's leaderboard: per family and scenario, each policy's mean and 95 %
     bootstrap interval of every score, and its paired difference to the baseline; then, per
     policy, the scenarios where it is better or worse than the baseline (interval excluding
@@ -338,8 +341,8 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
          command: list[str] | None = None) -> int:
     """``baseline`` None: the recommended base; "": no comparison. ``suite``: every
     scenario of the benchmark's suite (``SUITES``, by ``scenario_options["benchmark"]``,
-    v1, the library's default, when not given; the CLI gives v2) instead of ``scenarios``,
-    and ``leaderboard.md``.
+    v1, the library's default, when not given; the CLI gives ``TOOLS_BENCHMARK``) instead
+    of ``scenarios``, and ``leaderboard.md``.
     ``trust_pickle`` (``--trust-pickle``): model files may be unpickled.
     ``scenario_options`` (``--scenario-option KEY=VALUE``): passed to every scenario.
     ``delay_grid`` (``--delay-grid``): the latencies each delay margin is searched on.

@@ -86,6 +86,7 @@ from quad_dob_baselines.indi import INDI_FILTER
 from quad_dob_baselines.l1 import L1_GAINS
 from quad_dob_baselines.pid import PID_GAINS
 from quad_dob_baselines.smc import SMC_GAINS
+from quad_dob_env.benchmark import TOOLS_BENCHMARK
 from quad_dob_env.benchmark_v3 import TUNING_MARGIN
 from quad_dob_env.disturbances import Constant
 from quad_dob_env.params import get_vehicle
@@ -439,7 +440,7 @@ DEFAULT_CONTROLLERS = {"v1": ("geometric-ndob", "pid", "smc"),
 DEFAULT_CONTROLLERS["v3"] = DEFAULT_CONTROLLERS["v2"]
 
 
-def main(controllers: list[str] | None, out: Path, benchmark: str = "v2",
+def main(controllers: list[str] | None, out: Path, benchmark: str = TOOLS_BENCHMARK,
          vehicle: str = "paper", *, seeds: tuple[int, ...] | None = None,
          passes: int | None = None) -> int:
     """Tune ``controllers`` (None: ``DEFAULT_CONTROLLERS``) for ``benchmark`` on

@@ -41,10 +41,10 @@ MIN_DURATION = 4 * math.pi
 
 
 def default_benchmark() -> str:
-    """v3 once the simulator has it (``quad_dob_env.benchmark.BENCHMARKS``), else v2."""
-    from quad_dob_env.benchmark import BENCHMARKS
+    """The tools' benchmark (``quad_dob_env.benchmark.TOOLS_BENCHMARK``)."""
+    from quad_dob_env.benchmark import TOOLS_BENCHMARK
 
-    return "v3" if "v3" in BENCHMARKS else "v2"
+    return TOOLS_BENCHMARK
 
 
 def fly_logs(spec: str, scenario: Any, seeds: list[int], wind_speed: float | None = None
