@@ -21,7 +21,8 @@ The procedure, the same for each controller (v1's as it was; v2's differences af
   recommended base, which keeps the paper's gains.
 
 Benchmark v3 (``--benchmark v3``) is v2's procedure with v3's margin (``MARGINS``: 20 ms of
-extra latency, twice v2's, and motors 1.5x slower, at once), started from the v2 set of the
+pose latency the estimator is not told, twice v2's latency, and motors 1.5x slower, at
+once), started from the v2 set of the
 vehicle (or the paper vehicle's, scaled), where v2's search ended, with two additions
 (``SLOWED_SEARCH``), because from v2's sets every one-gain step loses every margin flight
 and the count of lost flights has nothing to follow (docs/tuning-v3/README.md):
@@ -80,7 +81,7 @@ from quad_dob_baselines import (
     user_controller,
 )
 from quad_dob_baselines.base import Controller
-from quad_dob_baselines.gain_sets import INERTIA_SCALED, gain_set, scaled_to
+from quad_dob_baselines.gain_sets import INERTIA_SCALED, INHERITED_FROM, gain_set, scaled_to
 from quad_dob_baselines.geometric import INTEGRAL_GAINS, PAPER_GAINS
 from quad_dob_baselines.indi import INDI_FILTER
 from quad_dob_baselines.l1 import L1_GAINS
@@ -239,7 +240,9 @@ def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
     user = declared(controller)
     if user is not None:
         return dict(user[0])
-    inherited = gain_set(controller, benchmark, vehicle) if benchmark == "v3" else None
+    # v3's search starts from the v2 set, not from v3's shipped one, so a rerun is the run
+    inherited = gain_set(controller, INHERITED_FROM[benchmark], vehicle) if (
+        benchmark in INHERITED_FROM) else None
     if inherited is not None and inherited.tuned_for is not None:
         # v3 starts where v2's search ended on this vehicle: the same descent, one loop on
         return dict(inherited.options)
