@@ -203,7 +203,7 @@ def _vehicle_loop_options(d: _Draw, scenario: str, options: dict[str, Any]) -> N
     rotors = options.get("actuation", defaults[0]) == "rotors"
     if d.chance(0.06):  # Benchmark v2's whole loop, refused where the vehicle has no rotors
         if d.bad_chance(0.2):
-            options["benchmark"] = d.pick(["v3", "V2", 2, None])
+            options["benchmark"] = d.pick(["v4", "V2", 2, None])
             d.invalid.append("benchmark")
         else:
             options["benchmark"] = d.pick(["v1", "v2"])

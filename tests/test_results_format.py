@@ -18,8 +18,9 @@ from quad_dob_training.results import SCHEMA_PATH, merged_leaderboard, read_docu
 def runs(tmp_path_factory) -> dict[str, Path]:
     """Two evaluations as two users would make them: v2 on seeds 0-2, and v1 of one policy."""
     root = tmp_path_factory.mktemp("results")
-    assert main(["evaluate", "--policies", "pid,geometric-ndob:tuned", "--scenarios",
-                 "hover-step-force", "--seeds", "3", "--out", str(root / "alice")]) == 0
+    assert main(["evaluate", "--benchmark", "v2", "--policies", "pid,geometric-ndob:tuned",
+                 "--scenarios", "hover-step-force", "--seeds", "3", "--out",
+                 str(root / "alice")]) == 0
     assert main(["evaluate", "--benchmark", "v1", "--policies", "pid", "--scenarios",
                  "hover-step-force", "--seeds", "3", "--out", str(root / "bob")]) == 0
     return {"alice": root / "alice" / "evaluation.json", "bob": root / "bob" / "evaluation.json"}
@@ -31,8 +32,8 @@ def test_evaluation_json_is_valid_against_its_schema_and_carries_each_rows_prove
     alice = json.loads(runs["alice"].read_text())
     jsonschema.validate(alice, schema)  # the library's own validator, not ours
     assert alice["schema"] == "quad_dob_env.evaluation" and alice["schema_version"] == 1
-    assert alice["command"][:4] == ["quad-dob", "evaluate", "--policies",
-                                    "pid,geometric-ndob:tuned"]
+    assert alice["command"][:6] == ["quad-dob", "evaluate", "--benchmark", "v2",
+                                    "--policies", "pid,geometric-ndob:tuned"]
     pid = next(row for row in alice["rows"] if row["policy"] == "pid")
     assert pid["provenance"] == {
         "project_version": alice["project"]["version"], "policy_spec": "pid",
