@@ -240,11 +240,11 @@ def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
     user = declared(controller)
     if user is not None:
         return dict(user[0])
-    # v3's search starts from the v2 set, not from v3's shipped one, so a rerun is the run
     inherited = gain_set(controller, INHERITED_FROM[benchmark], vehicle) if (
         benchmark in INHERITED_FROM) else None
     if inherited is not None and inherited.tuned_for is not None:
-        # v3 starts where v2's search ended on this vehicle: the same descent, one loop on
+        # v3 starts where v2's search ended on this vehicle (not from v3's shipped set, so a
+        # rerun is the same run): the same descent, one loop on
         return dict(inherited.options)
     gains = {**START[controller], **(START_V2.get(controller, {}) if benchmark != "v1" else {})}
     scaled = scaled_to(gains, vehicle, INERTIA_SCALED)

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from quad_dob_env.benchmark import TOOLS_BENCHMARK
 from quad_dob_training.flight_logs import NEURAL_FLY_METHODS, FlightLog
 from quad_dob_training.flight_statistics import (
     HARMONICS,
@@ -38,13 +39,6 @@ SIMULATED_OF = {method: spec for method, label in NEURAL_FLY_METHODS.items()
                 for spec, real in COUNTERPARTS.items() if real == label}
 # the sim's first whole lap after 5 s ends at 4π s: a shorter flight has none to score
 MIN_DURATION = 4 * math.pi
-
-
-def default_benchmark() -> str:
-    """The tools' benchmark (``quad_dob_env.benchmark.TOOLS_BENCHMARK``)."""
-    from quad_dob_env.benchmark import TOOLS_BENCHMARK
-
-    return TOOLS_BENCHMARK
 
 
 def fly_logs(spec: str, scenario: Any, seeds: list[int], wind_speed: float | None = None
@@ -230,7 +224,7 @@ def main(benchmark: str | None, seeds: str, neural_fly: Path | None, out: Path,
     from quad_dob_training.flight_logs import read_neural_fly_folder
     from quad_dob_training.wind_tunnel_plots import write_figures
 
-    benchmark = benchmark or default_benchmark()
+    benchmark = benchmark or TOOLS_BENCHMARK
     real = [] if neural_fly is None else read_neural_fly_folder(neural_fly)
     if duration is None and real:
         # the logs' span, on the simulation's 10 ms grid
@@ -274,7 +268,7 @@ def add_parser(commands: Any) -> None:
         "same code over the same whole laps")
     tunnel.add_argument("--benchmark", default=None, choices=list(BENCHMARKS),
                         help="the loop the figure-8s are flown in (default: the newest, "
-                        f"{default_benchmark()})")
+                        f"{TOOLS_BENCHMARK})")
     tunnel.add_argument("--seeds", default="9001-9020",
                         help="a count N (seeds 0..N-1) or a range A-B (default: %(default)s)")
     tunnel.add_argument("--neural-fly", type=Path, default=None, metavar="DIR",

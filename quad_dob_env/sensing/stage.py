@@ -93,27 +93,27 @@ class SensingStage:
                          imu.gyroscope_bias_walk * root, imu.accelerometer_bias_walk * root,
                          imu.gyroscope_initial_bias, imu.accelerometer_initial_bias)
             self._rotors = (sensing.rotors.speed_std,)
-            self.delays = (delay_steps(pose.latency, dt) + extra,
-                           delay_steps(imu.latency, dt) + extra)
+
+            def pose_delay(unmodelled: float) -> tuple[int, int]:
+                """The fix's delay in steps, and the tick after which it is taken (0: the
+                step's end). With ``ticks`` > 1 the latency is resolved on the physics
+                grid: a fix read ``q`` steps late was taken ``r`` ticks before its step's
+                end."""
+                if ticks == 1:
+                    return delay_steps(pose.latency + unmodelled, dt) + extra, 0
+                late = delay_steps(pose.latency + extra_latency + unmodelled, dt / ticks)
+                return late // ticks, (ticks - late % ticks if late % ticks else 0)
+
+            told = pose_delay(0.0)[0]
+            # on ticks the IMU, on the control grid, is read no later than the pose (which
+            # the estimator needs): v3's own latencies are whole steps for it
+            imu_delay = delay_steps(imu.latency, dt) + extra
             if ticks > 1:
-                # the pose's latency on the physics grid (``ticks`` intervals a step): a fix
-                # read ``q`` steps late was taken ``r`` ticks before its step's end
-                late = delay_steps(pose.latency + extra_latency, dt / ticks)
-                # the IMU, on the control grid, is read no later than the pose (which the
-                # estimator needs): v3's own latencies are whole steps for it
-                self.delays = (late // ticks, min(self.delays[1], late // ticks))
-                self.pose_tick = ticks - late % ticks if late % ticks else 0
+                imu_delay = min(imu_delay, told)
+            late, self.pose_tick = pose_delay(unmodelled_pose_latency)
+            self.delays = (late, imu_delay)
             # the estimator compensates the lag it is told, not one the suite does not say
-            self.lag = max(self.delays[0] - self.delays[1], 0)
-            if unmodelled_pose_latency:
-                if ticks > 1:
-                    late = delay_steps(pose.latency + extra_latency + unmodelled_pose_latency,
-                                       dt / ticks)
-                    self.delays = (late // ticks, self.delays[1])
-                    self.pose_tick = ticks - late % ticks if late % ticks else 0
-                else:
-                    self.delays = (delay_steps(pose.latency + unmodelled_pose_latency, dt)
-                                   + extra, self.delays[1])
+            self.lag = max(told - imu_delay, 0)
             self.rotor_delay = delay_steps(sensing.rotors.latency, dt) + extra
             if self.delays[1] > self.delays[0]:
                 raise ValueError(
@@ -145,6 +145,8 @@ class SensingStage:
         # the estimator integrates over the IMU's last two readings: one slot more
         depth = max(*self.delays, self.rotor_delay) + 1 + int(self.estimating)
         history = (self.lag + self.period + 1) if self.estimating else 1
+        # what the filter reads each step: the pose's and IMU's delays and its told lag
+        self._filter_delays = (*self.delays, self.lag)
         check_memory(n * 8 * (depth * READING_WIDTH + history * HISTORY_WIDTH),
                      f"the sensing delay lines of {depth - 1:,} steps for {n:,} vehicles",
                      "use a shorter latency (SensorNoise.delay_steps, extra_latency)")
@@ -191,9 +193,8 @@ class SensingStage:
                 start_estimates_kernel(indices, truth.position, truth.velocity,
                                        truth.rotation, self.estimate_state, self.history)
             run_over_batch(estimate_kernel, len(indices), indices, step_count, not reset,
-                           self.ring, (*self.delays, self.lag), self.period, self._pose[0],
-                           self._gains,
-                           self.dt, self.gravity, self.estimate_state, self.history,
+                           self.ring, self._filter_delays, self.period, self._pose[0],
+                           self._gains, self.dt, self.gravity, self.estimate_state, self.history,
                            m.position, m.velocity, m.rotation, m.angular_velocity)
         run_over_batch(measurement_kernel, len(indices), indices, step_count, self.ring,
                        self.delays[1], self.rotor_delay, not self.estimating, m.position,
