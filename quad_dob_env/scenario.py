@@ -184,11 +184,11 @@ class Scenario:
         object.__setattr__(self, "sensing", sensing)
         object.__setattr__(self, "sensors", sensing if isinstance(sensing, SensorNoise) else None)
         self._check_vibration()
-        self._check_pose_ticks()
         object.__setattr__(self, "extra_latency",
                            as_finite(self.extra_latency, "Scenario.extra_latency", 0.0))
         object.__setattr__(self, "unmodelled_pose_latency", as_finite(
             self.unmodelled_pose_latency, "Scenario.unmodelled_pose_latency", 0.0))
+        self._check_pose_ticks()
         scale = as_finite(self.motor_time_constant_scale, "Scenario.motor_time_constant_scale",
                           0.0, strictly=True)
         if scale != 1.0 and not (self.motor_lag or self.speed_motors):
@@ -281,6 +281,12 @@ class Scenario:
             raise ValueError(f"Scenario.pose_latency_on_ticks resolves a sensor suite's pose "
                              f"latency, but scenario {self.name!r} senses {self.sensing!r}: "
                              "give sensing a suite ('mocap', 'gnss-imu')")
+        if self.unmodelled_pose_latency and not isinstance(self.sensing, SensorSuite):
+            raise ValueError(f"Scenario.unmodelled_pose_latency "
+                             f"({self.unmodelled_pose_latency:g} s) delays a sensor suite's "
+                             f"pose fix, but scenario {self.name!r} senses {self.sensing!r}: "
+                             "give sensing a suite ('mocap', 'gnss-imu'), or use "
+                             "extra_latency")
 
     def _check_motor_time_constants(self) -> None:
         given = self.motor_time_constants

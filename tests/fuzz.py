@@ -253,7 +253,8 @@ def _v3_options(d: _Draw, scenario: str, options: dict[str, Any]) -> None:
               "gyro_cutoff": (20.0, -5.0, "inner_rate" if not isinstance(inner, float)
                               or inner / 2 <= 20.0 else None),
               "imu_vibration": ((0.01, 0.5), (-0.1, 0.0), "sensing" if no_imu else None),
-              "pose_latency_on_ticks": (True, "yes", None)}
+              "pose_latency_on_ticks": (True, "yes", None),
+              "unmodelled_pose_latency": (0.02, -0.01, "sensing" if no_imu else None)}
     for key, (value, bad, conflict) in values.items():
         if not d.chance(0.3):
             continue
@@ -261,7 +262,7 @@ def _v3_options(d: _Draw, scenario: str, options: dict[str, Any]) -> None:
             options[key] = bad
             d.invalid.append(key)
         elif d.chance(0.4):
-            options[key] = 0 if key == "gyro_cutoff" else False
+            options[key] = {"gyro_cutoff": 0, "unmodelled_pose_latency": 0.0}.get(key, False)
         else:
             options[key] = value
             if conflict is not None:

@@ -498,8 +498,11 @@ def test_an_unmodelled_pose_latency_delays_the_fix_alone_and_is_not_told_the_est
 
 
 def test_an_unmodelled_pose_latency_needs_a_pose_fix():
-    with pytest.raises(ValueError, match=r"unmodelled pose latency .* sensor suite"):
-        _core(make_scenario("hover-calm", unmodelled_pose_latency=0.02))
+    # refused when the scenario is made, before any env: the ideal sensing has no pose fix
+    with pytest.raises(ValueError, match=r"unmodelled_pose_latency \(0\.02 s\) delays a "
+                                         r"sensor suite's pose fix, but scenario 'hover-calm' "
+                                         r"senses None"):
+        make_scenario("hover-calm", unmodelled_pose_latency=0.02)
     with pytest.raises(ValueError, match=r"Scenario\.unmodelled_pose_latency"):
         make_scenario("hover-calm", unmodelled_pose_latency=-0.01)
 

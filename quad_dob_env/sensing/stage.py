@@ -125,12 +125,7 @@ class SensingStage:
             self._gains = (gains.position_bandwidth, gains.attitude_bandwidth,
                            gains.velocity_bandwidth)
             check_stability(sensing.name, self._gains, dt, self.period, self.lag)
-        else:
-            if unmodelled_pose_latency:
-                raise ValueError(
-                    f"an unmodelled pose latency ({unmodelled_pose_latency:g} s) delays a "
-                    f"sensor suite's pose fix, but the sensing is {sensing!r}: give sensing "
-                    "a suite ('mocap', 'gnss-imu'), or use extra_latency")
+        else:  # Scenario refuses an unmodelled pose latency without a pose fix
             self.period = 1
             self.lag = 0
             self._pose = (0, 1) + (0.0,) * 5
