@@ -28,7 +28,7 @@ from quad_dob_training.cli_checks import (
 )
 from quad_dob_training.listing import ALGORITHMS, print_hyperparams
 from quad_dob_training.listing import main as list_main
-from quad_dob_training.margins import DELAY_GRID
+from quad_dob_training.margins import DELAY_GRID, DELAY_PATHS
 
 MAX_VIDEO_WIDTH = 4096  # a panel's pixels
 MAX_FPS = 1000.0
@@ -83,6 +83,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
                          args.json, args.baseline, args.suite, trust_pickle=args.trust_pickle,
                          scenario_options=options, delay_grid=args.delay_margins,
+                         delay_path=args.delay_on,
                          merge=args.merge, command=["quad-dob", *args.argv])
 
 
@@ -257,6 +258,11 @@ def build_parser() -> argparse.ArgumentParser:
                           help="also each policy's delay margin: the largest extra latency of "
                           "GRID (comma-separated seconds, default %(const)s) that keeps every "
                           "flight")
+    evaluate.add_argument("--delay-on", choices=tuple(DELAY_PATHS), default=None,
+                          help="where --delay-margins adds its latency: 'readings' (every "
+                          "reading, pose, IMU and rotors: v1's and v2's margin) or 'pose' (the "
+                          "pose fix alone, unknown to the estimator: v3's margin) (default: "
+                          "the benchmark's margin's place)")
     evaluate.add_argument("--json", action="store_true", help="print the rows as JSON")
     evaluate.add_argument("--merge", type=Path, nargs="+", default=[], metavar="JSON",
                           help="others' evaluation.json files, merged with this run's into "

@@ -30,7 +30,7 @@ from quad_dob_baselines import gain_set
 from quad_dob_env import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.benchmark import TOOLS_BENCHMARK
 from quad_dob_env.scenarios import make_scenario
-from quad_dob_training.margins import check_grid, delay_margin
+from quad_dob_training.margins import benchmark_delay_path, check_grid, delay_margin
 from quad_dob_training.metrics import flight_metrics
 from quad_dob_training.plots import evaluation_bars
 from quad_dob_training.policies import fly_policy, make_policy
@@ -123,7 +123,8 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
              trust_pickle: bool = False,
              scenario_options: dict[str, object] | None = None,
              delay_grid: Sequence[float] | None = None,
-             per_seed: dict[tuple[str, str], list[dict]] | None = None) -> list[dict]:
+             per_seed: dict[tuple[str, str], list[dict]] | None = None,
+             delay_path: str | None = None) -> list[dict]:
     """One row per (scenario, policy): mean, std and 95 % interval over seeds of each score,
     the crash rate, and the paired difference to ``baseline`` (flown too if not listed;
     None for no comparison). ``first_flights``, when given, collects each scenario's
@@ -131,7 +132,8 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
     flight metrics in seed order, for comparisons the rows do not hold. ``trust_pickle``:
     model files may be unpickled (``model_files.load_model``). ``scenario_options`` go to
     every scenario (``make_scenario(name, **scenario_options)``). ``delay_grid``, when
-    given: each row's ``delay_margin`` on it (``quad_dob_training.margins``)."""
+    given: each row's ``delay_margin`` on it (``quad_dob_training.margins``), its latency on
+    ``delay_path`` (None: where the scenario's benchmark puts its margin's)."""
     specs = list(dict.fromkeys(policies))
     flown = specs if baseline is None or baseline in specs else [*specs, baseline]
     built = [make_policy(spec, trust_pickle=trust_pickle) for spec in flown]
@@ -161,10 +163,12 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
                                         "quad_dob_env.envs:QuadrotorVectorEnv"),
                        env_id=(policy.config or {}).get("env_id", ""))
             if delay_grid is not None:
+                path = delay_path or benchmark_delay_path(scenario.benchmark)
                 margin = delay_margin(policy, scenario_name, seeds, scenario_options,
-                                      check_grid(delay_grid), flown=flights_of[spec])
-                row["delay_margin"] = margin.margin
-                row["delay_margin_text"] = margin.describe()
+                                      check_grid(delay_grid), flown=flights_of[spec],
+                                      path=path)
+                row.update(delay_margin=margin.margin, delay_margin_path=path,
+                           delay_margin_text=f"{margin.describe()} ({path})")
             rows.append(row)
     return rows
 
@@ -338,14 +342,15 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
          as_json: bool, baseline: str | None = None, suite: bool = False, *,
          trust_pickle: bool = False, scenario_options: dict[str, object] | None = None,
          delay_grid: Sequence[float] | None = None, merge: Sequence[Path] = (),
-         command: list[str] | None = None) -> int:
+         command: list[str] | None = None, delay_path: str | None = None) -> int:
     """``baseline`` None: the recommended base; "": no comparison. ``suite``: every
     scenario of the benchmark's suite (``SUITES``, by ``scenario_options["benchmark"]``,
     v1, the library's default, when not given; the CLI gives ``TOOLS_BENCHMARK``) instead
     of ``scenarios``, and ``leaderboard.md``.
     ``trust_pickle`` (``--trust-pickle``): model files may be unpickled.
     ``scenario_options`` (``--scenario-option KEY=VALUE``): passed to every scenario.
-    ``delay_grid`` (``--delay-grid``): the latencies each delay margin is searched on.
+    ``delay_grid`` (``--delay-margins``): the latencies each delay margin is searched on;
+    ``delay_path`` (``--delay-on``): where they are added (None: the benchmark's margin's).
     ``merge`` (``--merge``): other runs' ``evaluation.json`` files, merged with this one's
     into ``leaderboard-merged.md`` (``quad_dob_training.results``); ``command`` is recorded
     in ``evaluation.json``."""
@@ -361,7 +366,7 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
     first_flights: dict = {}
     rows = evaluate(policies, scenarios, seed_list, first_flights, baseline or None,
                     trust_pickle=trust_pickle, scenario_options=scenario_options,
-                    delay_grid=delay_grid)
+                    delay_grid=delay_grid, delay_path=delay_path)
     if as_json:
         print(json.dumps(rows, indent=1))
         return 0

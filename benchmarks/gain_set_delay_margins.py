@@ -1,0 +1,55 @@
+"""Each shipped gain set's delay margin, as Benchmark v3's issue defines it: the minimum over
+``quad-dob tune``'s tuning scenarios, on its tuning seeds (100-109), of the largest extra
+latency of ``margins.DELAY_GRID`` that keeps every flight.
+
+``python benchmarks/gain_set_delay_margins.py [--benchmark v3] [--vehicle neural-fly]
+[--on pose|readings] [--controllers a,b]`` prints per name the margin on each tuning
+scenario and their minimum. The latency goes where the benchmark's own tuning margin puts it
+unless ``--on`` says otherwise (v3: on the pose fix, unknown to the estimator; v2: on every
+reading). The tuning scenarios and seeds are the ones the sets were chosen on: these
+figures describe the sets' robustness, not their precision on unseen seeds.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from quad_dob_training.margins import DELAY_GRID, DELAY_PATHS, benchmark_delay_path, delay_margin
+from quad_dob_training.policies import Policy
+from quad_dob_training.tune import (
+    DEFAULT_CONTROLLERS,
+    TUNING_SCENARIOS,
+    TUNING_SEEDS,
+    tuning_scenario,
+)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--benchmark", default="v3", choices=("v2", "v3"))
+    parser.add_argument("--vehicle", default="neural-fly")
+    parser.add_argument("--on", choices=tuple(DELAY_PATHS), default=None)
+    parser.add_argument("--controllers", default=None)
+    args = parser.parse_args()
+    path = args.on or benchmark_delay_path(args.benchmark)
+    names = ([name.strip() for name in args.controllers.split(",") if name.strip()]
+             if args.controllers else list(DEFAULT_CONTROLLERS[args.benchmark]))
+    scenarios = TUNING_SCENARIOS[args.benchmark]
+    print(f"Delay margins on the {path} ({args.benchmark}, {args.vehicle}, tuning seeds "
+          f"{TUNING_SEEDS[0]}-{TUNING_SEEDS[-1]}, grid "
+          f"{', '.join(f'{1000 * v:g}' for v in DELAY_GRID)} ms)\n")
+    print("| name | " + " | ".join(scenarios) + " | minimum |")
+    print("|---|" + "---|" * (len(scenarios) + 1))
+    for name in names:
+        found = {scenario: delay_margin(Policy(name, name), tuning_scenario(
+            scenario, args.benchmark, args.vehicle), list(TUNING_SEEDS), path=path)
+            for scenario in scenarios}
+        # a scenario that loses flights at the grid's first value has no margin at all
+        lowest = min(found.values(), key=lambda m: -1.0 if m.margin is None else m.margin)
+        limit = ", ".join(s for s, m in found.items() if m.margin == lowest.margin)
+        print(f"| {name} | " + " | ".join(m.describe() for m in found.values())
+              + f" | {lowest.describe()} ({limit}) |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
