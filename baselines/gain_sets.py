@@ -38,6 +38,8 @@ _NEURAL_FLY_NDOB = {"kx_per_mass": 22.4, "kv_per_mass": 5.6, "kR": 4.037629,
 # descended; the observer's rates are searched with the gains, as in v2
 _NEURAL_FLY_NDOB_V3 = {"kx_per_mass": 14.336, "kv_per_mass": 4.48, "kR": 2.584083,
                        "kOmega": 0.465634, "translational_rate": 32.0, "rotational_rate": 5.488}
+_PAPER_NDOB_V3 = {"kx_per_mass": 15.68, "kv_per_mass": 5.488, "kR": 3.0835, "kOmega": 1.27,
+                  "translational_rate": 28.0, "rotational_rate": 9.8}
 # INDI and L1 (issue 27): the geometric gains, their estimators' filters and L1's predictor
 # rates; L1's second torque stage is not searched (L1Quad's 15 rad/s).
 _L1_FIXED = {"torque_second_cutoff": 15.0}
@@ -83,10 +85,10 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
                                                  "kR": 8.075258, "kOmega": 0.814859,
                                                  "ki_per_mass": 11.2,
                                                  "integral_limit_per_weight": 0.3},
-    # Benchmark v3's sets on neural-fly: `quad-dob tune --benchmark v3 --vehicle neural-fly`
-    # (2026-12-05, commit 7fd05c1, seeds 100-109; docs/tuning-v3/). Each keeps all 50
-    # tuning flights under v3's margin (20 ms unknown on the pose, motors x1.5). The paper
-    # vehicle has none yet: there a name flies its v2 set (INHERITED_FROM).
+    # Benchmark v3's sets: `quad-dob tune --benchmark v3 --vehicle VEHICLE` (seeds 100-109;
+    # docs/tuning-v3/), neural-fly's on 2026-12-05 at commit 7fd05c1, the paper vehicle's
+    # on 2026-12-05 at 4c43d01. Each keeps all 50 tuning flights under v3's margin (20 ms
+    # unknown on the pose, motors x1.5) and in v3 itself.
     ("geometric-ndob:tuned", "v3", "neural-fly"): _NEURAL_FLY_NDOB_V3,
     ("geometric-ndob:gains-tuned", "v3", "neural-fly"): _NEURAL_FLY_NDOB_V3,
     ("indi", "v3", "neural-fly"): {"kx_per_mass": 13.1072, "kv_per_mass": 7.02464,
@@ -107,6 +109,25 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
     ("smc", "v3", "neural-fly"): {"position_lambda": 0.56, "disturbance_bound": 33.0,
                                   "position_boundary": 1.75, "attitude_lambda": 6.4,
                                   "attitude_eta": 35.84, "attitude_boundary": 0.8},
+    ("geometric-ndob:tuned", "v3", "paper"): _PAPER_NDOB_V3,
+    ("geometric-ndob:gains-tuned", "v3", "paper"): _PAPER_NDOB_V3,
+    ("indi", "v3", "paper"): {"kx_per_mass": 14.336, "kv_per_mass": 4.3904, "kR": 3.94688,
+                              "kOmega": 1.4224, "filter_bandwidth": 28.0},
+    ("l1", "v3", "paper"): {"kx_per_mass": 10.24, "kv_per_mass": 4.3904, "kR": 5.6384,
+                            "kOmega": 1.4224, "force_cutoff": 24.0, "torque_cutoff": 3.92,
+                            "predictor_rate": 4.0, "rotational_predictor_rate": 2.0,
+                            "torque_second_cutoff": 12.0},
+    ("geometric-integral", "v3", "paper"): {"kx_per_mass": 14.336, "kv_per_mass": 3.136,
+                                            "kR": 7.89376, "kOmega": 2.032,
+                                            "ki_per_mass": 5.7344,
+                                            "integral_limit_per_weight": 0.3},
+    ("pid", "v3", "paper"): {"position_kp": 15.68, "position_kd": 4.2, "position_ki": 8.4,
+                             "position_integral_limit": 0.3, "attitude_kp": 7.0,
+                             "rate_kp": 24.5, "rate_ki": 109.76, "rate_kd": 0.42,
+                             "rate_integral_limit": 0.2},
+    ("smc", "v3", "paper"): {"position_lambda": 0.784, "disturbance_bound": 33.0,
+                             "position_boundary": 1.75, "attitude_lambda": 6.272,
+                             "attitude_eta": 25.6, "attitude_boundary": 0.56},
 }
 
 # The sets the search left short of admissible: tuning flights (of 50) each still loses
@@ -142,8 +163,9 @@ class GainSet(NamedTuple):
     scaled: bool = False
 
 
-# Until a benchmark's own search has run, a name flies the sets of the benchmark before it
-# (``tuned_for`` says so): v3's loop is v2's with the real vehicle's lag and thrust path.
+# A name with no set of a benchmark's own (a user's tuned name, a benchmark before its
+# search) flies the sets of the benchmark before it (``tuned_for`` says so): v3's loop is
+# v2's with the real vehicle's lag and thrust path.
 INHERITED_FROM = {"v3": "v2"}
 
 

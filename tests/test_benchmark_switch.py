@@ -163,23 +163,28 @@ def test_the_figure8s_fly_neural_flys_50_hz_and_v3s_turbulence_in_v3_only():
     assert v3.disturbance.sigmas[0] == pytest.approx(0.04 * 12.1)
 
 
-def test_v3s_sets_keep_their_margin_and_the_paper_vehicle_flies_its_v2_sets():
-    """neural-fly flies v3's own sets, each keeping seed 100's tuning flights under v3's
-    margin; the paper vehicle, not yet searched in v3, flies its v2 sets and says so."""
-    from quad_dob_baselines import make_controller
+def test_v3s_sets_keep_their_margin_on_both_vehicles(monkeypatch):
+    """Each vehicle flies v3's own sets, each keeping seed 100's tuning flights under v3's
+    margin; a name without a v3 set flies its v2 set and says so."""
+    from quad_dob_baselines import gain_sets, make_controller
     from quad_dob_baselines.gain_sets import gain_set
     from quad_dob_training import tune
 
-    for name in tune.DEFAULT_CONTROLLERS["v3"]:
-        inherited, own = gain_set(name, "v3", "paper"), gain_set(name, "v2", "paper")
-        assert inherited == own and inherited.tuned_for == ("v2", "paper")
-        shipped = gain_set(name, "v3", "neural-fly")
-        assert shipped.tuned_for == ("v3", "neural-fly") and not shipped.scaled
-        assert shipped.options != gain_set(name, "v2", "neural-fly").options
-        under = tune.score(lambda name=name, shipped=shipped: make_controller(
-            name, "neural-fly", "v3", **shipped.options), "v3", "neural-fly", (100,),
-            **tune.MARGINS["v3"])
-        assert under["lost"] == 0, (name, under)
+    for vehicle in ("paper", "neural-fly"):
+        for name in tune.DEFAULT_CONTROLLERS["v3"]:
+            shipped = gain_set(name, "v3", vehicle)
+            assert shipped.tuned_for == ("v3", vehicle) and not shipped.scaled
+            assert shipped.options != gain_set(name, "v2", vehicle).options
+            under = tune.score(lambda name=name, vehicle=vehicle, shipped=shipped:
+                               make_controller(name, vehicle, "v3", **shipped.options),
+                               "v3", vehicle, (100,), **tune.MARGINS["v3"])
+            assert under["lost"] == 0, (vehicle, name, under)
+    # without its v3 sets, a name flies v2's, and says so
+    monkeypatch.setattr(gain_sets, "GAIN_SETS", {
+        key: value for key, value in gain_sets.GAIN_SETS.items() if key[:2] != ("pid", "v3")})
+    inherited = gain_set("pid", "v3", "paper")
+    assert inherited == gain_set("pid", "v2", "paper")
+    assert inherited.tuned_for == ("v2", "paper")
 
 
 def test_a_loop_part_switched_off_takes_the_v3_factors_acting_through_it():
