@@ -129,30 +129,50 @@ def inner_command(i, R, w, law, tick):
         error = combine(1.0, w, -1.0, command)
         pushed = mat_vec_tuple(J, error)
         last = vector_at(previous_error, i) if not fresh[i] else error
-        acceleration = [0.0, 0.0, 0.0]
-        for k in range(3):
-            # an axis waits while the mixer clipped its moment and integrating pushes further
-            if not excess[i, k] * -pushed[k] > 0.0:
-                integral[i, k] = min(max(integral[i, k] + error[k] * tick, -limit[0]),
-                                     limit[0])
-            acceleration[k] = (acceleration_body[k] - kp[0] * error[k] - ki[0] * integral[i, k]
-                               - kd[0] * (error[k] - last[k]) / tick)
+        acceleration = (
+            _pid_axis(i, 0, error, pushed, last, acceleration_body, kp, ki, kd, limit,
+                      integral, excess, tick),
+            _pid_axis(i, 1, error, pushed, last, acceleration_body, kp, ki, kd, limit,
+                      integral, excess, tick),
+            _pid_axis(i, 2, error, pushed, last, acceleration_body, kp, ki, kd, limit,
+                      integral, excess, tick))
         store_vector(previous_error, i, error)
         fresh[i] = False
-        torque = mat_vec_tuple(J, (acceleration[0], acceleration[1], acceleration[2]))
+        torque = mat_vec_tuple(J, acceleration)
         return thrust, (gyroscopic[0] + torque[0], gyroscopic[1] + torque[1],
                         gyroscopic[2] + torque[2])
     # SMC: s_R = eΩ + λ_R eR, M = Ω × JΩ - J(hat(Ω) RᵀRd Ωd - RᵀRd Ω̇d) - J(λ_R eΩ + η_R sat)
     lam, eta, boundary = gains[0, 0], gains[1, 0], gains[2, 0]
     spin = cross_tuple(w, rate_body)
-    shaped = [0.0, 0.0, 0.0]
-    for k in range(3):
-        surface = rate_error[k] + lam * attitude_error[k]
-        saturated = min(max(surface / boundary, -1.0), 1.0)
-        shaped[k] = spin[k] - acceleration_body[k] + lam * rate_error[k] + eta * saturated
-    torque = mat_vec_tuple(J, (shaped[0], shaped[1], shaped[2]))
+    shaped = (_smc_axis(0, spin, acceleration_body, rate_error, attitude_error, lam, eta,
+                        boundary),
+              _smc_axis(1, spin, acceleration_body, rate_error, attitude_error, lam, eta,
+                        boundary),
+              _smc_axis(2, spin, acceleration_body, rate_error, attitude_error, lam, eta,
+                        boundary))
+    torque = mat_vec_tuple(J, shaped)
     return thrust, (gyroscopic[0] - torque[0], gyroscopic[1] - torque[1],
                     gyroscopic[2] - torque[2])
+
+
+@njit(cache=True, inline="always")
+def _pid_axis(i, k, error, pushed, last, acceleration_body, kp, ki, kd, limit, integral,
+              excess, tick):
+    """Axis k of the PID's rate law: its integrator stepped, then its angular acceleration.
+    Per axis, not a list: a list is a heap allocation per call."""
+    # an axis waits while the mixer clipped its moment and integrating pushes further
+    if not excess[i, k] * -pushed[k] > 0.0:
+        integral[i, k] = min(max(integral[i, k] + error[k] * tick, -limit[0]), limit[0])
+    return (acceleration_body[k] - kp[0] * error[k] - ki[0] * integral[i, k]
+            - kd[0] * (error[k] - last[k]) / tick)
+
+
+@njit(cache=True, inline="always")
+def _smc_axis(k, spin, acceleration_body, rate_error, attitude_error, lam, eta, boundary):
+    """Axis k of the SMC's shaped angular acceleration."""
+    surface = rate_error[k] + lam * attitude_error[k]
+    saturated = min(max(surface / boundary, -1.0), 1.0)
+    return spin[k] - acceleration_body[k] + lam * rate_error[k] + eta * saturated
 
 
 @njit(cache=True, inline="always")

@@ -6,7 +6,8 @@ Run by hand (not part of the test suite): ``python benchmarks/throughput.py``. P
 markdown tables; docs/speed.md quotes them. Compilation happens before timing starts.
 ``--sensing-only`` runs the sensing table alone; ``--loop-only`` the vehicle-loop table
 (Benchmark v2: v1, part 1's sensing, each of part 2's factors on top of it, and the full
-v2 and v3 loops, in one run); ``--benchmarks-only`` v1's, v2's and v3's whole loops alone.
+v2 and v3 loops, in one run); ``--benchmarks-only`` v1's, v2's and v3's whole loops alone;
+``--v3-factors-only`` those and v3 with each of its own factors off (where v3's time goes).
 """
 
 from __future__ import annotations
@@ -184,6 +185,20 @@ BENCHMARK_VARIANTS: tuple[tuple[str, dict, bool], ...] = (
     ("full v3 loop (benchmark='v3')", {"benchmark": "v3"}, True),
 )
 
+# where v3's time goes (``--v3-factors-only``): v3's loop with each of its own factors off
+V3 = {"benchmark": "v3"}
+V3_FACTOR_VARIANTS: tuple[tuple[str, dict, bool], ...] = (
+    LOOP_VARIANTS[0],
+    BENCHMARK_VARIANTS[1],
+    BENCHMARK_VARIANTS[2],
+    ("v3, its motor time constants off", {**V3, "motor_time_constants": False}, True),
+    ("v3, throttle map off", {**V3, "throttle_map": False}, True),
+    ("v3, gyro low-pass off", {**V3, "gyro_cutoff": 0}, True),
+    ("v3, IMU vibration off", {**V3, "imu_vibration": False}, True),
+    ("v3, pose latency on the control grid", {**V3, "pose_latency_on_ticks": False}, True),
+    ("v3, model tolerance off", {**V3, "model_tolerance": False}, True),
+)
+
 
 def print_loop_table(n: int, steps: int, repeats: int,
                      variants: tuple[tuple[str, dict, bool], ...] = LOOP_VARIANTS) -> None:
@@ -248,15 +263,18 @@ def main() -> None:
                         help="run the vehicle-loop table alone (v1, sensing, v2's factors)")
     parser.add_argument("--benchmarks-only", action="store_true",
                         help="run the whole loops alone: v1, v2 and v3")
+    parser.add_argument("--v3-factors-only", action="store_true",
+                        help="run v1, v2 and v3 and v3 with each of its factors off")
     args = parser.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, numpy {np.__version__}")
     if args.sensing_only:
         print_sensing_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
         return
-    if args.loop_only or args.benchmarks_only:
+    if args.loop_only or args.benchmarks_only or args.v3_factors_only:
         print_loop_table(args.sensing_size, args.sensing_steps, args.sensing_repeats,
-                         BENCHMARK_VARIANTS if args.benchmarks_only else LOOP_VARIANTS)
+                         BENCHMARK_VARIANTS if args.benchmarks_only else
+                         V3_FACTOR_VARIANTS if args.v3_factors_only else LOOP_VARIANTS)
         return
     print(f"\ncalm: {CALM} (no wind, no drag, instant motors); windy: {WINDY} (Dryden "
           "moderate + gusts, drag, motor lag)\n")

@@ -243,11 +243,17 @@ def mean_square_speeds(start, command, tau, elapsed, spin_down=0.0):
     the rotors not speeding up (c <= s) take that time constant instead of ``tau``."""
     m1, m2 = _square_means(tau, elapsed)
     d1, d2 = _square_means(spin_down, elapsed) if spin_down > 0.0 else (m1, m2)
-    out = [0.0, 0.0, 0.0, 0.0]
-    for k in range(4):
-        c, d = command[k], start[k] - command[k]
-        if c > start[k]:
-            out[k] = c * c + 2.0 * c * d * m1 + d * d * m2
-        else:
-            out[k] = c * c + 2.0 * c * d * d1 + d * d * d2
-    return (out[0], out[1], out[2], out[3])
+    return (_mean_square(start[0], command[0], m1, m2, d1, d2),
+            _mean_square(start[1], command[1], m1, m2, d1, d2),
+            _mean_square(start[2], command[2], m1, m2, d1, d2),
+            _mean_square(start[3], command[3], m1, m2, d1, d2))
+
+
+@njit(cache=True, inline="always")
+def _mean_square(start, c, m1, m2, d1, d2):
+    """One rotor's mean of ω² (``mean_square_speeds``): spinning up with (m1, m2), else
+    with the spin-down's (d1, d2)."""
+    d = start - c
+    if c > start:
+        return c * c + 2.0 * c * d * m1 + d * d * m2
+    return c * c + 2.0 * c * d * d1 + d * d * d2

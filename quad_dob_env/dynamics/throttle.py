@@ -121,11 +121,18 @@ def throttle_state(true_hover, estimate_factor, true_hover_rotor_thrust, believe
 def rotor_thrusts_of(thrusts, per_newton, full, model_factor, autopilot_factor):
     """The true rotor thrusts for the mixer's believed ``thrusts`` (at least 0) and whether
     any output was held at the ceiling."""
-    out = [0.0, 0.0, 0.0, 0.0]
-    hit = False
-    for k in range(4):
-        u = throttle_of(per_newton * thrusts[k], autopilot_factor)
-        if u > 1.0:
-            u, hit = 1.0, True
-        out[k] = full * thrust_fraction_of(u, model_factor)
-    return (out[0], out[1], out[2], out[3]), hit
+    t0, h0 = _rotor_thrust_of(thrusts[0], per_newton, full, model_factor, autopilot_factor)
+    t1, h1 = _rotor_thrust_of(thrusts[1], per_newton, full, model_factor, autopilot_factor)
+    t2, h2 = _rotor_thrust_of(thrusts[2], per_newton, full, model_factor, autopilot_factor)
+    t3, h3 = _rotor_thrust_of(thrusts[3], per_newton, full, model_factor, autopilot_factor)
+    return (t0, t1, t2, t3), h0 or h1 or h2 or h3
+
+
+@njit(cache=True, inline="always")
+def _rotor_thrust_of(thrust, per_newton, full, model_factor, autopilot_factor):
+    """One rotor's true thrust for its believed ``thrust``, and whether its output was held
+    at the ceiling."""
+    u = throttle_of(per_newton * thrust, autopilot_factor)
+    if u > 1.0:
+        return full * thrust_fraction_of(1.0, model_factor), True
+    return full * thrust_fraction_of(u, model_factor), False

@@ -63,22 +63,28 @@ def butterworth_coefficients(cutoff: float, rate: float) -> tuple[float, ...]:
 
 
 @njit(cache=True, inline="always")
+def _filtered_axis(i, k, x, coefficients, state, output):
+    """Axis k of the gyro low-pass stepped once with input ``x``, in transposed direct
+    form II; returns its output."""
+    b0, b1, b2, a1, a2 = coefficients
+    y = b0 * x + state[i, k, 0]
+    state[i, k, 0] = b1 * x - a1 * y + state[i, k, 1]
+    state[i, k, 1] = b2 * x - a2 * y
+    output[i, k] = y
+    return y
+
+
+@njit(cache=True, inline="always")
 def filtered_rate(i, rate, inner):
     """The gyro low-pass (``inner[8]``: on, its coefficients, state (N, 3, 2) and last
-    output (N, 3)) stepped once with vehicle i's ``rate``, in transposed direct form II;
-    returns its output (the input itself when off)."""
-    on, (b0, b1, b2, a1, a2), state, output = inner[8]
+    output (N, 3)) stepped once with vehicle i's ``rate``; returns its output (the input
+    itself when off). Tuples, not a list: a list is a heap allocation per call."""
+    on, coefficients, state, output = inner[8]
     if not on:
         return rate
-    out = [0.0, 0.0, 0.0]
-    for k in range(3):
-        x = rate[k]
-        y = b0 * x + state[i, k, 0]
-        state[i, k, 0] = b1 * x - a1 * y + state[i, k, 1]
-        state[i, k, 1] = b2 * x - a2 * y
-        output[i, k] = y
-        out[k] = y
-    return (out[0], out[1], out[2])
+    return (_filtered_axis(i, 0, rate[0], coefficients, state, output),
+            _filtered_axis(i, 1, rate[1], coefficients, state, output),
+            _filtered_axis(i, 2, rate[2], coefficients, state, output))
 
 
 @njit(cache=True, inline="always")

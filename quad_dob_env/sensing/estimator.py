@@ -147,13 +147,12 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
     length = history.shape[0]
     R_then = _rotation(then, HR)
     R = _rotation(e, R_)
-    shift_p, shift_v = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
     y = (fix[POSITION] - then[HP], fix[POSITION + 1] - then[HP + 1],
          fix[POSITION + 2] - then[HP + 2])
     w = position_bandwidth
-    for k in range(3):
-        shift_p[k] = 3.0 * w * T * y[k]
-        shift_v[k] = 3.0 * w * w * T * y[k]
+    # tuples, not lists: a list is a heap allocation per call
+    shift_p = (3.0 * w * T * y[0], 3.0 * w * T * y[1], 3.0 * w * T * y[2])
+    shift_v = (3.0 * w * w * T * y[0], 3.0 * w * w * T * y[1], 3.0 * w * w * T * y[2])
     bias_step = mat_vec_tuple(transpose_tuple(R), y)
     for k in range(3):
         e[BA + k] -= w * w * w * T * bias_step[k]
@@ -171,8 +170,9 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
         # the error, a rotation vector in the body frame of then, turned into the world's
         world = mat_vec_tuple(R_then, (0.5 * (a21 - a12), 0.5 * (a02 - a20), 0.5 * (a10 - a01)))
     else:  # GNSS: velocity, heading and the levelling against its acceleration
-        for k in range(3):
-            shift_v[k] += velocity_bandwidth * T * (fix[VELOCITY + k] - then[HV + k])
+        shift_v = (shift_v[0] + velocity_bandwidth * T * (fix[VELOCITY] - then[HV]),
+                   shift_v[1] + velocity_bandwidth * T * (fix[VELOCITY + 1] - then[HV + 1]),
+                   shift_v[2] + velocity_bandwidth * T * (fix[VELOCITY + 2] - then[HV + 2]))
         heading_error = wrap_angle(fix[HEADING] - heading_of(R_then))
         levelling = [0.0, 0.0, 0.0]
         if e[HAS_LAST_V] > 0.0:

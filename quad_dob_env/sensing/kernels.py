@@ -50,14 +50,18 @@ def wrap_angle(angle):
 @njit(cache=True, inline="always")
 def specific_force_vehicle(i, thrust, force, rotation, mass):
     """What an ideal accelerometer reads [m/s², body]: (f e3 + Rᵀ d) / m, the
-    acceleration less gravity (d: every non-gravity force but the thrust, world frame)."""
-    out = [0.0, 0.0, 0.0]
-    for k in range(3):
-        for j in range(3):
-            out[k] += rotation[i, j, k] * force[i, j]
-        out[k] /= mass[i]
-    out[2] += thrust[i] / mass[i]
-    return out
+    acceleration less gravity (d: every non-gravity force but the thrust, world frame).
+    A tuple, not a list: a list is a heap allocation per call."""
+    return (_body_force(i, 0, force, rotation) / mass[i],
+            _body_force(i, 1, force, rotation) / mass[i],
+            _body_force(i, 2, force, rotation) / mass[i] + thrust[i] / mass[i])
+
+
+@njit(cache=True, inline="always")
+def _body_force(i, k, force, rotation):
+    """Body axis k of the world force d: (Rᵀ d)_k, summed in the order j = 0, 1, 2."""
+    return (0.0 + rotation[i, 0, k] * force[i, 0] + rotation[i, 1, k] * force[i, 1]
+            + rotation[i, 2, k] * force[i, 2])
 
 
 @njit(cache=True, inline="always")
@@ -136,7 +140,8 @@ def take_readings_kernel(start, stop, indices, step_count, pose_position, pose_v
                 true_bias[i, 3 + k] += accel_walk * g[9 + k]
         specific = specific_force_vehicle(i, thrust, force, rotation, mass)
         if reset:
-            specific[2] += (hover_thrust - thrust[i]) / mass[i]
+            specific = (specific[0], specific[1],
+                        specific[2] + (hover_thrust - thrust[i]) / mass[i])
         for k in range(3):
             row[GYRO + k] = angular_velocity[i, k] + true_bias[i, k] + gyro_std * g[k]
             row[ACCEL + k] = specific[k] + true_bias[i, 3 + k] + accel_std * g[3 + k]
