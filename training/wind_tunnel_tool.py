@@ -94,12 +94,15 @@ def pooled(per_seed: list[dict[str, float]]) -> dict[str, float]:
 
 
 def simulate(benchmark: str, seeds: list[int], duration: float | None,
-             laps_wanted: set[int]) -> list[dict[str, Any]]:
+             laps_wanted: set[int], scenario_options: dict[str, Any] | None = None
+             ) -> list[dict[str, Any]]:
     """Every counterpart in every wind: per seed the RMS after 5 s and the statistics over
-    its own whole laps, and over each count in ``laps_wanted`` (a real log's)."""
+    its own whole laps, and over each count in ``laps_wanted`` (a real log's).
+    ``scenario_options`` go to every figure-8 (``make_scenario``'s keywords: the ablation
+    switches a factor with them)."""
     from quad_dob_env.scenarios import make_scenario
 
-    options: dict[str, Any] = {"benchmark": benchmark}
+    options: dict[str, Any] = {"benchmark": benchmark, **(scenario_options or {})}
     if duration is not None:
         options["duration"] = duration
     results = []
