@@ -100,6 +100,10 @@ def take_readings_kernel(start, stop, indices, step_count, pose_position, pose_v
     depth = ring.shape[0]
     g = np.zeros(12)
     pose_noisy = position_std + vertical_std + attitude_std + velocity_std + heading_std > 0
+    # the velocity's and heading's normals (the last two pairs) only where they have noise
+    # (GNSS; a mocap fix has none): a pair is drawn by its index, so the first three pairs
+    # are the same either way, and a zero std adds nothing to the reading
+    pose_draws = 10 if velocity_std + heading_std > 0 else 6
     imu_noisy = gyro_std + accel_std + gyro_walk + accel_walk > 0
     for j in range(start, stop):
         i = indices[j]
@@ -118,7 +122,7 @@ def take_readings_kernel(start, stop, indices, step_count, pose_position, pose_v
         # the pose fix (taken every ``period`` steps; the slot keeps whatever it held else)
         if step % period == 0 or reset:
             if pose_noisy:
-                _normals(keys[i, POSE_KEY], step, 10, g)
+                _normals(keys[i, POSE_KEY], step, pose_draws, g)
             for k in range(3):
                 std = vertical_std if k == 2 else position_std
                 row[POSITION + k] = pose_position[i, k] + std * g[k]
