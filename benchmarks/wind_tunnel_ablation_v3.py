@@ -5,7 +5,7 @@ sets fixed.
 ``python benchmarks/wind_tunnel_ablation_v3.py [--seeds 9001-9020] [--variants a,b]``
 flies the four counterparts of Neural-Fly's controllers (``wind_tunnel.COUNTERPARTS``) on
 the four figure-8s once per variant, as ``quad-dob wind-tunnel`` flies them, and prints per
-variant the RMS ‖e_x‖ after 5 s [mm] (mean of the seeds; flights lost in brackets) and the
+variant the RMS ‖e_x‖ after 5 s [mm] (mean of the flights kept; flights lost in brackets) and the
 calm figure-8's z share of the squared error. Seeds 9001-9020 are the tunnel's evaluation
 seeds: no gain was tuned on them. The D-term low-pass is not in the ablation: v3 does not
 model it (docs/benchmark-v3.md, "Not modelled").
@@ -75,14 +75,16 @@ def variants() -> dict[str, dict[str, Any]]:
     return found
 
 
-def cells(rows: list[dict[str, Any]]) -> list[str]:
-    """RMS after 5 s [mm] per counterpart and wind, flights lost in brackets."""
+def cells(rows: list[dict[str, Any]], seeds: list[int]) -> list[str]:
+    """RMS after 5 s [mm] per counterpart and wind, the mean over the flights kept, and the
+    flights lost in brackets ("—": every flight lost)."""
     by = {(row["policy"], row["scenario"]): row for row in rows}
     out = []
     for policy in COUNTERPARTS:
         for speed in WIND_SPEEDS:
             row = by[(policy, f"figure8-wind-{speed}")]
-            kept = [rms for rms in row["rms_after_skip"] if np.isfinite(rms)]
+            kept = [rms for seed, rms in zip(seeds, row["rms_after_skip"], strict=True)
+                    if seed in row["scored_seeds"]]
             lost = f" ({row['crashes']})" if row["crashes"] else ""
             out.append(("—" if not kept else f"{1000 * np.mean(kept):.1f}") + lost)
     return out
@@ -119,20 +121,22 @@ def main() -> None:
     seeds = parse_seeds(args.seeds)
     flown = {label: simulate("v3", seeds, None, set(), table[label]) for label in wanted}
     print(f"Benchmark v3's ablation, seeds {args.seeds}: RMS ‖e_x‖ after 5 s [mm], mean of "
-          "the seeds; flights lost in brackets\n")
-    print("| variant | " + " | ".join(f"{policy} {speed}" for policy in COUNTERPARTS
-                                       for speed in WIND_SPEEDS) + " |")
-    print("|---|" + "---|" * (len(COUNTERPARTS) * len(WIND_SPEEDS)))
-    for label, rows in flown.items():
-        print(f"| {label} | " + " | ".join(cells(rows)) + " |")
-    print("\nCalm figure-8 (0 m/s): z's share of the squared error, pooled over the seeds\n")
-    print("| variant | " + " | ".join(COUNTERPARTS) + " |")
-    print("|---|" + "---|" * len(COUNTERPARTS))
-    for label, rows in flown.items():
-        print(f"| {label} | " + " | ".join(calm_z_share(rows)) + " |")
+          "the flights kept; flights lost in brackets. The calm z share is z's share of the "
+          "squared error at 0 m/s, pooled over the seeds")
+    names = list(COUNTERPARTS)
+    for pair in (names[:2], names[2:]):
+        print("\n| variant | " + " | ".join(f"{policy} {speed}" for policy in pair
+                                          for speed in WIND_SPEEDS) + " | calm z share |")
+        print("|---|" + "---|" * (len(pair) * len(WIND_SPEEDS) + 1))
+        for label, rows in flown.items():
+            found, shares = cells(rows, seeds), calm_z_share(rows)
+            columns = [found[names.index(p) * len(WIND_SPEEDS) + k] for p in pair
+                       for k in range(len(WIND_SPEEDS))]
+            share = ", ".join(shares[names.index(p)] for p in pair)
+            print(f"| {label} | " + " | ".join(columns) + f" | {share} |")
     if args.json:
         args.json.write_text(json.dumps(
-            {label: [{key: row[key] for key in ("policy", "scenario", "crashes",
+            {label: [{key: row[key] for key in ("policy", "scenario", "crashes", "scored_seeds",
                                                 "rms_after_skip")} for row in rows]
              for label, rows in flown.items()}, indent=1))
 

@@ -93,6 +93,14 @@ def pooled(per_seed: list[dict[str, float]]) -> dict[str, float]:
     return mean
 
 
+def rms_after_skip(log: FlightLog) -> float:
+    """RMS ‖p - p_d‖ over the samples after ``SKIP`` s; NaN for a flight lost before it."""
+    after = (log.p - log.p_d)[log.t >= SKIP]
+    if not len(after):
+        return float("nan")
+    return float(np.sqrt(np.mean(np.sum(after ** 2, axis=1))))
+
+
 def simulate(benchmark: str, seeds: list[int], duration: float | None,
              laps_wanted: set[int], scenario_options: dict[str, Any] | None = None
              ) -> list[dict[str, Any]]:
@@ -122,8 +130,7 @@ def simulate(benchmark: str, seeds: list[int], duration: float | None,
                 "scored_seeds": [seed for seed, log in zip(seeds, logs, strict=True)
                                  if not log.crashed],
                 "thrust_source": logs[0].thrust_source, "laps": own,
-                "rms_after_skip": [float(np.sqrt(np.mean(np.sum(
-                    (log.p - log.p_d)[log.t >= SKIP] ** 2, axis=1)))) for log in logs],
+                "rms_after_skip": [rms_after_skip(log) for log in logs],
                 "per_seed": by_laps, "mean": {laps: pooled(values)
                                               for laps, values in by_laps.items()}})
     return results
