@@ -35,6 +35,9 @@ def main() -> None:
     policies = list(dict.fromkeys(row["policy"] for row in rows))
     scenarios = list(dict.fromkeys(row["scenario"] for row in rows))
     cell = {(row["scenario"], row["policy"]): row for row in rows}
+    paths = {row["delay_margin_path"] for row in rows if row.get("delay_margin_path")}
+    if paths:  # one line for where the margins' latency went, not a word in every cell
+        print(f"Delay margins: latency added on the {', '.join(sorted(paths))}\n")
     print("| scenario | " + " | ".join(policies) + " |")
     print("|---|" + "---|" * len(policies))
     for scenario in scenarios:
@@ -48,7 +51,9 @@ def main() -> None:
                     f"[{1000 * float(row['rms_position_settled_low']):.1f}, "
                     f"{1000 * float(row['rms_position_settled_high']):.1f}]")
             if row.get("delay_margin_text"):
-                text += f", {row['delay_margin_text']}"
+                margin = row["delay_margin_text"]
+                path = row.get("delay_margin_path")
+                text += ", " + (margin.removesuffix(f" ({path})") if path else margin)
             if int(row["crashes"]):
                 text += f", **{row['crashes']} lost**"
             if row.get("distinct_flights") and row["distinct_flights"] != row["flights"]:
