@@ -26,7 +26,7 @@ from gymnasium.utils import seeding
 
 import quad_dob_env  # noqa: F401  (registers the ids)
 from quad_dob_composition import ResidualVectorEnv
-from quad_dob_env.benchmark import V2_INNER_RATE
+from quad_dob_env.benchmark import V2_INNER_RATE, V3_LOOP_FIELDS
 from quad_dob_env.envs import QuadrotorBatch, QuadrotorVectorEnv
 from quad_dob_env.scenarios import make_scenario
 
@@ -185,18 +185,12 @@ BENCHMARK_VARIANTS: tuple[tuple[str, dict, bool], ...] = (
     ("full v3 loop (benchmark='v3')", {"benchmark": "v3"}, True),
 )
 
-# where v3's time goes (``--v3-factors-only``): v3's loop with each of its own factors off
-V3 = {"benchmark": "v3"}
+# where v3's time goes (``--v3-factors-only``): v3's loop with each of its own fields off
+# (False: ``benchmark.loop_fields``' "off")
 V3_FACTOR_VARIANTS: tuple[tuple[str, dict, bool], ...] = (
-    LOOP_VARIANTS[0],
-    BENCHMARK_VARIANTS[1],
-    BENCHMARK_VARIANTS[2],
-    ("v3, its motor time constants off", {**V3, "motor_time_constants": False}, True),
-    ("v3, throttle map off", {**V3, "throttle_map": False}, True),
-    ("v3, gyro low-pass off", {**V3, "gyro_cutoff": 0}, True),
-    ("v3, IMU vibration off", {**V3, "imu_vibration": False}, True),
-    ("v3, pose latency on the control grid", {**V3, "pose_latency_on_ticks": False}, True),
-    ("v3, model tolerance off", {**V3, "model_tolerance": False}, True),
+    *BENCHMARK_VARIANTS,
+    *((f"v3, {field} off", {"benchmark": "v3", field: False}, True)
+      for field in V3_LOOP_FIELDS),
 )
 
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from quad_dob_env.benchmark import v3_loop
+from quad_dob_env.benchmark import V3_LOOP_FIELDS, v3_loop
 from quad_dob_env.benchmark_v3 import ABLATION_ENDS, REAL_LOOPS
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.sensing.models import SENSING_PRESETS
@@ -69,9 +69,9 @@ def variants() -> dict[str, dict[str, Any]]:
     found["model tolerance off (exact model)"] = {"model_tolerance": False}
     for end in ends["tunnel_turbulence_intensity"]:
         found[f"turbulence {100 * end:g} %"] = {"turbulence_intensity": end}
-    found["all v3 factors off (v2's loop at 50 Hz with v3's gains)"] = {
-        "motor_time_constants": False, "gyro_cutoff": 0, "pose_latency_on_ticks": False,
-        "throttle_map": False, "imu_vibration": False, "model_tolerance": False}
+    # every field v3 sets beyond v2's loop, off (False: benchmark.loop_fields' "off")
+    found["all v3 factors off (v2's loop at 50 Hz with v3's gains)"] = dict.fromkeys(
+        V3_LOOP_FIELDS, False)
     return found
 
 
@@ -124,12 +124,12 @@ def main() -> None:
           "the flights kept; flights lost in brackets. The calm z share is z's share of the "
           "squared error at 0 m/s, pooled over the seeds")
     names = list(COUNTERPARTS)
+    scored = {label: (cells(rows, seeds), calm_z_share(rows)) for label, rows in flown.items()}
     for pair in (names[:2], names[2:]):
         print("\n| variant | " + " | ".join(f"{policy} {speed}" for policy in pair
                                           for speed in WIND_SPEEDS) + " | calm z share |")
         print("|---|" + "---|" * (len(pair) * len(WIND_SPEEDS) + 1))
-        for label, rows in flown.items():
-            found, shares = cells(rows, seeds), calm_z_share(rows)
+        for label, (found, shares) in scored.items():
             columns = [found[names.index(p) * len(WIND_SPEEDS) + k] for p in pair
                        for k in range(len(WIND_SPEEDS))]
             share = ", ".join(shares[names.index(p)] for p in pair)
