@@ -163,6 +163,7 @@ def test_the_figure8s_fly_neural_flys_50_hz_and_v3s_turbulence_in_v3_only():
     assert v3.disturbance.sigmas[0] == pytest.approx(0.04 * 12.1)
 
 
+@pytest.mark.slow
 def test_v3s_sets_keep_their_margin_on_both_vehicles(monkeypatch):
     """Each vehicle flies v3's own sets, each keeping seed 100's tuning flights under v3's
     margin; a name without a v3 set flies its v2 set and says so."""

@@ -84,7 +84,7 @@ def test_a_string_or_a_flag_is_no_number(options, message):
 
 
 def test_a_sensor_delay_line_past_the_budget_is_refused():
-    # found by tests/fuzz.py: numpy was asked for 894 GiB
+    # found by tests/fuzzer/: numpy was asked for 894 GiB
     with pytest.raises(ValueError, match=r"the sensing delay lines of 10,000,000,000 steps "
                                          r"for 1 vehicles would take .*SensorNoise.delay_steps"):
         gym.make("QuadDOB/Hover-v1", scenario_options={"sensors": {"delay_steps": 10**10}})

@@ -1,6 +1,8 @@
 import subprocess
 import sys
 
+import pytest
+
 from quad_dob_training.cli import main
 
 
@@ -18,6 +20,7 @@ def test_list_names_ids_and_scenarios(capsys):
     assert "torque_coefficient" in out and "APC 10x4.7" in out  # vehicle numbers, sourced
 
 
+@pytest.mark.slow
 def test_console_script_rejects_an_unknown_command():
     result = subprocess.run([sys.executable, "-m", "quad_dob_training.cli", "fly"],
                             capture_output=True,

@@ -106,6 +106,7 @@ def test_a_scenario_option_changes_every_flight(capsys):
     assert plain["rms_position_settled_mean"] != longer["rms_position_settled_mean"]
 
 
+@pytest.mark.slow
 def test_a_reader_that_stops_early_ends_the_command_quietly(capsys):
     """`quad-dob list | head -2`: the pipe closes mid-listing; no traceback, no error line."""
     import subprocess
@@ -143,6 +144,7 @@ def test_every_option_of_every_command_says_what_it_does_and_its_default():
                 assert flag or "default" in action.help, f"{where} does not say its default"
 
 
+@pytest.mark.slow
 def test_a_sweep_sent_to_a_ray_cluster_that_is_not_there_says_what_to_do(tmp_path, capsys):
     """`--ray-address auto` with no cluster: one message naming the address and the three
     ways on, not Ray's ConnectionError with Ray's own flag in it."""

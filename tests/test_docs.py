@@ -16,6 +16,7 @@ ROOT = Path(__file__).parents[1]
 pytest.importorskip("mkdocs")
 
 
+@pytest.mark.slow
 def test_the_docs_build_with_warnings_as_errors(tmp_path):
     built = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir",
                             str(tmp_path / "site")], cwd=ROOT, capture_output=True, text=True,
@@ -29,6 +30,7 @@ def test_the_docs_build_with_warnings_as_errors(tmp_path):
     assert "Observation space" in api
 
 
+@pytest.mark.slow
 def test_every_env_id_has_a_page_in_the_navigation_that_matches_the_env():
     sys.path.insert(0, str(ROOT / "docs"))
     try:
@@ -50,6 +52,7 @@ def test_every_env_id_has_a_page_in_the_navigation_that_matches_the_env():
         env.close()
 
 
+@pytest.mark.slow
 def test_a_stale_generated_page_fails_the_build(tmp_path):
     copy = tmp_path / "checkout"
     (copy / "docs").mkdir(parents=True)

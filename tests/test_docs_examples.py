@@ -144,6 +144,7 @@ LEFT_BEHIND = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page", [p for p in PAGES if _commands(p)], ids=lambda p: p.name)
 def test_every_command_of_a_page_runs_in_order(page, tmp_path, monkeypatch,
                                                no_ray_left_behind):

@@ -77,6 +77,7 @@ def test_integrator_is_fourth_order():
     assert all(13 < r < 19 for r in ratios), (errors, ratios)  # 2^4 = 16
 
 
+@pytest.mark.slow
 def test_rotation_stays_orthonormal_over_100k_steps():
     state = VehicleState.at_rest(1)
     state.angular_velocity[0] = (0.4, 2.0, -0.7)

@@ -43,6 +43,7 @@ def test_same_seed_gives_bit_identical_rollouts():
     assert not np.array_equal(first[0], other[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["hover-step-force", "dryden-helix-gusts"])
 def test_a_batch_of_64_equals_64_single_runs(name):
     n, steps = 64, 150

@@ -317,6 +317,7 @@ MOCAP_CASES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", MOCAP_CASES)
 def test_mocap_steady_state_errors_match_the_linear_error_model(case):
     suite, extra_latency = MOCAP_CASES[case]
@@ -352,6 +353,7 @@ def _velocity_dominated(suite: SensorSuite) -> SensorSuite:
 GNSS_CASES = {"gnss": GNSS_IMU, "gnss, velocity-dominated": _velocity_dominated(GNSS_IMU)}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", GNSS_CASES)
 def test_gnss_steady_state_errors_match_the_linear_error_model(case):
     """A fix every 10 steps, arriving the preset's latency later: the vertical channel

@@ -11,6 +11,7 @@ sys.path.insert(0, str(Path(__file__).parents[1] / "examples"))
 ppo_residual = pytest.importorskip("ppo_residual")
 
 
+@pytest.mark.slow
 def test_the_examples_ppo_raises_a_residuals_return_on_a_short_budget():
     # a wide first policy (std 1) and a residual that costs: the return rises as PPO learns
     # to keep the residual small where it does not help the base

@@ -100,6 +100,7 @@ PHYSICAL_ROTOR_SCENARIOS = [name for name in list_scenarios()
 LIGHT_WIND = ["gusty-hover", "takeoff-landing-wind"]
 
 
+@pytest.mark.slow
 def test_the_recommended_base_holds_heading_and_every_flight_with_physical_rotors():
     rows = evaluate(["geometric-ndob:tuned"], PHYSICAL_ROTOR_SCENARIOS,
                     list(range(9001, 9021)), baseline=None)
@@ -109,6 +110,7 @@ def test_the_recommended_base_holds_heading_and_every_flight_with_physical_rotor
         assert row["rms_heading_settled_mean"] < 0.3, row["scenario"]
 
 
+@pytest.mark.slow
 def test_pid_and_smc_lose_no_flight_in_light_wind():
     rows = evaluate(["pid", "smc"], LIGHT_WIND, list(range(9001, 9021)), baseline=None)
     assert all(row["crashes"] == 0 for row in rows), [(r["scenario"], r["policy"])

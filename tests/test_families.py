@@ -68,6 +68,7 @@ def test_each_vehicle_starts_on_its_own_member_and_draws_anew_at_autoreset():
     assert np.allclose(core.state.position, core.reference.position, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_same_seed_same_reference_and_wind_bit_for_bit_other_seeds_differ():
     def flight(seed: int) -> np.ndarray:
         env = make_vector_env(3, "random-tracks", scenario_options=SHORT,
@@ -82,6 +83,7 @@ def test_same_seed_same_reference_and_wind_bit_for_bit_other_seeds_differ():
     assert not np.allclose(flight(7), flight(8))
 
 
+@pytest.mark.slow
 def test_native_vector_env_equals_single_envs_on_a_family():
     kwargs = {"num_envs": 3, "scenario": "random-tracks", "scenario_options": SHORT}
     native = gym.make_vec("QuadDOB/TrackResidual-v1", vectorization_mode="vector_entry_point",

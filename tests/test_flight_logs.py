@@ -286,6 +286,7 @@ def test_the_wind_tunnel_counterparts_and_benchmark():
                             "NF-C": "geometric-ndob:tuned"}
 
 
+@pytest.mark.slow
 def test_the_command_scores_both_sides_over_the_same_laps(tmp_path, capsys):
     """One seed; synthetic logs of 14 s (one whole lap after 5 s), so the simulation flies
     14 s: a counterpart's run side by side, two runs without one real only."""

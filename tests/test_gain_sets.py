@@ -92,6 +92,7 @@ def test_the_paper_observer_preset_refuses_rates():
         make_controller("geometric-ndob", translational_rate=80.0)
 
 
+@pytest.mark.slow
 def test_a_residual_models_base_flies_the_gains_it_was_trained_with():
     from quad_dob_training.policies import make_policy
 
@@ -114,6 +115,7 @@ def test_the_envs_build_their_base_with_the_scenarios_benchmark_and_vehicle():
     env.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key", DISTINCT_V2_SETS, ids=["/".join(k) for k in DISTINCT_V2_SETS])
 def test_every_shipped_v2_set_keeps_its_tuning_flights_under_the_margin(key):
     """The admissibility the sets were chosen under: every tuning flight (seeds 100-109)
@@ -148,6 +150,7 @@ def _nudged(options):
     return {first: options[first] * 1.1}
 
 
+@pytest.mark.slow
 def test_the_recommended_base_keeps_every_flight_of_benchmark_v2():
     """v2's own gains on v2's suite (the wind tunnel's strongest wind for the figure-8s):
     no flight lost, the heading held within 0.3 rad, but for helix-force-torque's yaw

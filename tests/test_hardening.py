@@ -41,6 +41,7 @@ def _fly_and_check(env: QuadrotorVectorEnv, actions: np.ndarray) -> set[str]:
     return reasons
 
 
+@pytest.mark.slow
 @FUZZ
 @given(scenario=st.sampled_from(list_scenarios()), seed=st.integers(0, 2**31),
        values=st.lists(extreme_or_nan, min_size=4 * VEHICLES, max_size=4 * VEHICLES))
@@ -54,6 +55,7 @@ def test_fuzzed_actions_never_give_a_non_finite_observation_or_reward(scenario, 
         assert "invalid_action" in reasons
 
 
+@pytest.mark.slow
 @FUZZ
 @given(scenario=st.sampled_from(list_scenarios()), seed=st.integers(0, 2**31),
        rotation=st.tuples(*[st.floats(-np.pi, np.pi)] * 3),

@@ -11,6 +11,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pytest
+
 import quad_dob_env
 
 SCRIPT = textwrap.dedent("""
@@ -30,6 +32,7 @@ SCRIPT = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_every_id_and_the_cli_work_beside_folders_named_baselines_and_training(tmp_path):
     for name in ("baselines", "training"):
         (tmp_path / name).mkdir()

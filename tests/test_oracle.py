@@ -163,6 +163,7 @@ FAMILIES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("family", list(FAMILIES))
 def test_whole_flights_with_the_observer_equal_the_oracle(family):
     scenario, environment, options, seconds = FAMILIES[family]

@@ -6,6 +6,7 @@ from quad_dob_training.cli import main
 from quad_dob_training.paper import PAPER_CONTROLLERS, run_paper
 
 
+@pytest.mark.slow
 def test_paper_writes_tables_and_figures(tmp_path):
     rows = run_paper(["paper-IIA"], ["geometric", "geometric-ndob"], out_dir=tmp_path)
     assert [r["controller"] for r in rows] == ["geometric", "geometric-ndob"]
@@ -18,6 +19,7 @@ def test_paper_writes_tables_and_figures(tmp_path):
     assert all((tmp_path / "figures" / f).stat().st_size > 10_000 for f in figures)
 
 
+@pytest.mark.slow
 def test_paper_observations_hold_in_every_scenario():
     # the paper's claims: the observer lowers position error in every scenario, the error
     # stays bounded under constant disturbance, and the thrust stays under its limit

@@ -164,7 +164,9 @@ def test_flights_are_kept_bit_for_bit(benchmark, scenario, policy):
 
 
 @pytest.mark.parametrize("benchmark", BENCHMARKS)
-@pytest.mark.parametrize("case", list(RESIDUAL_CASES))
+@pytest.mark.parametrize("case", [
+    case if case == "shipped-v2" else pytest.param(case, marks=pytest.mark.slow)
+    for case in RESIDUAL_CASES])
 def test_residual_options_step_bit_for_bit(benchmark, case):
     recorded = _recorded()["vector"]
     for base in bases_for(case):

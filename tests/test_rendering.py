@@ -59,6 +59,7 @@ def test_vector_env_renders_its_first_vehicles_and_human_mode_runs_headless():
     env.close()
 
 
+@pytest.mark.slow
 def test_replay_writes_policies_side_by_side(tmp_path):
     from PIL import Image
 

@@ -50,6 +50,7 @@ def test_the_console_check_catches_errors(chromium, tmp_path):
     assert _open(chromium, page, tmp_path / "broken.png")
 
 
+@pytest.mark.slow
 def test_evaluation_report_opens_without_console_errors_and_shows_plots(chromium, tmp_path):
     out = tmp_path / "evaluation"
     assert cli.main(["evaluate", "--benchmark", "v1", "--policies",

@@ -294,7 +294,7 @@ def test_an_acceleration_residual_tilts_the_base_force_by_at_most_20_degrees():
 
 
 def test_a_residual_id_without_a_base_is_refused_in_every_way_it_is_built():
-    # found by tests/fuzz.py: the native vector env read None as direct control
+    # found by tests/fuzzer/: the native vector env read None as direct control
     with pytest.raises(ValueError, match="ResidualVectorEnv needs a base_controller"):
         gym.make_vec("QuadDOB/TracksResidual-v1", num_envs=2,
                      vectorization_mode="vector_entry_point", base_controller=None)

@@ -146,6 +146,7 @@ def test_waypoint_hops_derivatives_are_those_of_its_position():
         WaypointHops([[0, 0, 1], [1, 0, 1], [1, 1, 1]], [0.0, 1.0], [2.0, 1.0])
 
 
+@pytest.mark.slow
 def test_held_out_families_are_new_references():
     training = make_scenario("random-tracks", benchmark="v2").trajectory
     tunnel = make_scenario("tunnel-tracks", benchmark="v2").trajectory  # trained on too
@@ -248,6 +249,7 @@ def test_below_the_floor_fade_the_base_flies_alone_bit_for_bit():
     assert not np.array_equal(flight(0.9, (0.05, 0.1)), flight(0.0, None))
 
 
+@pytest.mark.slow
 def test_loop_groups_may_fly_scenarios_of_their_own():
     spec = {"groups": 3, "scenario": ["random-tracks", "tunnel-tracks"],
             "vehicle": ["paper", "neural-fly"]}
@@ -346,6 +348,7 @@ def test_the_residual_low_pass_is_its_equation_and_the_observation_shows_its_sta
             make_vector_env(1, flown, residual_cutoff=bad, **V2_ACCELERATION)
 
 
+@pytest.mark.slow
 def test_the_residual_low_pass_restarts_with_each_vehicle_in_every_path():
     # thrust-and-moment residuals on the true state: the compiled pass and the separate
     # stages; actions strong enough that some vehicles crash and restart mid-run
@@ -405,6 +408,7 @@ def test_under_the_floor_fade_a_low_passed_residual_flies_the_base_alone_bit_for
                                rtol=1e-6)
 
 
+@pytest.mark.slow
 def test_the_termination_penalty_is_taken_from_the_reward_of_early_ends_only():
     options = {"benchmark": "v2", "max_episode_steps": 120,
                "base_controller": "geometric-ndob:tuned", "thrust_scale": 1.0}

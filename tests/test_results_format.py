@@ -26,6 +26,7 @@ def runs(tmp_path_factory) -> dict[str, Path]:
     return {"alice": root / "alice" / "evaluation.json", "bob": root / "bob" / "evaluation.json"}
 
 
+@pytest.mark.slow
 def test_evaluation_json_is_valid_against_its_schema_and_carries_each_rows_provenance(runs):
     schema = json.loads(SCHEMA_PATH.read_text())
     jsonschema.Draft202012Validator.check_schema(schema)
@@ -68,6 +69,7 @@ def test_a_damaged_file_is_named_with_the_field_that_is_wrong(runs, tmp_path):
         read_document(path)
 
 
+@pytest.mark.slow
 def test_merged_leaderboard_keeps_benchmarks_apart_and_says_where_machines_agree(runs):
     alice = read_document(runs["alice"])
     carol = copy.deepcopy(alice)  # the same run from another machine, one score off

@@ -91,6 +91,7 @@ def _stop_past_a_checkpoint(process: subprocess.Popen, run: Path) -> int:
         time.sleep(0.02)
 
 
+@pytest.mark.slow
 def test_a_training_killed_mid_run_resumes_in_a_new_process_to_the_same_run(tmp_path, capsys):
     conf = _conf_file(tmp_path, "ppo", LARGE)
     whole, killed = tmp_path / "whole", tmp_path / "killed"
@@ -136,6 +137,7 @@ def test_a_training_killed_mid_run_resumes_in_a_new_process_to_the_same_run(tmp_
     assert (killed / "run.lock").read_text() == ""  # released cleanly
 
 
+@pytest.mark.slow
 def test_sac_resumes_with_its_replay_buffer_bit_for_bit(tmp_path):
     config = resolve_config("sac", "residual", ENV, None, 1536, 4, seed=2,
                             hyperparams=_conf_file(tmp_path, "sac"))
@@ -147,6 +149,7 @@ def test_sac_resumes_with_its_replay_buffer_bit_for_bit(tmp_path):
     assert _same_weights(tmp_path / "whole" / "model.zip", tmp_path / "again" / "model.zip")
 
 
+@pytest.mark.slow
 def test_a_cut_off_checkpoint_is_named_and_the_earlier_one_still_resumes(tmp_path):
     config = resolve_config("ppo", "residual", ENV, None, 1024, 8, seed=1,
                             hyperparams=_conf_file(tmp_path, "ppo"))
@@ -170,6 +173,7 @@ def test_a_cut_off_checkpoint_is_named_and_the_earlier_one_still_resumes(tmp_pat
         train(config, tmp_path / "x", resume=tmp_path / "nowhere", progress_bar=False)
 
 
+@pytest.mark.slow
 def test_a_run_keeps_its_newest_two_checkpoints_and_no_other_runs_files_are_touched(tmp_path):
     config = resolve_config("ppo", "residual", ENV, None, 1280, 8, seed=3,
                             hyperparams=_conf_file(tmp_path, "ppo"))

@@ -17,6 +17,7 @@ def _run(monkeypatch, module, arguments: list[str]) -> None:
     getattr(module, module.__name__.rsplit(".", 1)[-1])()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("env_id", quad_dob_env.ENV_IDS)
 def test_rl_zoo3_trains_each_id_from_ppo_yml_and_enjoy_loads_it(env_id, tmp_path, monkeypatch,
                                                                capsys):
@@ -57,6 +58,7 @@ def test_quad_dob_train_reads_every_entry_of_the_same_files(algo):
             assert config["env_kwargs"]["benchmark"] == "v2"
 
 
+@pytest.mark.slow
 def test_rl_zoo3_optimize_runs_its_trial_and_writes_its_report(tmp_path, monkeypatch):
     """`python -m rl_zoo3.train ... -optimize` ran its trials, then crashed writing the
     report without pandas (rl-zoo3 lists it only in an extra; the dev extra has it now)."""

@@ -57,6 +57,7 @@ def _copy(run: Path, tmp_path: Path, name: str = "copy") -> Path:
     return Path(shutil.copytree(run, tmp_path / name, ignore=shutil.ignore_patterns("tb")))
 
 
+@pytest.mark.slow
 def test_a_run_records_its_id_intervals_and_versions_in_every_file_it_loads_again(runs):
     run = runs[0]
     config = yaml.safe_load((run / "config.yaml").read_text())
@@ -188,6 +189,7 @@ def test_an_old_checkpoint_without_run_id_resumes_with_a_warning(runs, tmp_path)
     assert rows == (runs[0] / "evaluations.csv").read_text().splitlines()
 
 
+@pytest.mark.slow
 def test_a_resume_with_other_versions_warns_that_it_is_no_longer_bit_for_bit(runs, tmp_path):
     folder = _copy(runs[0], tmp_path)
     state_path = latest_checkpoint(folder)
@@ -210,6 +212,7 @@ class _Touch:
         return Path.touch, (self.marker,)
 
 
+@pytest.mark.slow
 def test_a_bare_model_from_anywhere_trains_on_from_its_weights_unpickled(runs, tmp_path):
     stray = tmp_path / "downloads"
     stray.mkdir()

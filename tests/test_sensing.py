@@ -47,6 +47,7 @@ V1_FLIGHTS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("scenario", "policy"), list(V1_FLIGHTS))
 def test_ideal_sensing_flies_v1s_flights(scenario, policy):
     flown = make_scenario(scenario, sensing="ideal")

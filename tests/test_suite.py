@@ -2,12 +2,15 @@
 
 import re
 
+import pytest
+
 from quad_dob_training import cli
 from quad_dob_training.evaluate import SUITES
 
 SUITE = SUITES["v1"]
 
 
+@pytest.mark.slow
 def test_the_suite_flies_every_family_and_writes_a_leaderboard_with_intervals(tmp_path):
     assert cli.main(["evaluate", "--benchmark", "v1", "--suite", "--policies",
                      "geometric-ndob:tuned,geometric", "--seeds", "9001-9003", "--out",
@@ -28,6 +31,7 @@ def test_the_suite_flies_every_family_and_writes_a_leaderboard_with_intervals(tm
         assert scenario in worse
 
 
+@pytest.mark.slow
 def test_a_generalist_trained_a_few_thousand_steps_round_trips_through_the_suite(tmp_path):
     # the generalist's own recipe (acceleration residual, normalised observations), cut to
     # 4096 timesteps: saved, loaded by path, flown over every family, normalisation applied

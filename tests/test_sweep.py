@@ -24,6 +24,7 @@ def _lines(path):
     return [json.loads(line) for line in path.read_text().splitlines()]
 
 
+@pytest.mark.slow
 def test_a_local_sweep_and_a_ray_sweep_give_identical_results(tmp_path):
     ray = pytest.importorskip("ray", reason="Ray is the optional [ray] extra")
     config = tmp_path / "small.yaml"
@@ -40,6 +41,7 @@ def test_a_local_sweep_and_a_ray_sweep_give_identical_results(tmp_path):
     assert (tmp_path / "local" / "summary.md").exists()
 
 
+@pytest.mark.slow
 def test_a_killed_sweep_resumes_and_runs_every_task_exactly_once(tmp_path):
     config = tmp_path / "six.yaml"
     config.write_text(SMALL.replace("[2, 10]", "[1, 2, 5, 10, 20, 40]"))
@@ -80,6 +82,7 @@ def test_bad_sweep_configs_are_named(tmp_path):
         load_config(config)
 
 
+@pytest.mark.slow
 def test_a_training_sweep_trains_and_scores_each_combination(tmp_path):
     config = tmp_path / "train.yaml"
     config.write_text("kind: train\nname: tiny\nenv: QuadDOB/HoverResidual-v1\n"

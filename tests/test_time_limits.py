@@ -116,7 +116,7 @@ def test_the_native_limit_is_named_and_never_longer_than_the_scenario():
 
 
 def test_a_family_flown_past_its_end_stays_finite_and_seeded():
-    """Found by tests/fuzz.py: a reference family's table grew only when the step passed
+    """Found by tests/fuzzer/: a reference family's table grew only when the step passed
     all its members' rows together, so a vehicle stepped past its episode's end without a
     reset read the next member's rows, and the last member's read past the table (NaN,
     different from run to run)."""

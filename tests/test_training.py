@@ -27,6 +27,7 @@ def residual_run(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_train_save_load_evaluate_round_trip(residual_run, capsys):
     files = {p.name for p in residual_run.iterdir()}
     assert {"model.zip", "config.yaml", "evaluations.csv", "tb", "train.log",
@@ -48,6 +49,7 @@ def test_train_save_load_evaluate_round_trip(residual_run, capsys):
         ("hover-calm", "pid"), ("hover-calm", f"ppo:{residual_run.name}")}
 
 
+@pytest.mark.slow
 def test_a_bare_model_trains_on_for_more_timesteps(residual_run, tmp_path):
     config = _tiny("residual", "QuadDOB/HoverResidual-v1")
     model = train(config, tmp_path, resume=residual_run / "model.zip", evaluate_every=10**9,
@@ -55,6 +57,7 @@ def test_a_bare_model_trains_on_for_more_timesteps(residual_run, tmp_path):
     assert model.num_timesteps >= 2 * 256
 
 
+@pytest.mark.slow
 def test_a_model_in_an_env_with_other_spaces_fails_before_any_step(residual_run, tmp_path):
     policy = make_policy(f"residual:{residual_run}")
     direct_env = QuadrotorVectorEnv(1, "hover-calm")  # 24 observations, not 40
@@ -104,6 +107,7 @@ def test_bad_training_and_evaluation_input_is_named():
         make_policy("ppo")
 
 
+@pytest.mark.slow
 def test_normalised_observations_travel_with_the_model(tmp_path):
     config = _tiny("residual", "QuadDOB/HoverResidual-v1")
     config["normalize"] = {"norm_obs": True, "norm_reward": False}
@@ -115,6 +119,7 @@ def test_normalised_observations_travel_with_the_model(tmp_path):
     assert policy.act(observations).shape == (3, 4)
 
 
+@pytest.mark.slow
 def test_the_shipped_residual_beats_its_base_in_gusty_turbulence():
     # a guard on the shipped policy: five of the 20 held-out seeds of docs/residual-rl.md
     rows = evaluate(["geometric-ndob:tuned", "residual"], ["dryden-helix-gusts"],
@@ -126,6 +131,7 @@ def test_the_shipped_residual_beats_its_base_in_gusty_turbulence():
     assert residual["rms_position_settled_diff_high"] < 0 == base["rms_position_settled_diff_mean"]
 
 
+@pytest.mark.slow
 def test_the_shipped_residual_stays_out_of_the_way_in_calm_air():
     # the generalist's authority gate: where the observer sees no disturbance it flies its
     # base exactly, so its calm scores are the base's to the last bit
@@ -198,6 +204,7 @@ def test_a_run_off_a_terminal_prints_a_line_per_evaluation(tmp_path, capsys):
         row.split(",")[0] for row in rows]
 
 
+@pytest.mark.slow
 def test_evaluation_rows_score_the_weights_of_their_own_timesteps_and_never_repeat(tmp_path):
     """An evaluation that falls due inside a rollout runs at the next rollout's start, where
     the weights are those of exactly that many timesteps; the last row is the final model.
@@ -246,6 +253,7 @@ def test_residual_v1_names_the_shipped_v1_policy_so_v1_tables_keep_reproducing()
     assert all(np.array_equal(first[key].numpy(), second[key].numpy()) for key in first)
 
 
+@pytest.mark.slow
 def test_a_v2_id_trains_and_is_evaluated_during_training_in_v2s_loop(tmp_path):
     """quad-dob train takes the -v2 ids: the run's env and its evaluations against the base
     fly Benchmark v2's loop (sensing, inner loop, motors), the base at v2's gains."""

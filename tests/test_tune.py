@@ -7,6 +7,7 @@ from quad_dob_training import tune
 from quad_dob_training.tune import coordinate_descent
 
 
+@pytest.mark.slow
 def test_the_geometric_gains_descent_gives_the_shipped_gains_and_halves_the_objective():
     # the whole descent of training/tune.py (33 trials on seeds 100-109), as quad-dob tune
     # --controllers geometric-ndob:tuned runs it
@@ -20,6 +21,7 @@ def test_the_geometric_gains_descent_gives_the_shipped_gains_and_halves_the_obje
     assert controller.describe()["Ks"] == make_controller("geometric-ndob:tuned").describe()["Ks"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("controller", "searched"), [
     ("indi", ("filter_bandwidth",)), ("l1", ("force_cutoff", "torque_cutoff"))])
 def test_a_reduced_v2_descent_searches_the_estimators_filters_under_their_caps(

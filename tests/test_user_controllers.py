@@ -55,6 +55,7 @@ def outside(tmp_path) -> tuple[Path, Path]:
     return work, packages
 
 
+@pytest.mark.slow
 def test_a_user_controller_is_checked_evaluated_tuned_and_a_residual_base_from_outside(
         outside):
     work, packages = outside
@@ -95,6 +96,7 @@ def test_a_user_controller_is_checked_evaluated_tuned_and_a_residual_base_from_o
     assert flown.stdout.split() == ["example-pd", "60.0"]  # its describe(), in the env's info
 
 
+@pytest.mark.slow
 def test_check_controller_names_what_a_broken_controller_gets_wrong(outside):
     _, packages = outside
     (packages / "broken.py").write_text('''
@@ -202,6 +204,7 @@ def _installed(packages: Path, extra: dict[str, str]) -> dict[str, str]:
     return declared
 
 
+@pytest.mark.slow
 def test_an_installed_package_registers_a_controller_by_name_but_cannot_shadow_one(outside):
     work, packages = outside
     declared = _installed(packages, {"pid": "example_pd.controller:HoverPD",
@@ -244,6 +247,7 @@ def test_the_template_builds_and_the_builtin_names_are_untouched():
     assert Controller.tunable_gains == {} and Controller.estimator_bandwidths == ()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("algo", ["sac", "td3"])
 def test_sac_and_td3_zips_evaluate_by_their_prefix(algo, tmp_path, capsys):
     run = tmp_path / algo

@@ -178,6 +178,7 @@ def test_yaw_is_mixed_last_so_thrust_and_tilt_moments_survive():
 NEW_SCENARIOS = ["dryden-helix", "dryden-helix-gusts", "gusty-hover", "takeoff-landing-wind"]
 
 
+@pytest.mark.slow
 def test_geometric_ndob_stays_bounded_in_every_new_scenario():
     # the tuned observer; with the paper's gains it loses 4 of 10 dryden-helix flights
     # (benchmarks/wind_tracking.py), as does the plain geometric controller
