@@ -1,4 +1,4 @@
-"""Reference controllers, all batched, behind one interface (DESIGN.md principle 2).
+"""Reference controllers, all batched, behind one interface (docs/design.md principle 2).
 
 The folder ``baselines/`` installs as ``quad_dob_baselines``. It may import the simulator's
 low layers (``quad_dob_env.params``, ``so3``, ``flatness``, ``dynamics``, the reference

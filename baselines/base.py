@@ -1,4 +1,4 @@
-"""The controller interface: a template every baseline follows (DESIGN.md principle 2).
+"""The controller interface: a template every baseline follows (docs/design.md principle 2).
 
 A controller maps (time, state, reference) to collective thrust and body moments for the
 whole batch, and is then told what the actuators actually applied, so internal states

@@ -4,7 +4,7 @@ These functions are the one source of truth for the equations: ``attitude``, ``g
 and ``observer`` call the batch loops at the bottom, which numba compiles (the geometric
 loop is split across cores by ``quad_dob_env.threads``); Rd, Ωd, Ω̇d come from
 ``quad_dob_env.flatness``. ``tests/test_oracle.py`` holds them to an independent plain-numpy
-oracle written from DESIGN.md's equations. Compiled because the numpy version spent ~200
+oracle written from docs/design.md's equations. Compiled because the numpy version spent ~200
 small array operations per step and held a 4096-vehicle vector env with the base in the
 loop to 430,000 env-steps/s.
 

@@ -1,6 +1,6 @@
 """Nonlinear disturbance observer (Chen 2000 form) for both translation and rotation.
 
-Continuous form (DESIGN.md):
+Continuous form (docs/design.md):
 ``d̂x = zx + Ks v``, ``żx = -(Ks/m)(zx + Ks v - m g e3 + f R e3)``;
 ``d̂Ω = zΩ + Km Ω``, ``żΩ = -Km J⁻¹(zΩ + Km Ω - Ω × JΩ + M)``.
 Substituting the dynamics gives the estimate error dynamics

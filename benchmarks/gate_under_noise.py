@@ -2,7 +2,7 @@
 
 The gate gives the residual authority only where the signal it reads (the observer's force
 estimate, or with ``authority_signal="wind"`` its low-passed horizontal part) is above half
-the gate (``quad_dob_env.envs.authority``). Fed a noisy estimate, the observer turns
+the gate (``quad_dob_env.residual.gate``). Fed a noisy estimate, the observer turns
 velocity noise into apparent force; this counts the steps (after 2 s) on which the gate is
 open at all, and the mean authority, as the env computed them, seeds 9001-9020 unless told.
 

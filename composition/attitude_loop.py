@@ -148,7 +148,7 @@ class AttitudeLoop:
         core.attitude_loop = loop
         return loop
 
-    def fly(self, actions: NDArray[np.float64]) -> None:
+    def step(self, actions: NDArray[np.float64]) -> None:
         """One control step of the core's batch (``core.step`` calls it between its
         ``prepare_step`` and ``finish_step``)."""
         law: InnerLaw = self.controller.inner_law()

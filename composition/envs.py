@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
 from quad_dob_composition.attitude_loop import AttitudeLoop
@@ -10,34 +9,30 @@ from quad_dob_composition.bases import fused_pass_for, make_base
 from quad_dob_env.benchmark import scenario_options_for
 from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
 from quad_dob_env.envs.core import QuadrotorBatch
-from quad_dob_env.envs.residual import DEFAULT_BASE_CONTROLLER, ResidualCommand
+from quad_dob_env.residual import (
+    DEFAULT_BASE_CONTROLLER,
+    ResidualCommand,
+    ResidualOptions,
+    split_residual_keys,
+)
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.validation import checked_keywords
 from quad_dob_env.wrappers import ResidualActionWrapper
 
 
-@checked_keywords(QuadrotorEnv.__init__)
-def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER, thrust_scale: float = 0.1,
-                      moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
-                      authority_gate: float | None = None,
-                      residual_mode: str = "thrust_moments", acceleration_scale: float = 3.0,
-                      vertical_floor: float = 0.5, residual_rate_weight: float = 0.0,
-                      authority_signal: str = "force", lookahead: Sequence[float] = (),
-                      floor_fade: Sequence[float] | None = None,
-                      residual_cutoff: float | None = None,
+@checked_keywords(QuadrotorEnv.__init__, ResidualOptions)
+def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER,
+                      residual_options: ResidualOptions | None = None,
                       **env_kwargs: Any) -> ResidualActionWrapper:
     """``ResidualActionWrapper(QuadrotorEnv(**env_kwargs))`` flown by ``base_controller``
-    (a name or a controller), the env's own effort term off."""
+    (a name or a controller), the env's own effort term off. The residual's options come
+    as ``residual_options`` or as flat keys among ``env_kwargs`` (what a gym id passes)."""
+    options = split_residual_keys(env_kwargs, residual_options)
     env_kwargs.setdefault("reward_effort_weight", 0.0)
     env = QuadrotorEnv(**env_kwargs)
     core = env.unwrapped.core
     base = make_base(base_controller, core.vehicle, core.scenario.benchmark)
-    return ResidualActionWrapper(env, base, thrust_scale, moment_scale, residual_effort_weight,
-                                 authority_gate, residual_mode, acceleration_scale,
-                                 vertical_floor, attitude_loop=AttitudeLoop.install,
-                                 residual_rate_weight=residual_rate_weight,
-                                 authority_signal=authority_signal, lookahead=lookahead,
-                                 floor_fade=floor_fade, residual_cutoff=residual_cutoff)
+    return ResidualActionWrapper(env, base, options, attitude_loop=AttitudeLoop.install)
 
 
 class ResidualVectorEnv(QuadrotorVectorEnv):
@@ -46,7 +41,7 @@ class ResidualVectorEnv(QuadrotorVectorEnv):
     base flies the gains its name means in the scenario's benchmark, or in
     ``base_benchmark`` where given (a residual model's training benchmark)."""
 
-    @checked_keywords(QuadrotorVectorEnv.__init__)
+    @checked_keywords(QuadrotorVectorEnv.__init__, ResidualOptions)
     def __init__(self, num_envs: int, scenario: Any = "paper-none",
                  scenario_options: dict[str, Any] | None = None,
                  base_controller: Any = DEFAULT_BASE_CONTROLLER, compiled: bool = True,
@@ -72,8 +67,14 @@ def make_vector_env(num_envs: int, scenario: Any = "paper-none",
 
 
 def residual_command(core: QuadrotorBatch, base_controller: Any = DEFAULT_BASE_CONTROLLER,
-                     compiled: bool = True, **options: Any) -> ResidualCommand:
-    """A ``ResidualCommand`` for ``core`` with ``base_controller`` by name (or object)."""
+                     compiled: bool = True, residual_options: ResidualOptions | None = None,
+                     **residual_keys: Any) -> ResidualCommand:
+    """A ``ResidualCommand`` for ``core`` with ``base_controller`` by name (or object), its
+    options as a record or flat keys."""
+    options = split_residual_keys(residual_keys, residual_options)
+    if residual_keys:
+        raise ValueError(f"residual_command: unknown option {next(iter(residual_keys))!r}")
     base = make_base(base_controller, core.vehicle, core.scenario.benchmark)
-    return ResidualCommand(core, base, fused_pass=fused_pass_for(base) if compiled else None,
-                           attitude_loop=AttitudeLoop.install, **options)
+    return ResidualCommand(core, base, options,
+                           fused_pass=fused_pass_for(base) if compiled else None,
+                           attitude_loop=AttitudeLoop.install)

@@ -36,7 +36,7 @@ from quad_dob_baselines.kernels import (
     vector_at,
 )
 from quad_dob_env.envs.kernels import step_kernel
-from quad_dob_env.envs.residual_kernels import (
+from quad_dob_env.residual.residual_kernels import (
     residual_command_kernel,
     residual_observation_vehicle,
     residual_reward_kernel,
@@ -46,7 +46,7 @@ from quad_dob_env.threads import run_over_batch
 
 if TYPE_CHECKING:
     from quad_dob_baselines.geometric import GeometricController
-    from quad_dob_env.envs.residual import ResidualCommand
+    from quad_dob_env.residual import ResidualCommand
 
 class PlanArguments(NamedTuple):
     """What ``plan_kernel`` reads and writes for the whole batch: built by keyword, and the
@@ -228,7 +228,7 @@ class FusedResidualStep:
             self._arguments = ()
         plan_kernel(np.asarray(indices, dtype=np.intp), *self._plan_arguments())
 
-    def fly(self, residual: NDArray[np.float64]) -> None:
+    def step(self, residual: NDArray[np.float64]) -> None:
         """One step of every vehicle with ``residual`` (N, 4), and the plan for the next."""
         core = self.residual.core
         core.prepare_step()

@@ -112,7 +112,7 @@ def env_page(env_id: str) -> str:
               "[`QuadrotorEnv`](../api.md#quad_dob_env.envs.QuadrotorEnv)"
               + (", with the base's command and its observer's estimates appended to the "
                  "observation and the action a residual on that command, as "
-                 "[`quad_dob_env.envs.residual`](../api.md#quad_dob_env.envs.residual) "
+                 "[`quad_dob_env.residual`](../api.md#quad_dob_env.residual) "
                  "describes" if residual else "")
               + "; the [overview](../environments.md) has them in short.", ""]
     lines += ["## Version history", ""]

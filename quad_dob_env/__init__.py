@@ -1,6 +1,6 @@
 """quad_dob_env: quadrotor environments for disturbance-rejection research.
 
-Layers, each importing only from those above it (DESIGN.md): ``validation``, ``memory``,
+Layers, each importing only from those above it (docs/design.md): ``validation``, ``memory``,
 ``linalg``, ``rng``, ``threads`` (shared utilities: input checks, the memory budget large
 requests are sized against, small matrix functions, counter-based per-vehicle noise, compiled
 loops split across cores), ``params`` (vehicle presets; their sources in ``vehicle_sources``),
@@ -11,7 +11,8 @@ inputs that fly a reference), ``feasibility`` (a reference's needs against the a
 state estimator every policy reads through, with the ``ideal``, ``mocap`` and ``gnss-imu``
 presets), ``scenario`` (the ``Scenario`` record, validated), ``wind_tunnel`` (Neural-Fly's
 figure-8s and the tunnel's wind), ``scenarios`` (the named ones, the random-reference families
-included), ``envs``, ``wrappers`` (the residual wrapper). None of them imports
+included), ``residual`` (a base controller's command plus a policy's residual:
+``ResidualOptions``, ``ResidualCommand``), ``envs``, ``wrappers`` (the residual wrapper). None of them imports
 ``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``, not even at run time
 (``tests/test_layering.py``): the residual ids name their composition-layer entry points as
 strings.
@@ -32,8 +33,8 @@ docstring.
 import gymnasium as gym
 
 from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
-from quad_dob_env.envs.residual import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.params import VEHICLES, VehicleParams, get_vehicle
+from quad_dob_env.residual import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.scenarios import Scenario, list_scenarios, make_scenario
 from quad_dob_env.sensing import SENSING_PRESETS, Measurement, SensorSuite
 
@@ -69,7 +70,7 @@ def _register() -> None:
             continue
         residual = "Residual" in env_id
         # the residual ids compose a controller with the simulator: they are built by the
-        # composition layer, named here only as strings (DESIGN.md layering)
+        # composition layer, named here only as strings (docs/design.md layering)
         gym.register(id=env_id,
                      entry_point=("quad_dob_composition.envs:make_residual_env" if residual
                                   else "quad_dob_env.envs:QuadrotorEnv"),

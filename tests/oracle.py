@@ -1,4 +1,4 @@
-"""An independent oracle: the equations of DESIGN.md in plain numpy, sharing no code with
+"""An independent oracle: the equations of docs/design.md in plain numpy, sharing no code with
 the package (it reads only public fields of ``VehicleParams`` and samples references).
 
 Everything here is written for clarity and checked to tight tolerances against the package,

@@ -1,9 +1,10 @@
-"""Dependencies point one way (DESIGN.md): read from the sources with ``ast``, so an import
+"""Dependencies point one way (docs/design.md): read from the sources with ``ast``, so an import
 inside a function or behind TYPE_CHECKING counts too."""
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -108,3 +109,23 @@ def test_kernels_take_their_records_fields_in_order():
     for kernel in (remember_state, reward_and_observer_update):
         names = _parameters(kernel)[2:]
         assert names == both[:len(names)], kernel.__name__
+
+
+PACKAGE_FOLDERS = ("quad_dob_env", "baselines", "composition", "training")
+
+
+def _packages() -> list[Path]:
+    return sorted(init.parent for folder in PACKAGE_FOLDERS
+                  for init in (ROOT / folder).rglob("__init__.py"))
+
+
+@pytest.mark.parametrize("package", _packages(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_each_package_docstring_lists_its_modules(package):
+    # docs/design.md's map stops at the packages; each package's docstring names what lives
+    # in it, so a module added without a line there fails here
+    docstring = ast.get_docstring(ast.parse((package / "__init__.py").read_text())) or ""
+    members = [path.stem for path in package.glob("*.py") if path.stem != "__init__"]
+    members += [path.name for path in package.iterdir() if (path / "__init__.py").exists()]
+    missing = [name for name in sorted(members)
+               if not re.search(rf"(?<![\w.]){re.escape(name)}(?!\w)", docstring)]
+    assert not missing, f"{package.relative_to(ROOT)}'s docstring does not name {missing}"

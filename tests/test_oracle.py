@@ -1,4 +1,4 @@
-"""The package held to an independent oracle (``tests/oracle.py``) written from DESIGN.md's
+"""The package held to an independent oracle (``tests/oracle.py``) written from docs/design.md's
 equations: one physics step on random states, the mixer, Lee's law, and whole closed-loop
 flights of each scenario family with the observer."""
 

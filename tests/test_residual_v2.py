@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from quad_dob_composition import ResidualVectorEnv, make_residual_env, make_vector_env
-from quad_dob_env.envs.residual import WIND_GATE_TIME_CONSTANT
+from quad_dob_env.residual.gate import WIND_GATE_TIME_CONSTANT
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.trajectories import WaypointHops
 from quad_dob_training.vec_env import QuadrotorSB3VecEnv, draw_loops, env_options

@@ -13,7 +13,7 @@ from quad_dob_baselines import make_controller
 from quad_dob_composition import ResidualVectorEnv
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.envs import QuadrotorBatch, QuadrotorEnv, QuadrotorVectorEnv
-from quad_dob_env.envs.residual_kernels import body_frame_errors_vehicle
+from quad_dob_env.residual.residual_kernels import body_frame_errors_vehicle
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.sensing import (
     SENSING_PRESETS,

@@ -7,7 +7,7 @@ from gymnasium.utils import seeding
 from quad_dob_composition import make_vector_env, residual_command
 from quad_dob_env import threads
 from quad_dob_env.envs import QuadrotorBatch, QuadrotorVectorEnv
-from quad_dob_env.envs.residual import ResidualCommand
+from quad_dob_env.residual import ResidualCommand
 from quad_dob_env.scenarios import make_scenario
 
 _BIG_BATCHES = {"bare": ("dryden-helix-gusts", None),  # its turbulence uses the pool
@@ -88,8 +88,8 @@ def test_the_fused_pass_follows_the_tables_and_full_resets():
             for twin in (fused, staged):
                 twin.core.reset(np.arange(n), [seeding.np_random(i)[0] for i in range(n)])
                 twin.restart(np.arange(n))
-        fused.fly(residuals[step])
-        staged.fly(residuals[step])
+        fused.step(residuals[step])
+        staged.step(residuals[step])
         tables.add(id(fused.core.reference_table))
         np.testing.assert_allclose(fused.core.obs, staged.core.obs, rtol=0, atol=1e-12)
         np.testing.assert_allclose(fused.extra_observation, staged.extra_observation, rtol=0,

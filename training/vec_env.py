@@ -31,6 +31,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from quad_dob_composition import ResidualVectorEnv, make_vector_env
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.params import VEHICLES
+from quad_dob_env.residual import ResidualOptions
 from quad_dob_env.scenarios import SCENARIOS, make_scenario
 from quad_dob_env.sensing import SENSING_PRESETS
 from quad_dob_env.validation import as_finite, checked_keywords, unknown_name_error
@@ -123,7 +124,7 @@ class QuadrotorSB3VecEnv(VecEnv):
     bounds or its attitude lost; not the time limit): the env's reward forfeits only the
     steps left, which a loss late in an episode makes few."""
 
-    @checked_keywords(ResidualVectorEnv.__init__, QuadrotorVectorEnv.__init__)
+    @checked_keywords(ResidualVectorEnv.__init__, QuadrotorVectorEnv.__init__, ResidualOptions)
     def __init__(self, num_envs: int, scenario: str = "paper-none", seed: int | None = None,
                  loop_randomization: dict[str, Any] | None = None,
                  termination_penalty: float = 0.0, **env_kwargs: Any) -> None:
@@ -186,7 +187,7 @@ class QuadrotorSB3VecEnv(VecEnv):
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         for group, venv in zip(self.groups, self.vector_envs, strict=True):
             core = venv.core
-            venv.fly(self._actions[group])
+            venv.step_vehicles(self._actions[group])
             rewards[group] = venv.rewards()
             terminated, truncated = core.terminated, core.truncated
             dones[group] = terminated | truncated

@@ -1,13 +1,15 @@
 """Batched rigid-body quadrotor dynamics.
 
 - ``state``: ``VehicleState``, the batched (x, v, R, Ω).
-- ``integrator``: the equations of motion (DESIGN.md) and the CF4 Lie-group Runge–Kutta
+- ``integrator``: the equations of motion (docs/design.md) and the CF4 Lie-group Runge–Kutta
   integrator, compiled per vehicle; the in-ground-effect thrust law it evaluates.
 - ``actuation``: rotor allocation and saturation (``rotors``) or direct wrench limits
   (``wrench``), reporting what was actually applied.
 - ``rotors``: the rotors' own physics, a switch each (Benchmark v2): motors on rotor speed,
   thrust uncertainty (per-episode k_F, battery sag), rotor drag and its moment, thrust with
   axial inflow.
+- ``throttle``: Benchmark v3's throttle between autopilot and rotors: the thrust a throttle
+  gives, what the autopilot believes of it, and the battery under both.
 
 May import ``params``, ``so3``, ``validation`` and ``threads``; nothing above.
 """

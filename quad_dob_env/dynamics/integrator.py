@@ -1,6 +1,6 @@
 """Equations of motion and their integrator, compiled per vehicle and run over the batch.
 
-Equations (DESIGN.md; inertial frame, z up, R maps body to world):
+Equations (docs/design.md; inertial frame, z up, R maps body to world):
 ``x' = v``, ``m v' = -m g e3 + k(h) f R e3 + d_x``, ``R' = R hat(Ω)``,
 ``J Ω' = -Ω × JΩ + M + d_Ω``, where ``k(h)`` is the in-ground-effect thrust multiplier.
 
@@ -84,7 +84,7 @@ def body_drag(v, rotation, wind, drag_linear, drag_quadratic):
     """Body-frame drag ``-(diag(c1) u + ‖u‖ diag(c2) u)`` on the air-relative velocity
     ``u = Rᵀ(v - w)``: the quadratic term scales with the airspeed, not with each
     component's, so a body that is round in the horizontal plane feels the same drag at
-    any heading to the wind (DESIGN.md)."""
+    any heading to the wind (docs/design.md)."""
     r = rotation
     a = (v[0] - wind[0], v[1] - wind[1], v[2] - wind[2])
     u = (r[0] * a[0] + r[3] * a[1] + r[6] * a[2], r[1] * a[0] + r[4] * a[1] + r[7] * a[2],
@@ -111,11 +111,11 @@ def _accelerations(x, v, rotation, omega, thrust, moment, force, torque, wind, m
                                               drag[1] + rotor_force[1], drag[2] + lift))
     else:
         lift = thrust * thrust_multiplier_scalar(x[2], law)
-        # m v' = -m g e3 + k f R e3 + R F_drag + d_x  (DESIGN.md, with drag as issue 4 adds it)
+        # m v' = -m g e3 + k f R e3 + R F_drag + d_x  (docs/design.md, with drag as issue 4 adds it)
         body_force = mat_vec_tuple(rotation, (drag[0], drag[1], drag[2] + lift))
     linear = ((body_force[0] + force[0]) / mass, (body_force[1] + force[1]) / mass,
               (body_force[2] + force[2]) / mass - gravity)
-    # J Ω' = -Ω × JΩ + M + d_Ω  (DESIGN.md)
+    # J Ω' = -Ω × JΩ + M + d_Ω  (docs/design.md)
     gyroscopic = cross_tuple(omega, mat_vec_tuple(inertia, omega))
     angular = mat_vec_tuple(inertia_inverse, (moment[0] + torque[0] - gyroscopic[0],
                                               moment[1] + torque[1] - gyroscopic[1],

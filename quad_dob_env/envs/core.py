@@ -285,7 +285,7 @@ class QuadrotorBatch:
         self._actions[...] = (actions if self.loop.rates else self.action_map.flown(
             actions, self.measurement.angular_velocity, self.loop.told_inertia(self.inertia)))
         if self.attitude_loop is not None:  # a controller's attitude law at the inner rate
-            self.attitude_loop.fly(self._actions)
+            self.attitude_loop.step(self._actions)
         else:
             run_over_batch(step_kernel, self.n, self._actions, *self._kernel_arguments()[0])
         self.finish_step()

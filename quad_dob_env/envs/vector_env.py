@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import copy
-from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -24,7 +23,7 @@ from quad_dob_env.envs.core import (
 from quad_dob_env.envs.kernels import OBSERVATION_BOUND, episode_ends_kernel
 from quad_dob_env.envs.limits import SpecWithEpisodeLength
 from quad_dob_env.envs.rendering import FlightRenderer
-from quad_dob_env.envs.residual import ResidualCommand
+from quad_dob_env.residual import ResidualCommand, ResidualOptions, split_residual_keys
 from quad_dob_env.scenarios import Scenario, make_scenario
 from quad_dob_env.validation import checked_keywords, unknown_name_error
 
@@ -58,44 +57,37 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     Residual mode: with ``base_controller`` (a controller object; by name through
     ``quad_dob_composition.ResidualVectorEnv``, what the residual ids build) every vehicle is
     flown by that controller, run once per step for the whole batch, plus the action as a
-    residual scaled by ``thrust_scale`` and ``moment_scale``, or with
-    ``residual_mode="acceleration"`` an acceleration correction of up to
-    ``acceleration_scale`` m/s² in the base's force law (``vertical_floor``: how low it may
-    take the force's vertical part) and a yaw moment (``quad_dob_env.envs.residual``: the
-    command, the 16 extra observation entries, the reward); ``fused_pass`` runs
-    thrust-and-moment residuals in one compiled pass per step, ``attitude_loop`` the base's
-    attitude law at a scenario's inner rate (``quad_dob_composition`` passes both). ``info``
-    then adds ``base_thrust``, ``base_moment``, ``force_estimate`` and ``torque_estimate``.
-    ``reward_effort_weight`` defaults to 0.01 without a base and to 0 with one (the
-    residual's own effort is ``residual_effort_weight``, its rate of change
-    ``residual_rate_weight``; ``authority_gate`` and ``authority_signal``: when it may act;
-    ``lookahead``: times [s] at which the observation also holds the reference ahead;
-    ``floor_fade``: the heights above the floor over which the residual fades out;
-    ``residual_cutoff``: the corner [Hz] of a low-pass on the residual, none by default).
+    residual (``quad_dob_env.residual``: the command, the 16 extra observation entries, the
+    reward). Its options come as ``residual_options`` (a ``ResidualOptions``: modes, scales,
+    gate, floor fade, reward weights; its table lists them) or as the same names as flat
+    keys (``thrust_scale=0.2``), as gym kwargs and configs give them; a key given both ways
+    takes the flat value. ``fused_pass`` runs thrust-and-moment residuals in one compiled
+    pass per step, ``attitude_loop`` the base's attitude law at a scenario's inner rate
+    (``quad_dob_composition`` passes both). ``info`` then adds ``base_thrust``,
+    ``base_moment``, ``force_estimate`` and ``torque_estimate``. ``reward_effort_weight``
+    defaults to 0.01 without a base and to 0 with one (the residual's own effort is
+    ``residual_effort_weight``).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 100,
                                           "autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    @checked_keywords()
+    @checked_keywords(ResidualOptions)
     def __init__(self, num_envs: int, scenario: str | Scenario = "paper-none",
                  scenario_options: dict[str, Any] | None = None,
                  action_mode: str = "thrust_moments", rotation_representation: str = "matrix",
                  max_position_error: float = 5.0, max_tilt: float = np.pi / 2,
                  max_body_rate: float = 35.0, reward_position_scale: float = 0.25,
                  reward_effort_weight: float | None = None, render_mode: str | None = None,
-                 base_controller: Any = None, thrust_scale: float = 0.1,
-                 moment_scale: float = 0.1, residual_effort_weight: float = 0.01,
-                 invalid_actions: str = "raise", fused_pass: Any = None,
-                 max_episode_steps: int | None = None,
+                 base_controller: Any = None, invalid_actions: str = "raise",
+                 fused_pass: Any = None, max_episode_steps: int | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-                 authority_gate: float | None = None, residual_mode: str = "thrust_moments",
-                 acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
                  attitude_loop: Any = None, benchmark: str | None = None,
-                 residual_rate_weight: float = 0.0, authority_signal: str = "force",
-                 lookahead: Sequence[float] = (),
-                 floor_fade: Sequence[float] | None = None,
-                 residual_cutoff: float | None = None) -> None:
+                 residual_options: ResidualOptions | None = None,
+                 **residual_keys: Any) -> None:
+        # the residual's options as flat keys (gym kwargs, configs) become the record here;
+        # a direct env takes none
+        residual_options = split_residual_keys(residual_keys, residual_options)
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -123,11 +115,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
             raise ValueError(f"autoreset_mode {given!r} is not supported; valid: "
                              + ", ".join(mode.value for mode in modes))
         self.residual = None if base_controller is None else ResidualCommand(
-            self.core, base_controller, thrust_scale, moment_scale, residual_effort_weight,
-            fused_pass, authority_gate, residual_mode, acceleration_scale, vertical_floor,
-            attitude_loop, residual_rate_weight=residual_rate_weight,
-            authority_signal=authority_signal, lookahead=lookahead,
-            floor_fade=floor_fade, residual_cutoff=residual_cutoff)
+            self.core, base_controller, residual_options, fused_pass=fused_pass,
+            attitude_loop=attitude_loop)
         # None without a base; with one, its name and gains (also in the reset info)
         self.base_controller = (None if self.residual is None
                                 else self.residual.controller.describe())
@@ -181,7 +170,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     def step(self, actions: Any) -> tuple[NDArray[np.float32], NDArray, NDArray, NDArray, dict]:
         if not self._generators:
             raise gym.error.ResetNeeded("call reset() before step()")
-        self.fly(actions)
+        self.step_vehicles(actions)
         restarted = self._needs_reset
         if self._ended_count:
             self.restart(np.flatnonzero(restarted))
@@ -242,7 +231,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
             return None
         return tuple(self._renderer.frame(i) for i in self._rendered)
 
-    def fly(self, actions: Any) -> None:
+    def step_vehicles(self, actions: Any) -> None:
         """One step of every vehicle (residual mode: with the residuals, and the next base
         command planned); NaN/inf rows raise or, with ``invalid_actions="terminate"``, fly
         at hover (residual mode: at the base command, a zero residual; with
@@ -252,7 +241,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
         if self.residual is None:
             self.core.step(actions)
         else:
-            self.residual.fly(actions)
+            self.residual.step(actions)
         if invalid.size:
             self.core.end_for_invalid_actions(invalid)
 

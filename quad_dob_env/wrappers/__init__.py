@@ -1,7 +1,7 @@
 """Wrappers over the environments.
 
 - ``residual``: ``ResidualActionWrapper``, a single env flown by a base controller object
-  plus the policy's scaled residual (``quad_dob_env.envs.residual.ResidualCommand``, which
+  plus the policy's scaled residual (``quad_dob_env.residual.ResidualCommand``, which
   the vector env's ``base_controller=`` option runs too). The ``...Residual-v1`` ids build
   it by name through ``quad_dob_composition.make_residual_env``.
 

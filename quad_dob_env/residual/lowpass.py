@@ -1,4 +1,4 @@
-"""The residual's low-pass (``residual_cutoff`` of ``quad_dob_env.envs.residual``): what the
+"""The residual's low-pass (``residual_cutoff`` of ``quad_dob_env.residual``): what the
 policy asks for, clipped to [-1, 1], passes a first-order low-pass of corner frequency
 f_c before the authority gate and the floor fade scale it.
 

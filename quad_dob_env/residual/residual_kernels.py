@@ -1,4 +1,4 @@
-"""The residual's compiled per-vehicle pieces (``quad_dob_env.envs.residual``): the
+"""The residual's compiled per-vehicle pieces (``quad_dob_env.residual``): the
 command, the reward and the extra observation, written once: the separate stages call them
 over the batch, ``quad_dob_composition.fused``'s single pass per vehicle."""
 
@@ -59,7 +59,7 @@ def residual_observation_vehicle(i, base_thrust, base_moment, force_estimate, to
                                  estimate_scale, position, velocity, rotation, reference,
                                  row_index, rotor_mode, centre, scale_up, scale_down, mixer,
                                  base_action, body_errors, extra):
-    """Vehicle i's 16 extra observation entries (table in ``envs.residual``); the action
+    """Vehicle i's 16 extra observation entries (table in ``quad_dob_env.residual``); the action
     map's inverse comes unpacked (``ActionMap.inverse``)."""
     action_from_command_vehicle(i, base_thrust[i], (base_moment[i, 0], base_moment[i, 1],
                                                     base_moment[i, 2]),

@@ -1,4 +1,4 @@
-"""The residual observation's look-ahead (``quad_dob_env.envs.residual``): the error against
+"""The residual observation's look-ahead (``quad_dob_env.residual``): the error against
 the reference at given times ahead, in the body frame the present errors use."""
 
 from __future__ import annotations

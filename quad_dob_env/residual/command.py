@@ -1,4 +1,4 @@
-"""Residual control: a base controller's command plus a scaled policy residual.
+"""``ResidualCommand``: a base controller's command plus a scaled policy residual.
 
 ``ResidualCommand`` does it for a whole ``QuadrotorBatch`` (one controller call for all N
 vehicles); ``quad_dob_env.wrappers.ResidualActionWrapper`` is its single-env face and
@@ -7,7 +7,7 @@ The base is a controller *object* (``reset``, ``compute``, ``applied``): the sim
 knows no controller by name. ``quad_dob_composition`` builds one by name and hands it in,
 which is what the registered residual ids do. Two ways to run a step, with the same
 per-vehicle equations: the stages ``command`` -> ``core.step`` -> ``record`` -> ``plan``
-work with any controller (the wrapper, whose env steps itself, always uses them); ``fly``
+work with any controller (the wrapper, whose env steps itself, always uses them); ``step``
 runs the step in one compiled pass when given one (``fused_pass``, which
 ``quad_dob_composition`` supplies for the geometric controller).
 
@@ -35,9 +35,11 @@ a zero residual giving the base command exactly:
   within 0.5 s of the start, where the helix asks for 0.4 g while the motors still spin
   at hover; with it, none.
 
+Its options come as one record, ``ResidualOptions`` (``quad_dob_env.residual.options``).
 How much of the residual flies (``authority_gate`` and ``authority_signal``: a gate on the
-observed disturbance; ``floor_fade``: a fade near the floor) is
-``quad_dob_env.envs.authority``'s.
+observed disturbance; ``floor_fade``: a fade near the floor) is ``AuthorityGate``'s
+(``gate``) and ``FloorFade``'s (``floor_fade``); the acceleration mode is
+``AccelerationMode``'s (``modes``). The base sits behind ``BaseController``.
 
 Observation: the env's own observation followed by 16 entries (and 3 per look-ahead time),
 from the measurement the base controller reads:
@@ -60,7 +62,7 @@ trajectory's next points (Huang et al., "DATT", CoRL 2023, arXiv:2310.09053); th
 is tabulated that much past the episode's end, and a vehicle flown past even that (no
 reset) reads its last row. x and R are the measurement the base reads, as in every entry.
 ``residual_cutoff`` (Hz; none by default) low-passes the residual before the gate and fade
-(``quad_dob_env.envs.residual_filter``); the last 4 entries are then that filter's state,
+(``quad_dob_env.residual.lowpass``); the last 4 entries are then that filter's state,
 the policy's own past output filtered.
 
 Reward: the env's reward (built with no effort term) minus
@@ -73,38 +75,49 @@ oscillation.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_env.envs.authority import (
-    WIND_GATE_TIME_CONSTANT,
-    check_floor_fade,
-    check_signal,
-    floor_factor,
-    gate_factor,
-    guard_correction,
-)
-from quad_dob_env.envs.lookahead import look_ahead, lookahead_steps
-from quad_dob_env.envs.residual_filter import ResidualFilter
-from quad_dob_env.envs.residual_kernels import (
+from quad_dob_env.residual.floor_fade import FloorFade
+from quad_dob_env.residual.gate import AuthorityGate
+from quad_dob_env.residual.lookahead import look_ahead, lookahead_steps
+from quad_dob_env.residual.lowpass import ResidualFilter
+from quad_dob_env.residual.modes import AccelerationMode
+from quad_dob_env.residual.options import ResidualOptions
+from quad_dob_env.residual.residual_kernels import (
     join_columns,
     residual_command_kernel,
     residual_observation_kernel,
     residual_reward_kernel,
 )
-from quad_dob_env.validation import as_finite, unknown_name_error
 
 if TYPE_CHECKING:
     from quad_dob_env.envs.core import QuadrotorBatch
 
 RESIDUAL_OBSERVATION_SIZE = 16
-RESIDUAL_MODES = ("thrust_moments", "acceleration")
 
 
-def check_controller(base: Any) -> Any:
+@runtime_checkable
+class BaseController(Protocol):
+    """What a residual's base must offer: the interface of ``quad_dob_baselines.base``'s
+    ``Controller``, seen from the simulator (which imports no controller)."""
+
+    name: str
+    diagnostics: dict[str, NDArray]
+
+    def reset(self, n: int, vehicle: Any, dt: float, indices: Any = None,
+              **options: Any) -> None: ...
+
+    def compute(self, time: float, state: Any, reference: Any,
+                **options: Any) -> tuple[NDArray, NDArray]: ...
+
+    def applied(self, state: Any, thrust: NDArray, moment: NDArray) -> None: ...
+
+
+def check_controller(base: Any) -> BaseController:
     """``base`` if it is a controller object; a name or anything else raises, saying where
     names are resolved."""
     if isinstance(base, str):
@@ -125,60 +138,49 @@ DEFAULT_BASE_CONTROLLER = "geometric-ndob:tuned"
 
 
 class ResidualCommand:
-    """Base controller + residual for every vehicle of ``core``."""
+    """Base controller + residual for every vehicle of ``core``, with the options
+    ``options`` (the defaults without)."""
 
     def __init__(self, core: QuadrotorBatch, base_controller: Any,
-                 thrust_scale: float = 0.1, moment_scale: float = 0.1,
-                 residual_effort_weight: float = 0.01,
+                 options: ResidualOptions | None = None, *,
                  fused_pass: Callable[[ResidualCommand], Any] | None = None,
-                 authority_gate: float | None = None, residual_mode: str = "thrust_moments",
-                 acceleration_scale: float = 3.0, vertical_floor: float = 0.5,
-                 attitude_loop: Callable[[QuadrotorBatch, Any], Any] | None = None,
-                 residual_rate_weight: float = 0.0, authority_signal: str = "force",
-                 lookahead: Sequence[float] = (), floor_fade: Sequence[float] | None = None,
-                 residual_cutoff: float | None = None) -> None:
+                 attitude_loop: Callable[[QuadrotorBatch, Any], Any] | None = None) -> None:
         if core.action_map.rate_loop is not None:
             raise ValueError("a residual adds to its base's thrust and moments: "
                              "action_mode='thrust_rates' is for direct control only")
-        if residual_mode not in RESIDUAL_MODES:
-            raise unknown_name_error("residual_mode", residual_mode, RESIDUAL_MODES)
-        self.residual_mode = residual_mode
-        self.acceleration_scale = as_finite(acceleration_scale, "residual acceleration_scale",
-                                            0.0, strictly=True)
-        self.vertical_floor = as_finite(vertical_floor, "residual vertical_floor", 0.0)
+        if options is None:
+            options = ResidualOptions()
+        elif not isinstance(options, ResidualOptions):
+            raise ValueError(f"ResidualCommand takes its options as a ResidualOptions, got "
+                             f"{options!r}")
+        self.options = options
+        self.residual_mode = options.residual_mode
         self.core = core
-        self.authority_gate = (None if authority_gate is None else
-                               as_finite(authority_gate, "authority_gate", 0.0, strictly=True))
-        self.authority_signal = check_signal(authority_signal)
-        fade = check_floor_fade(floor_fade)  # checked even where there is no floor to fade by
-        self.floor_fade = fade if core.scenario.floor_height is not None else None
+        n, dt = core.n, core.scenario.dt
+        self.gate = (None if options.authority_gate is None else
+                     AuthorityGate(n, dt, options.authority_gate, options.authority_signal))
+        self.floor_fade = (None if options.floor_fade is None
+                           or core.scenario.floor_height is None
+                           else FloorFade(options.floor_fade, core.scenario.floor_height))
         self.controller = check_controller(base_controller)
-        if residual_mode == "acceleration" and not getattr(
-                self.controller, "accepts_acceleration_correction", False):
-            raise ValueError(
-                f"residual_mode='acceleration' needs a base whose compute takes an "
-                f"acceleration_correction (the geometric controllers: geometric, "
-                f"geometric-ndob, geometric-ndob:tuned); {self.controller.name!r} does not")
-        self.thrust_scale = as_finite(thrust_scale, "residual thrust_scale", 0.0, strictly=True)
-        self.moment_scale = as_finite(moment_scale, "residual moment_scale", 0.0, strictly=True)
-        if self.thrust_scale > 1 or self.moment_scale > 1:
-            raise ValueError(f"residual thrust_scale and moment_scale are fractions of the "
-                             f"limits in (0, 1], got {thrust_scale}, {moment_scale}")
-        self.effort_weight = as_finite(residual_effort_weight, "residual_effort_weight", 0.0)
-        self.rate_weight = as_finite(residual_rate_weight, "residual_rate_weight", 0.0)
         vehicle, limit = core.vehicle, core.actuator.moment_limit
-        self.residual_range = np.concatenate([[self.thrust_scale * vehicle.max_total_thrust],
-                                               self.moment_scale * limit])
+        self.acceleration = (None if options.residual_mode != "acceleration" else
+                             AccelerationMode(self.controller, options.acceleration_scale,
+                                              options.vertical_floor, vehicle.mass,
+                                              vehicle.gravity))
+        self.effort_weight = options.residual_effort_weight
+        self.rate_weight = options.residual_rate_weight
+        self.residual_range = np.concatenate(
+            [[options.thrust_scale * vehicle.max_total_thrust], options.moment_scale * limit])
         self.estimate_scale = np.concatenate([np.full(3, 1.0 / (vehicle.mass * vehicle.gravity)),
                                                1.0 / limit])
-        n = core.n
         self.base_thrust, self.base_moment = np.zeros(n), np.zeros((n, 3))
         self.requested_thrust = np.zeros(n)  # base + residual, before the actuators' limits
-        self.lookahead_steps = lookahead_steps(lookahead, core.scenario.dt)
+        self.lookahead_steps = lookahead_steps(options.lookahead, dt)
         if len(self.lookahead_steps):  # so that an episode's last step still sees ahead
             core.tabulate_ahead(int(self.lookahead_steps[-1]))
-        self.residual_filter = (None if residual_cutoff is None else
-                                ResidualFilter(n, core.scenario.dt, residual_cutoff))
+        self.residual_filter = (None if options.residual_cutoff is None else
+                                ResidualFilter(n, dt, options.residual_cutoff))
         ahead_end = RESIDUAL_OBSERVATION_SIZE + 3 * len(self.lookahead_steps)
         self.extra_observation = np.zeros(
             (n, ahead_end + (0 if self.residual_filter is None else 4)), dtype=np.float32)
@@ -192,12 +194,11 @@ class ResidualCommand:
         self.force_estimate, self.torque_estimate = np.zeros((n, 3)), np.zeros((n, 3))
         self._residual = np.zeros((n, 4))
         self.previous_residual = np.zeros((n, 4))  # the residual flown the step before
-        self.gate_filter = np.zeros((n, 2))  # the "wind" signal's low-passed d̂x,xy / (m g₀)
         # the last step's factors: the gate's, and the gate's times the floor fade's (the
         # one flown); 1 without either
         self.gate_authority, self.authority = np.ones(n), np.ones(n)
         self._started = False
-        by_acceleration = residual_mode == "acceleration"
+        by_acceleration = self.acceleration is not None
         # the compiled pass reads the true state (for the identity sensing only) and flies the
         # monolithic controller
         self._fused = (None if fused_pass is None or by_acceleration
@@ -231,7 +232,8 @@ class ResidualCommand:
                                   actuation=core.scenario.actuation)
         self.rewards[indices] = 0.0
         self.previous_residual[indices] = 0.0  # an episode starts from the base alone
-        self.gate_filter[indices] = 0.0
+        if self.gate is not None:
+            self.gate.restart(indices)
         if self.residual_filter is not None:
             self.residual_filter.restart(indices)
             self._filtered[indices] = 0.0
@@ -249,12 +251,12 @@ class ResidualCommand:
             self._fused.restart(indices)
             look_ahead(self.core, self.lookahead_steps, self._ahead)
 
-    def fly(self, residual: NDArray[np.float64]) -> None:
+    def step(self, residual: NDArray[np.float64]) -> None:
         """Step the core with base + ``residual`` (N, 4) and plan the next base command:
         one compiled pass when it was given one (``fused_pass``), else ``command``,
         ``core.step``, ``record`` and ``plan``."""
         if self._fused is not None:
-            self._fused.fly(self._gate_flown(residual))
+            self._fused.step(self._gate_flown(residual))
             look_ahead(self.core, self.lookahead_steps, self._ahead)
             return
         self.core.step(self.command(residual))
@@ -270,16 +272,10 @@ class ResidualCommand:
         self._state_before = measurement.copy()
         actions = np.empty((core.n, 4))
         residual = np.ascontiguousarray(self._gate_flown(residual), dtype=np.float64)
-        if self.residual_mode == "acceleration":
+        if self.acceleration is not None:
             clipped = np.clip(residual, -1.0, 1.0)
-            correction = self.acceleration_scale * clipped[:, :3]
-            self.base_thrust, self.base_moment = self.controller.compute(
-                core.time, measurement, core.reference, acceleration_correction=correction)
-            guarded = self._guard(correction)
-            if guarded is not None:  # the base again, with the guarded correction
-                clipped[:, :3] = guarded / self.acceleration_scale
-                self.base_thrust, self.base_moment = self.controller.compute(
-                    core.time, measurement, core.reference, acceleration_correction=guarded)
+            self.base_thrust, self.base_moment = self.acceleration.correct(
+                core.time, measurement, core.reference, clipped)
             zeros = np.zeros((core.n, 3))
             self.force_estimate, self.torque_estimate = (
                 self.controller.diagnostics.get(key, zeros).copy()
@@ -296,40 +292,29 @@ class ResidualCommand:
             self._residual = clipped  # the effort term scores the whole residual
         return actions
 
-    def _guard(self, correction: NDArray[np.float64]) -> NDArray[np.float64] | None:
-        """``guard_correction`` for this step's base (its desired force)."""
-        vehicle = self.core.vehicle
-        return guard_correction(correction, self.controller.diagnostics["desired_force"],
-                                vehicle.mass, vehicle.gravity, self.vertical_floor)
-
     def _gate_flown(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
         """``gated``, the ``"wind"`` filter and the residual's low-pass advanced first: once
         per flown step."""
         if self.residual_filter is not None:  # the gate and fade then scale what it passes
             residual = self.residual_filter.step(residual)
             self._filtered[:] = residual
-        if self.authority_gate is not None and self.authority_signal == "wind":
-            # first-order low-pass of d̂x,xy / (m g₀) at the step's start, forward Euler
-            blend = min(1.0, self.core.scenario.dt / WIND_GATE_TIME_CONSTANT)
-            self.gate_filter += blend * (self.extra_observation[:, 4:6] - self.gate_filter)
+        if self.gate is not None:  # the "wind" signal's low-pass, at the step's start
+            self.gate.advance(self.extra_observation[:, 4:7])
         return self.gated(residual)
 
     def gated(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
         """``residual`` clipped and scaled by the authority the observed disturbance and the
-        height above the floor give (``quad_dob_env.envs.authority``); unchanged without
+        height above the floor give (``gate``, ``floor_fade``); unchanged without
         ``authority_gate`` and ``floor_fade``. Sets ``gate_authority`` and ``authority``
         only."""
-        if self.authority_gate is None and self.floor_fade is None:
+        if self.gate is None and self.floor_fade is None:
             return residual
         authority = np.ones(self.core.n)
-        if self.authority_gate is not None:
-            seen = np.linalg.norm(self.gate_filter if self.authority_signal == "wind"
-                                  else self.extra_observation[:, 4:7], axis=1)  # d̂x / (m g₀)
-            authority = gate_factor(seen, self.authority_gate)
+        if self.gate is not None:
+            authority = self.gate.factor(self.extra_observation[:, 4:7])
         self.gate_authority = authority
         if self.floor_fade is not None:
-            height = self.core.measurement.position[:, 2] - self.core.scenario.floor_height
-            authority = authority * floor_factor(height, self.floor_fade)
+            authority = authority * self.floor_fade.factor(self.core.measurement.position)
         self.authority = authority
         return np.clip(residual, -1.0, 1.0) * authority[:, None]
 
