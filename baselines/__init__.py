@@ -5,7 +5,7 @@ low layers (``quad_dob_env.params``, ``so3``, ``flatness``, ``dynamics``, the re
 type), never ``quad_dob_training``.
 
 - ``base``: the ``Controller`` template (reset / compute / applied).
-- ``kernels``: the geometric controller's and the observer's equations, once per vehicle,
+- ``geometric_kernels``: the geometric controller's and the observer's equations, once per vehicle,
   compiled (the modules below call them for the batch).
 - ``attitude``: desired attitude from a thrust vector and heading, with analytic Ωd, Ω̇d.
 - ``geometric``: Lee–Leok–McClamroch 2010 on SE(3); with an observer, geometric + NDOB.

@@ -2,7 +2,7 @@
 
 The equations (Lee, Leok, McClamroch 2010, z up) live once, per vehicle: Rd, Ωd, Ω̇d in
 ``quad_dob_env.flatness`` (which the scenarios' feasibility check uses too), Lee's errors in
-``quad_dob_baselines.kernels``; these are their (N, 3) numpy faces for the baselines.
+``quad_dob_baselines.geometric_kernels``; these are their (N, 3) numpy faces for the baselines.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_baselines import kernels
+from quad_dob_baselines import geometric_kernels as kernels
 from quad_dob_env.flatness import DesiredAttitude, attitude_from_thrust_vector, flat_attitude
 
 

@@ -9,7 +9,8 @@ trajectory's jerk and snap and the model's prediction of the vehicle's accelerat
 jerk, ``v̇ = -g e3 + (f R e3 + d̂x)/m`` (the estimate d̂x is held constant in them). Δa is
 zero unless an outer loop (a residual policy, ``residual_mode="acceleration"``) passes
 ``acceleration_correction`` to ``compute``; it is held constant in them too.
-The equations are written once, per vehicle, in ``quad_dob_baselines.kernels.geometric_law``.
+The equations are written once, per vehicle, in
+``quad_dob_baselines.geometric_kernels.geometric_law``.
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_baselines.base import Controller
+from quad_dob_baselines.geometric_kernels import geometric_batch
 from quad_dob_baselines.inner import LEE, InnerLaw, held_torque_estimate, inner_law
-from quad_dob_baselines.kernels import geometric_batch
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.params import VehicleParams
@@ -80,7 +81,7 @@ class GeometricController(Controller):
 
     def compute(self, time: NDArray, state: VehicleState, reference: Reference,
                 acceleration_correction: NDArray | None = None) -> tuple[NDArray, NDArray]:
-        """One compiled call for the batch (``kernels.geometric_law`` per vehicle);
+        """One compiled call for the batch (``geometric_law`` per vehicle);
         ``acceleration_correction`` (N, 3) [m/s²], an outer loop's Δa added to ẍd in F."""
         vehicle = self.vehicle
         n = len(state.position)
@@ -216,7 +217,7 @@ class GeometricIntegralController(GeometricController):
     ``integral_limit_per_weight · m g`` per axis (anti-windup). The counterpart of
     Neural-Fly's "nonlinear baseline with integral action". The integral's force enters the
     geometric law where an observer's estimate would (``force_estimate``), so the law is
-    the one ``kernels.geometric_law`` writes."""
+    the one ``geometric_law`` writes."""
 
     name = "geometric-integral"
 

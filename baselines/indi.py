@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_baselines.filters import butterworth_lowpass, butterworth_settle, butterworth_step
 from quad_dob_baselines.geometric import EstimatingGeometricController
-from quad_dob_baselines.kernels import matrix_at, vector_at
+from quad_dob_baselines.geometric_kernels import matrix_at, vector_at
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.so3 import cross_tuple, mat_vec_tuple, matrix_entries

@@ -8,9 +8,9 @@ control step it leaves, in its ``diagnostics``, the desired thrust vector F, att
 and the rates Ωd, Ω̇d it flies towards, and at every tick of the inner loop the law below
 turns the inner-rate estimate of (R, Ω) into ``f = F · R e3`` and a moment:
 
-- ``LEE`` (geometric, geometric + NDOB): ``kernels.attitude_law`` (kR, kΩ, feed-forward)
+- ``LEE`` (geometric, geometric + NDOB): ``attitude_law`` (kR, kΩ, feed-forward)
   with the rotational observer's ``d̂Ω = zΩ + Km' Ω``, zΩ advanced each tick with the moment
-  applied (``kernels.torque_observer_step``, its gains discretised at the tick);
+  applied (``torque_observer_step``, its gains discretised at the tick);
 - ``PID``: attitude P to a rate command, rate PID with its integrator and the
   conditional-integration anti-windup of ``pid`` at the tick's period;
 - ``SMC``: ``smc``'s attitude sliding law.
@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from quad_dob_baselines.kernels import (
+from quad_dob_baselines.geometric_kernels import (
     attitude_errors,
     attitude_law,
     matrix_at,

@@ -49,7 +49,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_baselines.filters import first_order_lowpass
 from quad_dob_baselines.geometric import EstimatingGeometricController
-from quad_dob_baselines.kernels import store_vector, vector_at
+from quad_dob_baselines.geometric_kernels import store_vector, vector_at
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.flatness import combine
 from quad_dob_env.params import VehicleParams

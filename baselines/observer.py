@@ -17,7 +17,7 @@ the sampling, ``Ks' = m (1 - e^{-L dt}) / dt`` (and ``Km' = (I - e^{-L_Ω dt}) J
 with the thrust direction R e3 and the gyroscopic torque averaged over each step's two ends.
 A constant disturbance is then the fixed point, and the error decays as ``e^{-L t}`` at the
 samples. The observer is fed the thrust and moment actually applied. The per-vehicle
-equations are compiled in ``quad_dob_baselines.kernels`` (``observer_*_batch``).
+equations are compiled in ``quad_dob_baselines.geometric_kernels`` (``observer_*_batch``).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from quad_dob_baselines.kernels import observer_advance_batch, observer_estimate_batch
+from quad_dob_baselines.geometric_kernels import observer_advance_batch, observer_estimate_batch
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.linalg import expm
 from quad_dob_env.params import VehicleParams
@@ -48,7 +48,7 @@ def _as_gain_matrix(gain: ArrayLike, name: str) -> NDArray:
 
 
 class ObserverKernelState(NamedTuple):
-    """What the compiled observer equations (``kernels.observer_*``) take, for a pass that
+    """What the compiled observer equations (``observer_*``) take, for a pass that
     runs them itself: the discrete gains and the per-vehicle state arrays, which it updates
     in place."""
 

@@ -12,7 +12,7 @@ then for every tick, per vehicle, one compiled pass runs
     (rotational observer, PID integrator)
 
 through the same per-vehicle pieces the core's own step uses
-(``quad_dob_env.envs.kernels``: ``inner_estimate``, ``fly_tick``, ``finish_vehicle_step``),
+(``quad_dob_env.envs.step_kernels``: ``inner_estimate``, ``fly_tick``, ``finish_vehicle_step``),
 so there is one source for every equation. Vehicle ``i`` of the core is row
 ``rows.start + i`` of the controller's batch (``training.rollout`` flies several N = 1
 cores as one batch).
@@ -34,7 +34,7 @@ from quad_dob_env.dynamics import (
     load_vehicle,
     vehicle_physics,
 )
-from quad_dob_env.envs.kernels import finish_vehicle_step
+from quad_dob_env.envs.step_kernels import finish_vehicle_step
 from quad_dob_env.envs.ticks import (
     filtered_rate,
     fly_tick,
@@ -57,7 +57,7 @@ def attitude_loop_kernel(start, stop, addition, law, actions, action_map, actuat
                          wind_velocity):
     """One control step of vehicles ``start..stop-1`` with the controller's attitude law
     (``law``, an ``InnerLaw`` as a plain tuple) at every tick, plus ``addition`` (N, 4),
-    a residual's thrust and moment. Called as ``kernels.step_kernel`` is, with
+    a residual's thrust and moment. Called as ``step_kernel`` is, with
     ``*StepArguments`` after ``actions`` (its ``law`` field, the ground effect's, arrives as
     ``law_table``); ``actions`` only enter the reward's effort term."""
     to_wrench, _, time_constant, actuator_state = actuator

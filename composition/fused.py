@@ -10,8 +10,8 @@ into one slice per core, runs for each vehicle
     geometric law for the next step -> extra observation and reward.
 
 It calls the same per-vehicle functions as the separate stages
-(``quad_dob_env.envs.kernels`` and ``quad_dob_baselines.kernels``), so there is still one
-source for every equation; a test holds it to the separate stages to 1e-12 through
+(``quad_dob_env.envs.step_kernels`` and ``quad_dob_baselines.geometric_kernels``), so there
+is still one source for every equation; a test holds it to the separate stages to 1e-12 through
 autoresets. It reads the controller, the observer and the core through their public faces
 only (``position_gains``, ``kernel_state()``, ``reference_table``, ``step_arguments()``).
 From 256 vehicles its slices run on threads at once (``quad_dob_env.threads``).
@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from quad_dob_baselines.kernels import (
+from quad_dob_baselines.geometric_kernels import (
     as_vector,
     geometric_vehicle,
     matrix_at,
@@ -35,7 +35,7 @@ from quad_dob_baselines.kernels import (
     store_vector,
     vector_at,
 )
-from quad_dob_env.envs.kernels import step_kernel
+from quad_dob_env.envs.step_kernels import step_kernel
 from quad_dob_env.residual.residual_kernels import (
     residual_command_kernel,
     residual_observation_vehicle,

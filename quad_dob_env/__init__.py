@@ -12,7 +12,8 @@ state estimator every policy reads through, with the ``ideal``, ``mocap`` and ``
 presets), ``scenario`` (the ``Scenario`` record, validated), ``wind_tunnel`` (Neural-Fly's
 figure-8s and the tunnel's wind), ``scenarios`` (the named ones, the random-reference families
 included), ``residual`` (a base controller's command plus a policy's residual:
-``ResidualOptions``, ``ResidualCommand``), ``envs``, ``wrappers`` (the residual wrapper). None of them imports
+``ResidualOptions``, ``ResidualCommand``), ``envs``, ``wrappers`` (the residual wrapper).
+None of them imports
 ``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``, not even at run time
 (``tests/test_layering.py``): the residual ids name their composition-layer entry points as
 strings.

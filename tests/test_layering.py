@@ -99,7 +99,12 @@ def test_kernels_take_their_records_fields_in_order():
         remember_state,
         reward_and_observer_update,
     )
-    from quad_dob_env.envs.kernels import StartArguments, StepArguments, start_kernel, step_kernel
+    from quad_dob_env.envs.step_kernels import (
+        StartArguments,
+        StepArguments,
+        start_kernel,
+        step_kernel,
+    )
 
     assert _parameters(step_kernel) == ["start", "stop", "actions", *StepArguments._fields]
     assert _parameters(start_kernel) == ["indices", "offsets", "rotations", "scales",

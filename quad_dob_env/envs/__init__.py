@@ -9,7 +9,7 @@
   length.
 - ``actions``: ``ActionMap`` (normalised actions <-> commanded thrust and moment, both
   ways) and ``screen_actions``, the check every env face runs on its actions.
-- ``kernels``: its compiled per-vehicle step, reset and observation loops (cut across the
+- ``step_kernels``: its compiled per-vehicle step, reset and observation loops (cut across the
   cores by ``quad_dob_env.threads``).
 - ``ticks``: the pieces of a control step an inner loop flies tick by tick (the inner-rate
   estimate, ``thrust_rates``' rate law, mixer -> battery -> motors -> physics).
@@ -18,15 +18,8 @@
 - ``quadrotor_env``: ``QuadrotorEnv(gym.Env)``, its N = 1 view, with the tables of spaces,
   reward, start and end in its docstring.
 - ``vector_env``: ``QuadrotorVectorEnv(gymnasium.vector.VectorEnv)``, its N-vehicle view
-  (next-step autoreset), the ``vector_entry_point`` of every id.
-- ``residual``: ``ResidualCommand``, a base controller's command plus a scaled residual for
-  the whole batch; the vector env's ``base_controller=`` mode and
-  ``quad_dob_env.wrappers.ResidualActionWrapper`` both run it.
-- ``residual_kernels``: the residual's compiled per-vehicle command, reward and extra
-  observation.
-- ``lookahead``: the residual observation's optional look-ahead of the reference.
-- ``authority``: how much of its residual a ``ResidualCommand`` may fly (the gate on the
-  observed disturbance, the fade near the floor).
+  (next-step autoreset), the ``vector_entry_point`` of every id; with a base controller it
+  runs ``quad_dob_env.residual.ResidualCommand``.
 - ``info``: the layout of every vehicle's ``info`` numbers and the pass that writes them.
 - ``rendering``: ``FlightRenderer``, the frames of ``render_mode="rgb_array"``/``"human"``.
 

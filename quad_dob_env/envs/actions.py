@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_env.dynamics import Actuator
-from quad_dob_env.envs.kernels import (
+from quad_dob_env.envs.step_kernels import (
     action_from_command_batch,
     command_from_action_batch,
     finite_values,

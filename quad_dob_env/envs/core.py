@@ -27,18 +27,18 @@ from quad_dob_env.dynamics import (
 )
 from quad_dob_env.envs.actions import ActionMap
 from quad_dob_env.envs.info import info_arrays
-from quad_dob_env.envs.kernels import (
-    StartArguments,
-    StepArguments,
-    observation_kernel,
-    start_kernel,
-    step_kernel,
-)
 from quad_dob_env.envs.limits import (
     EpisodeLimits,
     RewardWeights,
     check_vehicle_memory,
     episode_steps,
+)
+from quad_dob_env.envs.step_kernels import (
+    StartArguments,
+    StepArguments,
+    observation_kernel,
+    start_kernel,
+    step_kernel,
 )
 from quad_dob_env.envs.vehicle_loop import VehicleLoop
 from quad_dob_env.flatness import flat_attitude
@@ -331,7 +331,7 @@ class QuadrotorBatch:
         return self._kernel_tuples
 
     def step_arguments(self) -> StepArguments:
-        """What ``kernels.step_kernel`` takes after the slice and the actions."""
+        """What ``step_kernel`` takes after the slice and the actions."""
         s, sc, applied = self.state, self.scenario, self.applied
         return StepArguments(
             action_map=self.action_map.forward, actuation=self._actuation,

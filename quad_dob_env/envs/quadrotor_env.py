@@ -11,7 +11,6 @@ from numpy.typing import NDArray
 from quad_dob_env.benchmark import scenario_options_for
 from quad_dob_env.envs.actions import INVALID_ACTION_MODES, screen_actions
 from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
-from quad_dob_env.envs.kernels import OBSERVATION_BOUND
 from quad_dob_env.envs.limits import SpecWithEpisodeLength
 from quad_dob_env.envs.rendering import (
     RENDER_MODES,
@@ -19,6 +18,7 @@ from quad_dob_env.envs.rendering import (
     HumanWindow,
     check_render_mode,
 )
+from quad_dob_env.envs.step_kernels import OBSERVATION_BOUND
 from quad_dob_env.scenarios import Scenario, make_scenario
 from quad_dob_env.validation import checked_keywords, unknown_name_error
 

@@ -3,7 +3,7 @@
 With a scenario's ``inner_rate`` a control step is flown as ``ticks`` intervals; each tick
 the command is formed (held, ``thrust_rates``' rate law here, or a controller's attitude law
 in ``quad_dob_composition.attitude_loop``) from the inner-rate estimate, then
-``fly_tick`` runs the mixer, the battery, the motors and the physics. ``kernels.step_kernel``
+``fly_tick`` runs the mixer, the battery, the motors and the physics. ``step_kernel``
 and the composition's loop both call these, so each equation is written once.
 """
 

@@ -20,9 +20,9 @@ from quad_dob_env.envs.core import (
     QuadrotorBatch,
     RewardWeights,
 )
-from quad_dob_env.envs.kernels import OBSERVATION_BOUND, episode_ends_kernel
 from quad_dob_env.envs.limits import SpecWithEpisodeLength
 from quad_dob_env.envs.rendering import FlightRenderer
+from quad_dob_env.envs.step_kernels import OBSERVATION_BOUND, episode_ends_kernel
 from quad_dob_env.residual import ResidualCommand, ResidualOptions, split_residual_keys
 from quad_dob_env.scenarios import Scenario, make_scenario
 from quad_dob_env.validation import checked_keywords, unknown_name_error

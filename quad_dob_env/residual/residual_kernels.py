@@ -4,7 +4,7 @@ over the batch, ``quad_dob_composition.fused``'s single pass per vehicle."""
 
 from numba import njit
 
-from quad_dob_env.envs.kernels import action_from_command_vehicle
+from quad_dob_env.envs.step_kernels import action_from_command_vehicle
 
 
 @njit(cache=True, inline="always")

@@ -6,7 +6,7 @@
   ``resolve_sensing``, what ``Scenario.sensing`` accepts.
 - ``measurement``: ``Measurement``, the one record controllers read: the estimate (a
   ``VehicleState``) with the raw gyroscope, accelerometer and rotor-speed readings.
-- ``kernels``: the compiled readings and their delay lines, each sensor on its own
+- ``sensing_pass``: the compiled readings and their delay lines, each sensor on its own
   counter-based noise stream.
 - ``estimator``: the complementary filter fusing the IMU with each pose fix;
   ``stability``: the check that refuses gains whose filter would not settle at the fix

@@ -33,7 +33,7 @@ import math
 
 from numba import njit
 
-from quad_dob_env.sensing.kernels import (
+from quad_dob_env.sensing.sensing_pass import (
     ACCEL,
     GYRO,
     HEADING,
@@ -45,9 +45,9 @@ from quad_dob_env.sensing.kernels import (
 )
 from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, mat_vec_tuple, transpose_tuple
 
-# estimator state columns (``kernels.ESTIMATE_WIDTH``)
+# estimator state columns (``ESTIMATE_WIDTH``)
 P, V, R_, BG, BA, LAST_V, HAS_LAST_V = 0, 3, 6, 15, 18, 21, 24
-# history columns (``kernels.HISTORY_WIDTH``): position, velocity, rotation, specific force
+# history columns (``HISTORY_WIDTH``): position, velocity, rotation, specific force
 HP, HV, HR, HS = 0, 3, 6, 15
 
 

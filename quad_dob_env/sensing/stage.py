@@ -13,7 +13,9 @@ from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.memory import check_memory
 from quad_dob_env.params import VehicleParams
 from quad_dob_env.sensing.estimator import estimate_kernel, start_estimates_kernel
-from quad_dob_env.sensing.kernels import (
+from quad_dob_env.sensing.measurement import Measurement
+from quad_dob_env.sensing.models import SensorSuite
+from quad_dob_env.sensing.sensing_pass import (
     ESTIMATE_WIDTH,
     HISTORY_WIDTH,
     KEYS,
@@ -22,8 +24,6 @@ from quad_dob_env.sensing.kernels import (
     measurement_kernel,
     take_readings_kernel,
 )
-from quad_dob_env.sensing.measurement import Measurement
-from quad_dob_env.sensing.models import SensorSuite
 from quad_dob_env.sensing.stability import check_stability
 from quad_dob_env.threads import run_over_batch
 from quad_dob_env.variation import SensorNoise

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_env.envs.actions import screen_actions
-from quad_dob_env.envs.kernels import OBSERVATION_BOUND
+from quad_dob_env.envs.step_kernels import OBSERVATION_BOUND
 from quad_dob_env.residual import (
     OPTION_NAMES,
     ResidualCommand,
