@@ -14,9 +14,14 @@ from __future__ import annotations
 
 import argparse
 
-from quad_dob_training.margins import DELAY_GRID, DELAY_PATHS, benchmark_delay_path, delay_margin
+from quad_dob_training.evaluation.margins import (
+    DELAY_GRID,
+    DELAY_PATHS,
+    benchmark_delay_path,
+    delay_margin,
+)
 from quad_dob_training.policies import Policy
-from quad_dob_training.tune import (
+from quad_dob_training.tuning.tune import (
     DEFAULT_CONTROLLERS,
     TUNING_SCENARIOS,
     TUNING_SEEDS,

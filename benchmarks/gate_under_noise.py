@@ -19,7 +19,7 @@ import numpy as np
 
 from quad_dob_composition import make_vector_env
 from quad_dob_env.scenarios import make_scenario
-from quad_dob_training.evaluate import parse_seeds
+from quad_dob_training.evaluation.evaluate import parse_seeds
 from quad_dob_training.policies import make_policy
 
 

@@ -35,8 +35,8 @@ from numpy.typing import NDArray
 
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.scenarios import make_scenario
-from quad_dob_training.evaluate import parse_seeds
-from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.evaluation.evaluate import parse_seeds
+from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy, make_policy
 
 MARGIN = {"extra_latency": 0.01, "motor_time_constant_scale": 1.5}

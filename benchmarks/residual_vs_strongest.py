@@ -22,11 +22,11 @@ import json
 
 import numpy as np
 
-from quad_dob_training.baseline_evaluation import CLASSICAL_BASELINES
-from quad_dob_training.cli_checks import key_values
-from quad_dob_training.evaluate import SUITES, evaluate, parse_seeds
+from quad_dob_training.cli.checks import key_values
+from quad_dob_training.evaluation.evaluate import SUITES, evaluate, parse_seeds
+from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
 from quad_dob_training.policies import make_policy
-from quad_dob_training.statistics import bootstrap_mean, paired_difference
+from quad_dob_training.rl.baseline_evaluation import CLASSICAL_BASELINES
 
 
 def scores(metrics: list[dict]) -> dict[str, np.ndarray]:

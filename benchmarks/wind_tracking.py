@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 
 from quad_dob_env import DEFAULT_BASE_CONTROLLER
-from quad_dob_training.evaluate import evaluate, parse_seeds
+from quad_dob_training.evaluation.evaluate import evaluate, parse_seeds
 
 SCENARIOS = ("hover-calm", "hover-step-force", "ground-effect-landing", "gusty-hover",
              "takeoff-landing-wind", "dryden-helix", "dryden-helix-gusts")

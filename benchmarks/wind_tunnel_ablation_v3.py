@@ -25,9 +25,9 @@ from quad_dob_env.benchmark import V3_LOOP_FIELDS, v3_loop
 from quad_dob_env.benchmark_v3 import ABLATION_ENDS, REAL_LOOPS
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.sensing.models import SENSING_PRESETS
-from quad_dob_training.evaluate import parse_seeds
-from quad_dob_training.wind_tunnel import COUNTERPARTS, WIND_SPEEDS
-from quad_dob_training.wind_tunnel_tool import simulate
+from quad_dob_training.evaluation.evaluate import parse_seeds
+from quad_dob_training.wind_tunnel.published import COUNTERPARTS, WIND_SPEEDS
+from quad_dob_training.wind_tunnel.tool import simulate
 
 VEHICLE = "neural-fly"  # the figure-8s' vehicle
 

@@ -12,7 +12,12 @@ from __future__ import annotations
 
 from variants import variant_rows
 
-from quad_dob_training.wind_tunnel import COUNTERPARTS, WIND_SPEEDS, rms_by_wind, side_by_side
+from quad_dob_training.wind_tunnel.published import (
+    COUNTERPARTS,
+    WIND_SPEEDS,
+    rms_by_wind,
+    side_by_side,
+)
 
 # folder name -> what it flies: Benchmark v2, then each factor of parts 1 and 2 off in turn
 VARIANTS = {

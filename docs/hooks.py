@@ -152,7 +152,7 @@ def cli_page() -> str:
 
 
 def _help(words: list[str]) -> str:
-    from quad_dob_training.cli import build_parser
+    from quad_dob_training.cli.commands import build_parser
 
     out = io.StringIO()
     columns = os.environ.get("COLUMNS")

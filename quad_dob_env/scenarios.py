@@ -251,7 +251,7 @@ def _feasible_pool(vehicle: VehicleParams, kinds: tuple[str, ...], pool_seed: in
                    count: int) -> TrajectoryFamily:
     """The pool a random-reference scenario draws from, built once per process for each
     vehicle and pool: checking 240 references' feasibility takes about a second, and a
-    training run builds its scenario once per loop group (``quad_dob_training.vec_env``)."""
+    training run builds its scenario once per loop group (``quad_dob_training.rl.vec_env``)."""
     # each member keeps Benchmark v1's margin on every axis, or is drawn again (the bounds
     # alone let one helix, its plane at an angle to the rotor arms, keep only 15 %)
     return random_references(

@@ -3,7 +3,7 @@ import sys
 
 import pytest
 
-from quad_dob_training.cli import main
+from quad_dob_training.cli.commands import main
 
 
 def test_list_names_ids_and_scenarios(capsys):
@@ -35,8 +35,8 @@ def test_every_tool_flies_v3_unless_told(monkeypatch, tmp_path):
     import inspect
 
     import quad_dob_composition.checks as checks
-    import quad_dob_training.evaluate as evaluate
-    import quad_dob_training.tune as tune
+    import quad_dob_training.evaluation.evaluate as evaluate
+    import quad_dob_training.tuning.tune as tune
 
     seen: list[tuple[str, str]] = []
     monkeypatch.setattr(evaluate, "main", lambda *a, scenario_options, **k: seen.append(

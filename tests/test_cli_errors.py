@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from quad_dob_training.cli import main
+from quad_dob_training.cli.commands import main
 
 READ_ONLY = Path("/sys/kernel")  # sysfs: not writable, even by root (CI runs as root)
 
@@ -64,7 +64,7 @@ def test_absurd_values_are_refused_by_name(argv, message, capsys):
 
 
 def test_scenario_options_are_parsed_by_the_cli_before_they_reach_the_library(capsys):
-    from quad_dob_training.cli_checks import key_values
+    from quad_dob_training.cli.checks import key_values
 
     assert key_values(["dt=0.005", "wind=moderate", "motor_lag=true", "wind_scale=2",
                         "duration=1e3", "reference_start_spread=2.5E-1"],
@@ -129,7 +129,7 @@ def test_a_reader_that_stops_early_ends_the_command_quietly(capsys):
 def test_every_option_of_every_command_says_what_it_does_and_its_default():
     import argparse
 
-    from quad_dob_training.cli import build_parser
+    from quad_dob_training.cli.commands import build_parser
 
     subcommands = next(action for action in build_parser()._actions
                        if isinstance(action, argparse._SubParsersAction))

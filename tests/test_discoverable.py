@@ -53,7 +53,7 @@ def test_the_unwrapped_env_enforces_reset_before_step():
     (lambda **kw: gym.make_vec("QuadDOB/TrackResidual-v2", num_envs=2,
                                vectorization_mode="vector_entry_point", **kw),
      "ResidualVectorEnv", "thrust_scal", "thrust_scale"),
-    (lambda **kw: __import__("quad_dob_training.vec_env", fromlist=["x"]).QuadrotorSB3VecEnv(
+    (lambda **kw: __import__("quad_dob_training.rl.vec_env", fromlist=["x"]).QuadrotorSB3VecEnv(
         2, "hover-calm", base_controller="pid", **kw), "QuadrotorSB3VecEnv", "moment_scal",
      "moment_scale"),
 ])

@@ -13,8 +13,8 @@ from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.scenarios import list_scenarios, make_scenario
 from quad_dob_env.trajectories import Hover
-from quad_dob_training.evaluate import evaluate
-from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.evaluation.evaluate import evaluate
+from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy
 from quad_dob_training.rollout import fly
 

@@ -1,4 +1,4 @@
-"""Flight logs and their statistics (``quad_dob_training.flight_logs``,
+"""Flight logs and their statistics (``quad_dob_training.wind_tunnel.flight_logs``,
 ``flight_statistics``, ``wind_tunnel_tool``), held to synthetic logs with planted errors.
 
 Neural-Fly's data is never read here: every log is written by these tests, in their format,
@@ -14,14 +14,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from quad_dob_training.flight_logs import (
+from quad_dob_training.wind_tunnel.flight_logs import (
     FlightLog,
     log_from_infos,
     read_neural_fly,
     read_neural_fly_folder,
     write_neural_fly,
 )
-from quad_dob_training.flight_statistics import (
+from quad_dob_training.wind_tunnel.flight_statistics import (
     fa_reconstruction_rms,
     harmonics,
     lap_window,
@@ -242,7 +242,7 @@ def test_a_simulated_log_is_the_rollouts_record_and_its_command():
     reference, and T_sp / hover throttle m g the thrust the controller commanded."""
     from quad_dob_env.scenarios import make_scenario
     from quad_dob_training.policies import fly_policy, make_policy
-    from quad_dob_training.wind_tunnel_tool import fly_logs
+    from quad_dob_training.wind_tunnel.tool import fly_logs
 
     scenario = make_scenario("figure8-wind-4.2", benchmark="v2", duration=3.0)
     (log,) = fly_logs("indi", scenario, [3], 4.2)
@@ -279,7 +279,7 @@ def test_the_adapter_takes_the_envs_thrust_setpoint_where_it_reports_one():
 
 def test_the_wind_tunnel_counterparts_and_benchmark():
     from quad_dob_env.benchmark import TOOLS_BENCHMARK
-    from quad_dob_training.wind_tunnel_tool import SIMULATED_OF
+    from quad_dob_training.wind_tunnel.tool import SIMULATED_OF
 
     assert TOOLS_BENCHMARK == "v3"
     assert SIMULATED_OF == {"baseline": "geometric-integral", "indi": "indi", "L1": "l1",
@@ -336,8 +336,8 @@ def test_the_command_refuses_before_flying(tmp_path, capsys):
 def test_evaluation_rows_hold_the_settled_rms_per_axis_and_the_z_share():
     """rms_position_settled_{x,y,z}_{mean,std,low,high} as the norm's, and z_share_settled =
     Σ rms_z² / Σ rms² over the seeds; the rows still make a valid evaluation.json."""
-    from quad_dob_training.evaluate import evaluate
-    from quad_dob_training.results import results_document, validate
+    from quad_dob_training.evaluation.evaluate import evaluate
+    from quad_dob_training.evaluation.results import results_document, validate
 
     per_seed: dict = {}
     (row,) = evaluate(["pid"], ["figure8-wind-4.2"], [1, 2], baseline=None,

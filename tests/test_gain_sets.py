@@ -19,7 +19,7 @@ from quad_dob_baselines import (
 from quad_dob_composition import ResidualVectorEnv
 from quad_dob_env.params import get_vehicle
 from quad_dob_training import cli
-from quad_dob_training.tune import MARGIN, TUNING_SCENARIOS, TUNING_SEEDS, score
+from quad_dob_training.tuning.tune import MARGIN, TUNING_SCENARIOS, TUNING_SEEDS, score
 
 V2_SETS = sorted(key for key in GAIN_SETS if key[1] == "v2")
 # each distinct set once (in v2 the two geometric + NDOB names share one)
@@ -156,7 +156,7 @@ def test_the_recommended_base_keeps_every_flight_of_benchmark_v2():
     no flight lost, the heading held within 0.3 rad, but for helix-force-torque's yaw
     torque, half the hover's yaw authority, which the mixer serves last: no baseline holds
     that heading within 0.2 rad (docs/benchmark-v2.md's table; 0.39 rad here over 20 seeds)."""
-    from quad_dob_training.evaluate import SUITES, evaluate
+    from quad_dob_training.evaluation.evaluate import SUITES, evaluate
 
     scenarios = [name for names in SUITES["v2"].values() for name in names
                  if not name.startswith("figure8") or name == "figure8-wind-12.1"]

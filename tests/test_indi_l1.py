@@ -280,7 +280,7 @@ def test_a_residual_base_advances_once_per_step_whatever_restarts_around_it(name
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["indi", "l1"])
 def test_indi_and_l1_keep_every_flight_of_the_v2_wind_scenarios(name):
-    from quad_dob_training.evaluate import SUITES, evaluate
+    from quad_dob_training.evaluation.evaluate import SUITES, evaluate
 
     scenarios = [*SUITES["v2"]["wind"], "figure8-wind-12.1"]
     rows = evaluate([name], scenarios, [9001, 9002, 9003], baseline=None,

@@ -16,6 +16,15 @@ FORBIDDEN = {
     "baselines": ("quad_dob_env.envs", "quad_dob_env.wrappers", "quad_dob_composition",
                   "quad_dob_training"),
     "composition": ("quad_dob_training",),
+    # training's subpackages (their docstrings): the command line on top, imported by none
+    # but the wind-tunnel tool's own argument checks
+    "training/evaluation": ("quad_dob_training.cli", "quad_dob_training.tuning",
+                            "quad_dob_training.wind_tunnel", "quad_dob_training.rl.train",
+                            "quad_dob_training.rl.sweep"),
+    "training/rl": ("quad_dob_training.cli", "quad_dob_training.tuning",
+                    "quad_dob_training.wind_tunnel"),
+    "training/tuning": ("quad_dob_training.cli", "quad_dob_training.wind_tunnel",
+                        "quad_dob_training.rl.train", "quad_dob_training.rl.sweep"),
 }
 # the public API of named tuples, whose names start with an underscore by design
 NAMEDTUPLE_API = {"_replace", "_asdict", "_fields", "_make", "_field_defaults"}
@@ -129,8 +138,96 @@ def test_each_package_docstring_lists_its_modules(package):
     # docs/design.md's map stops at the packages; each package's docstring names what lives
     # in it, so a module added without a line there fails here
     docstring = ast.get_docstring(ast.parse((package / "__init__.py").read_text())) or ""
-    members = [path.stem for path in package.glob("*.py") if path.stem != "__init__"]
+    members = [path.stem for path in package.glob("*.py") if not path.stem.startswith("__")]
     members += [path.name for path in package.iterdir() if (path / "__init__.py").exists()]
     missing = [name for name in sorted(members)
                if not re.search(rf"(?<![\w.]){re.escape(name)}(?!\w)", docstring)]
     assert not missing, f"{package.relative_to(ROOT)}'s docstring does not name {missing}"
+
+
+def test_no_import_circle_among_the_packages_modules():
+    # a circle makes a module's meaning depend on which end was imported first; imports
+    # inside functions count, those under TYPE_CHECKING do not
+    graph = _import_graph()
+    assert not _circles(graph), _circles(graph)
+
+
+def test_the_circle_scan_finds_a_circle():
+    assert _circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+INSTALLED_NAMES = {"quad_dob_env": "quad_dob_env", "baselines": "quad_dob_baselines",
+                   "composition": "quad_dob_composition", "training": "quad_dob_training"}
+
+
+def _module_names() -> dict[str, Path]:
+    modules = {}
+    for folder, name in INSTALLED_NAMES.items():
+        for path in (ROOT / folder).rglob("*.py"):
+            parts = [name, *path.relative_to(ROOT / folder).with_suffix("").parts]
+            modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return modules
+
+
+def _import_graph() -> dict[str, set[str]]:
+    modules = _module_names()
+
+    def resolve(name: str) -> str | None:
+        while name and name not in modules:
+            name = name.rpartition(".")[0]
+        return name or None
+
+    graph = {}
+    for module, path in modules.items():
+        tree = ast.parse(path.read_text())
+        skipped = {id(node) for block in ast.walk(tree) if isinstance(block, ast.If)
+                   and "TYPE_CHECKING" in ast.unparse(block.test)
+                   for statement in block.body for node in ast.walk(statement)}
+        found = set()
+        for node in ast.walk(tree):
+            if id(node) in skipped:
+                continue
+            if isinstance(node, ast.Import):
+                found.update(resolve(alias.name) for alias in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                base = node.module
+                if node.level:  # relative: from the module's package up
+                    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+                    for _ in range(node.level - 1):
+                        package = package.rpartition(".")[0]
+                    base = f"{package}.{node.module}"
+                found.update(resolve(f"{base}.{alias.name}") for alias in node.names)
+        graph[module] = found - {None, module}
+    return graph
+
+
+def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan's algorithm)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    circles = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        for other in sorted(graph.get(node, ())):
+            if other not in index:
+                visit(other)
+                low[node] = min(low[node], low[other])
+            elif other in stack:
+                low[node] = min(low[node], index[other])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                other = stack.pop()
+                component.append(other)
+                if other == node:
+                    break
+            if len(component) > 1:
+                circles.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return circles

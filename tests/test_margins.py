@@ -1,5 +1,6 @@
-"""Delay margins (``quad_dob_training.margins``): the grid searched upwards, stopped at the
-first value that loses a flight, the latency added where the benchmark's margin puts it."""
+"""Delay margins (``quad_dob_training.evaluation.margins``): the grid searched upwards,
+stopped at the first value that loses a flight, the latency added where the benchmark's
+margin puts it."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from quad_dob_training import margins, policies
+from quad_dob_training import policies
+from quad_dob_training.evaluation import margins
 
 
 def _fly_losing_from(field: str, threshold: float, flown: list):

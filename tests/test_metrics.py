@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from quad_dob_env.so3 import exp
-from quad_dob_training.metrics import attitude_errors, error_euler_angles
-from quad_dob_training.statistics import bootstrap_mean, paired_difference
+from quad_dob_training.evaluation.metrics import attitude_errors, error_euler_angles
+from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
 
 
 def _rz(angle):
@@ -82,7 +82,7 @@ def test_bootstrap_refuses_empty_or_non_finite_values():
 
 
 def test_evaluation_rows_carry_intervals_and_paired_differences():
-    from quad_dob_training.evaluate import SCORES, evaluate, markdown_table
+    from quad_dob_training.evaluation.evaluate import SCORES, evaluate, markdown_table
 
     rows = evaluate(["geometric-ndob:tuned", "geometric"], ["hover-step-force"], [0, 1, 2])
     base, plain = rows
@@ -108,7 +108,7 @@ def test_the_command_rate_of_a_sinusoidal_rotor_dither_is_its_discrete_derivativ
     from dataclasses import replace
 
     from quad_dob_env import make_scenario
-    from quad_dob_training.metrics import flight_metrics
+    from quad_dob_training.evaluation.metrics import flight_metrics
     from quad_dob_training.policies import Policy, fly_policy
 
     (flight,) = fly_policy(Policy("pid", "pid"), make_scenario("hover-calm"), [0])
@@ -135,7 +135,7 @@ def test_a_residuals_command_rate_counts_its_own_dither():
     for it is the alternation's, far above its base's (the base alone does not dither)."""
     from quad_dob_composition import make_vector_env
     from quad_dob_env import make_scenario
-    from quad_dob_training.metrics import flight_metrics
+    from quad_dob_training.evaluation.metrics import flight_metrics
     from quad_dob_training.policies import Policy, fly_policy
 
     class Alternating:

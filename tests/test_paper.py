@@ -2,7 +2,7 @@ import json
 
 import pytest
 
-from quad_dob_training.cli import main
+from quad_dob_training.cli.commands import main
 from quad_dob_training.paper import PAPER_CONTROLLERS, run_paper
 
 

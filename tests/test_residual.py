@@ -10,8 +10,8 @@ from quad_dob_composition import ResidualVectorEnv, residual_command
 from quad_dob_env.envs import QuadrotorEnv
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.wrappers import ResidualActionWrapper
+from quad_dob_training.rl.vec_env import QuadrotorSB3VecEnv
 from quad_dob_training.rollout import fly
-from quad_dob_training.vec_env import QuadrotorSB3VecEnv
 
 SCENARIO, BASE = "dryden-helix-gusts", "geometric-ndob:tuned"
 SHORT = {"duration": 0.3}

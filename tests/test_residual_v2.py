@@ -8,7 +8,7 @@ from quad_dob_composition import ResidualVectorEnv, make_residual_env, make_vect
 from quad_dob_env.residual.gate import WIND_GATE_TIME_CONSTANT
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.trajectories import WaypointHops
-from quad_dob_training.vec_env import QuadrotorSB3VecEnv, draw_loops, env_options
+from quad_dob_training.rl.vec_env import QuadrotorSB3VecEnv, draw_loops, env_options
 
 V2_ACCELERATION = {"base_controller": "geometric-ndob:tuned", "residual_mode": "acceleration",
                    "moment_scale": 0.3}

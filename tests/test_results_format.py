@@ -10,8 +10,8 @@ from pathlib import Path
 import jsonschema
 import pytest
 
-from quad_dob_training.cli import main
-from quad_dob_training.results import SCHEMA_PATH, merged_leaderboard, read_document
+from quad_dob_training.cli.commands import main
+from quad_dob_training.evaluation.results import SCHEMA_PATH, merged_leaderboard, read_document
 
 
 @pytest.fixture(scope="module")

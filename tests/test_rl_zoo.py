@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 import quad_dob_env
-from quad_dob_training.run_config import HYPERPARAMS, resolve_config
+from quad_dob_training.rl.run_config import HYPERPARAMS, resolve_config
 
 rl_zoo3 = pytest.importorskip("rl_zoo3", reason="rl_zoo3 is a dev dependency")
 

@@ -14,17 +14,17 @@ import pytest
 import torch
 import yaml
 
-from quad_dob_training.checkpoints import (
+from quad_dob_training.rl.checkpoints import (
     STATE_MAGIC,
     latest_checkpoint,
     load_state,
     read_headered,
     write_state,
 )
-from quad_dob_training.model_files import load_model
-from quad_dob_training.run_config import environment_versions, resolve_config
-from quad_dob_training.run_folder import RUN_MEMBER, RunLock, zip_run_id
-from quad_dob_training.train import setup_process, train
+from quad_dob_training.rl.model_files import load_model
+from quad_dob_training.rl.run_config import environment_versions, resolve_config
+from quad_dob_training.rl.run_folder import RUN_MEMBER, RunLock, zip_run_id
+from quad_dob_training.rl.train import setup_process, train
 
 ENV = "QuadDOB/HoverResidual-v1"
 QUIET = {"evaluate_every": 10**9, "progress_bar": False}
@@ -93,7 +93,7 @@ def test_a_second_run_into_a_busy_folder_is_refused_before_it_writes(tmp_path):
 def test_the_lock_of_a_killed_process_is_taken_over(tmp_path, capsys):
     folder = tmp_path / "run"
     holder = subprocess.Popen(
-        [sys.executable, "-c", "import sys\nfrom quad_dob_training.run_folder import RunLock\n"
+        [sys.executable, "-c", "import sys\nfrom quad_dob_training.rl.run_folder import RunLock\n"
          f"with RunLock({str(folder)!r}):\n    print('held', flush=True)\n    sys.stdin.read()"],
         stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
@@ -257,7 +257,7 @@ def test_buffers_past_the_memory_budget_are_refused_before_sb3_allocates_them():
 
     import gymnasium as gym
 
-    from quad_dob_training.train import check_buffer_memory
+    from quad_dob_training.rl.train import check_buffer_memory
 
     venv = SimpleNamespace(observation_space=gym.spaces.Box(-1, 1, (40,)),
                            action_space=gym.spaces.Box(-1, 1, (4,)))

@@ -14,11 +14,12 @@ import torch
 
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.scenarios import make_scenario
-from quad_dob_training import model_files, policies
-from quad_dob_training.evaluate import main as evaluate_main
-from quad_dob_training.evaluate import parse_seeds
-from quad_dob_training.model_files import SHIPPED_RESIDUAL, load_model, pickled_entries
+from quad_dob_training import policies
+from quad_dob_training.evaluation.evaluate import main as evaluate_main
+from quad_dob_training.evaluation.evaluate import parse_seeds
 from quad_dob_training.policies import make_policy
+from quad_dob_training.rl import model_files
+from quad_dob_training.rl.model_files import SHIPPED_RESIDUAL, load_model, pickled_entries
 from quad_dob_training.rollout import RECORD_BYTES_PER_STEP, RECORDED_WIDTHS, FlightRecorder
 
 

@@ -3,8 +3,8 @@
 import pytest
 
 from quad_dob_baselines import TUNED_GEOMETRIC_GAINS, make_controller
-from quad_dob_training import tune
-from quad_dob_training.tune import coordinate_descent
+from quad_dob_training.tuning import tune
+from quad_dob_training.tuning.tune import coordinate_descent
 
 
 @pytest.mark.slow

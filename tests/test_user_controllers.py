@@ -16,7 +16,7 @@ import pytest
 
 from quad_dob_baselines import CascadedPID, Controller, make_controller
 from quad_dob_composition.checks import check_controller
-from quad_dob_training.cli import main
+from quad_dob_training.cli.commands import main
 from quad_dob_training.policies import make_policy
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "byo_controller"

@@ -5,7 +5,7 @@ from gymnasium.vector import AutoresetMode
 
 import quad_dob_env  # noqa: F401
 from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
-from quad_dob_training.vec_env import QuadrotorSB3VecEnv
+from quad_dob_training.rl.vec_env import QuadrotorSB3VecEnv
 
 SHORT = {"duration": 0.3}  # 30 steps, so episodes end and autoreset inside the tests
 

@@ -12,7 +12,7 @@ from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.so3 import exp
-from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.rollout import fly
 
 PAPER = get_vehicle("paper")

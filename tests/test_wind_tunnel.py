@@ -148,7 +148,7 @@ def test_the_wind_tunnel_is_scored_after_five_seconds_as_neural_fly_scores_it():
     """Neural-Fly's table skips a warm-up lap: the figure-8's settled RMS is over t >= 5 s
     (the other scenarios keep 2 s)."""
     from quad_dob_baselines import make_controller
-    from quad_dob_training.metrics import flight_metrics
+    from quad_dob_training.evaluation.metrics import flight_metrics
     from quad_dob_training.rollout import fly
 
     scenario = make_scenario("figure8-wind-4.2", duration=6.0)
@@ -161,7 +161,7 @@ def test_the_wind_tunnel_is_scored_after_five_seconds_as_neural_fly_scores_it():
 
 
 def test_the_side_by_side_table_divides_by_the_published_figures():
-    from quad_dob_training.wind_tunnel import NEURAL_FLY_RMS, side_by_side
+    from quad_dob_training.wind_tunnel.published import NEURAL_FLY_RMS, side_by_side
 
     # NF-C's published errors times 1.5 at every speed but the last, 2.5x there, one lost
     factors = (1.5, 1.5, 1.5, 2.5)

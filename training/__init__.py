@@ -1,36 +1,79 @@
-"""Training, evaluation, the paper reproduction and the ``quad-dob`` command line.
+"""Training, evaluation, tuning, the paper reproduction and the ``quad-dob`` command line.
 
 The folder ``training/`` installs as ``quad_dob_training``; it sits on top and may import
-``quad_dob_env`` and ``quad_dob_baselines``.
+``quad_dob_env``, ``quad_dob_baselines`` and ``quad_dob_composition``.
 
-- ``cli``: ``quad-dob list | paper | train | evaluate | leaderboard | tune |
-  check-controller | replay | sweep | hyperparams``; ``cli_checks``: the checks on what it is
-  given; ``listing``: what ``quad-dob list`` prints (every name, every preset number's
-  source).
-- ``rollout``: ``Flight`` records and ``fly`` (controllers through scenarios, batched).
-- ``metrics``: the scores every report uses (position; geodesic, tilt and heading
-  errors); ``statistics``: bootstrap intervals and paired differences over seeds;
-  ``plots``: the paper's PNG figures;
-  ``report``: the self-contained interactive ``report.html``.
-- ``paper``: the paper reproduction.
-- ``vec_env``: the stable-baselines3 ``VecEnv`` adapter over the native vector env.
-- ``train``: PPO or SAC training, read top to bottom; ``run_config``: the run as plain data
-  (hyperparameters from ``hyperparams/ALGO.yml`` in rl-zoo3's schema, the versions and CPU
-  it ran on); ``baseline_evaluation``: the evaluation against the base on held-out seeds
-  during training, and the training curve; ``checkpoints``: the checkpoints a killed run
-  resumes from, to the weights of a run never stopped; ``run_folder``: a run folder's
-  identity (the run id in every file loaded again) and its lock.
+Top modules, which every subpackage may import (``policies`` itself loads models through
+``rl.model_files``):
+
+- ``rollout``: ``Flight`` records and ``fly`` (controllers through scenarios, batched: a
+  whole flight; "fly" means nothing else in the project).
 - ``policies``: policies by name (controllers, ``py:`` ones, ``ALGO:PATH``, ``residual``)
-  and flying them over many seeds; ``model_files``: model zips loaded without unpickling
-  (and, for a run's own checkpoints, with); ``pretrained/`` holds the shipped residual
-  policy.
-- ``evaluate``: every policy on every scenario over seeds: tables with intervals and the
-  paired difference to a baseline, distinct flights, the estimator's errors, bar plot,
-  JSON; ``margins``: delay margins (the extra latency a policy's flights take);
-  ``results``: ``evaluation.json`` (its schema in ``schemas/``) and leaderboards merged
-  from many users' files.
-- ``tune``: the one procedure that chooses the baselines' gains and the observer rates on
-  tuning seeds.
-- ``replay``: episodes rendered to GIF/MP4, side by side.
-- ``sweep``: grid/random sweeps, resumable, on a process pool or Ray (``sweeps/``).
+  and flying them over many seeds.
+- ``paper``: the paper reproduction (``quad-dob paper``).
+
+Subpackages, by concern (each docstring says what lives there and what it may import):
+
+- ``cli``: the ``quad-dob`` command line; imports the rest, imported by nothing.
+- ``evaluation``: evaluate, metrics, statistics, margins, results, report, plots.
+- ``rl``: train, run_config, vec_env, model_files, baseline_evaluation, checkpoints,
+  run_folder, sweep.
+- ``tuning``: tune, the baselines' gain search.
+- ``wind_tunnel``: published, tool, flight_logs, flight_statistics, plots.
+
+Data folders: ``hyperparams/`` (rl-zoo3's schema), ``pretrained/`` (the shipped residual
+policies), ``sweeps/``, ``schemas/`` (``evaluation.json``'s JSON Schema).
+
+Before 2026-12-05 the modules sat side by side here; their old names
+(``quad_dob_training.vec_env``, ``.evaluate``, ...) still import, with a
+``DeprecationWarning`` naming the new one (``MOVED``).
 """
+
+from __future__ import annotations
+
+import importlib
+import importlib.abc
+import importlib.machinery
+import sys
+import warnings
+from types import ModuleType
+
+# old module -> where it lives now
+MOVED = {
+    "cli_checks": "cli.checks", "listing": "cli.listing", "replay": "cli.replay",
+    "evaluate": "evaluation.evaluate", "metrics": "evaluation.metrics",
+    "statistics": "evaluation.statistics", "results": "evaluation.results",
+    "report": "evaluation.report", "plots": "evaluation.plots",
+    "margins": "evaluation.margins", "train": "rl.train", "vec_env": "rl.vec_env",
+    "checkpoints": "rl.checkpoints", "run_folder": "rl.run_folder",
+    "run_config": "rl.run_config", "model_files": "rl.model_files",
+    "baseline_evaluation": "rl.baseline_evaluation", "sweep": "rl.sweep",
+    "tune": "tuning.tune", "wind_tunnel_plots": "wind_tunnel.plots",
+    "wind_tunnel_tool": "wind_tunnel.tool", "flight_logs": "wind_tunnel.flight_logs",
+    "flight_statistics": "wind_tunnel.flight_statistics",
+}
+
+
+class _MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """``import quad_dob_training.vec_env`` gives ``quad_dob_training.rl.vec_env`` itself
+    (the same module object, so pickles that name the old path still load)."""
+
+    def find_spec(self, fullname: str, path: object = None,
+                  target: object = None) -> importlib.machinery.ModuleSpec | None:
+        package, _, name = fullname.rpartition(".")
+        if package != __name__ or name not in MOVED:
+            return None
+        return importlib.machinery.ModuleSpec(fullname, self)
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
+        new = f"{__name__}.{MOVED[spec.name.rpartition('.')[2]]}"
+        warnings.warn(f"{spec.name} moved to {new}; import it from there",
+                      DeprecationWarning, stacklevel=2)
+        return importlib.import_module(new)
+
+    def exec_module(self, module: ModuleType) -> None:
+        """Nothing to run: the module came whole from its new home."""
+
+
+if not any(isinstance(finder, _MovedModules) for finder in sys.meta_path):
+    sys.meta_path.append(_MovedModules())

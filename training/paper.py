@@ -21,8 +21,8 @@ import numpy as np
 from quad_dob_baselines import make_controller
 from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.scenarios import make_scenario
-from quad_dob_training.metrics import flight_metrics
-from quad_dob_training.report import write_report
+from quad_dob_training.evaluation.metrics import flight_metrics
+from quad_dob_training.evaluation.report import write_report
 from quad_dob_training.rollout import fly
 
 PAPER_SCENARIOS = ("paper-none", "paper-I", "paper-II", "paper-IIA", "ground-effect-landing")
@@ -103,7 +103,7 @@ def parallel_map(function, *iterables) -> list:
 
 def draw_figures(per_scenario: list[list], out_dir: Path) -> None:
     """Each scenario's figures (matplotlib is the slow part, so in parallel)."""
-    from quad_dob_training.plots import scenario_figures
+    from quad_dob_training.evaluation.plots import scenario_figures
 
     parallel_map(scenario_figures, per_scenario, [out_dir] * len(per_scenario))
 

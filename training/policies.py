@@ -26,7 +26,7 @@ metric code as ``quad-dob paper``. A request whose records would pass the memory
 anything is built.
 
 Model files (``ALGO:PATH``, ``residual:PATH``, the shipped one) are loaded by
-``quad_dob_training.model_files`` without unpickling anything, because unpickling runs
+``quad_dob_training.rl.model_files`` without unpickling anything, because unpickling runs
 whatever code the file's author put in it: the pickled entries of the zip's JSON (spaces,
 policy class, schedules, training buffers) are rebuilt from the config beside it and the env
 that config describes, and the weights are read as tensors only (torch's
@@ -51,7 +51,7 @@ from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.validation import unknown_name_error
-from quad_dob_training.model_files import (
+from quad_dob_training.rl.model_files import (
     ALGORITHMS,
     SHIPPED_RESIDUAL,
     SHIPPED_RESIDUAL_CONFIG_SHA256,
@@ -62,8 +62,8 @@ from quad_dob_training.model_files import (
     load_model,
     sha256,
 )
+from quad_dob_training.rl.vec_env import env_options
 from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memory
-from quad_dob_training.vec_env import env_options
 
 # the shipped residual policies by the benchmark they were trained in, each its zip, the
 # zip's sha256 and its config's: ``residual:v1`` (and bare ``residual``, as before v2's

@@ -1,8 +1,9 @@
 """Disturbances: what pushes the vehicle besides its rotors.
 
-- ``base``: the ``Disturbance`` interface (a template: subclass it to add a model) and ``Sum``.
+- ``base``: the ``Disturbance`` interface (a template: subclass it to add a model), and
+  the combinators every model has: ``Sum`` (``a + b``) and ``Window`` (``a.during(t0, t1)``).
 - ``forces``: time-profile models for the external force d_x (world frame) and torque d_Ω
-  (body frame): ``Constant``, ``Window`` (step on/off), ``AtanRamp`` (the paper's
+  (body frame): ``Constant``, ``AtanRamp`` (the paper's
   Scenario I), ``Sinusoid``, ``Impulse``. Compose them with ``+``; ``model.during(a, b)``
   switches one on for ``a <= t < b``.
 - ``wind``: ``Gust`` (MIL-F-8785C 1-cosine) and ``Dryden`` turbulence; constant wind,
@@ -17,8 +18,8 @@ May import ``params``, ``so3``, ``dynamics``, ``linalg``, ``rng``, ``validation`
 ``threads``; nothing above.
 """
 
-from quad_dob_env.disturbances.base import Disturbance, Sum, split_by_randomness
-from quad_dob_env.disturbances.forces import AtanRamp, Constant, Impulse, Sinusoid, Window
+from quad_dob_env.disturbances.base import Disturbance, Sum, Window, split_by_randomness
+from quad_dob_env.disturbances.forces import AtanRamp, Constant, Impulse, Sinusoid
 from quad_dob_env.disturbances.ground_effect import GROUND_EFFECT_MODELS, GroundEffect
 from quad_dob_env.disturbances.wind import DRYDEN_INTENSITIES, Dryden, Gust
 

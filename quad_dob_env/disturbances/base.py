@@ -15,6 +15,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from quad_dob_env.validation import as_finite
+
 
 class Disturbance:
     """External force and torque as functions of time, for a batch of vehicles.
@@ -62,8 +64,6 @@ class Disturbance:
 
     def during(self, start: float, end: float) -> Disturbance:
         """This disturbance, switched on only for ``start <= t < end``."""
-        from quad_dob_env.disturbances.forces import Window
-
         return Window(self, start, end)
 
 
@@ -123,3 +123,34 @@ def split_by_randomness(disturbance: Disturbance | None, n: int, dt: float
     if combined is not None:
         combined.bind(n, dt)
     return [p for p in parts if not p.is_random], combined
+
+
+class Window(Disturbance):
+    """``inner`` switched on for ``start <= t < end`` and off otherwise (a step on and off)."""
+
+    def __init__(self, inner: Disturbance, start: float, end: float) -> None:
+        if not isinstance(inner, Disturbance):
+            raise ValueError(f"Window wraps a Disturbance, got {type(inner).__name__}")
+        self.inner = inner
+        self.is_random = inner.is_random
+        self.channels = inner.channels
+        self.start = as_finite(start, "Window.start")
+        self.end = as_finite(end, "Window.end")
+        if self.end <= self.start:
+            raise ValueError(f"Window.end must be > start, got start={start}, end={end}")
+
+    def bind(self, num_vehicles: int, dt: float) -> None:
+        self.inner.bind(num_vehicles, dt)
+
+    def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
+        self.inner.resample(indices, rngs)
+
+    def sampled_parameters(self, index: int) -> dict[str, float]:
+        return self.inner.sampled_parameters(index)
+
+    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
+        active = ((times >= self.start) & (times < self.end))[..., None]
+        return tuple(channel * active for channel in self.inner.evaluate(times))
+
+    def __repr__(self) -> str:
+        return f"{self.inner!r}.during({self.start}, {self.end})"

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from quad_dob_env.disturbances.base import Disturbance
+from quad_dob_env.disturbances.base import Disturbance, Window  # noqa: F401 (its home until 2026-12-05)
 from quad_dob_env.validation import as_finite, as_vector3
 
 ZERO = (0.0, 0.0, 0.0)
@@ -82,37 +82,6 @@ class Sinusoid(_Profile):
 
     def profile(self, times: NDArray) -> NDArray:
         return np.sin(2 * np.pi * self.frequency * times + self.phase)
-
-
-class Window(Disturbance):
-    """``inner`` switched on for ``start <= t < end`` and off otherwise (a step on and off)."""
-
-    def __init__(self, inner: Disturbance, start: float, end: float) -> None:
-        if not isinstance(inner, Disturbance):
-            raise ValueError(f"Window wraps a Disturbance, got {type(inner).__name__}")
-        self.inner = inner
-        self.is_random = inner.is_random
-        self.channels = inner.channels
-        self.start = as_finite(start, "Window.start")
-        self.end = as_finite(end, "Window.end")
-        if self.end <= self.start:
-            raise ValueError(f"Window.end must be > start, got start={start}, end={end}")
-
-    def bind(self, num_vehicles: int, dt: float) -> None:
-        self.inner.bind(num_vehicles, dt)
-
-    def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
-        self.inner.resample(indices, rngs)
-
-    def sampled_parameters(self, index: int) -> dict[str, float]:
-        return self.inner.sampled_parameters(index)
-
-    def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
-        active = ((times >= self.start) & (times < self.end))[..., None]
-        return tuple(channel * active for channel in self.inner.evaluate(times))
-
-    def __repr__(self) -> str:
-        return f"{self.inner!r}.during({self.start}, {self.end})"
 
 
 class Impulse(Disturbance):

@@ -213,7 +213,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
                      "final_info": final_info, "_final_info": ended.copy()})
         return self.observations(), rewards, terminated, truncated, info
 
-    # --- the stages, shared with quad_dob_training.vec_env's SB3 adapter -------------------------
+    # --- the stages, shared with quad_dob_training.rl.vec_env's SB3 adapter ---------------------
     def restart(self, indices: NDArray[np.intp]) -> None:
         """New episodes for vehicles ``indices``, from their own generators (residual mode:
         with their first base command planned)."""

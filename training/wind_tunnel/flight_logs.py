@@ -11,7 +11,7 @@ the same format (for synthetic test logs).
 
 A simulated episode becomes a ``FlightLog`` through the env's ``info`` (``InfoRecorder`` for
 a vector env, ``log_from_infos`` for a single env's steps), so that real and simulated
-flights are scored by the same code (``quad_dob_training.flight_statistics``).
+flights are scored by the same code (``quad_dob_training.wind_tunnel.flight_statistics``).
 """
 
 from __future__ import annotations

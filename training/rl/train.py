@@ -46,25 +46,25 @@ import yaml
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
 from quad_dob_env.memory import check_memory
-from quad_dob_training.baseline_evaluation import (
+from quad_dob_training.rl.baseline_evaluation import (
     BaselineEvaluation,
     normalization,
     plot_training_curve,
 )
-from quad_dob_training.checkpoints import (
+from quad_dob_training.rl.checkpoints import (
     ResumableCheckpoint,
     latest_checkpoint,
     load_replay_buffer,
     load_state,
     unpickle_env_stack,
 )
-from quad_dob_training.model_files import algorithm_class, load_weights, load_zip
-from quad_dob_training.run_config import (
+from quad_dob_training.rl.model_files import algorithm_class, load_weights, load_zip
+from quad_dob_training.rl.run_config import (
     environment_versions,
     resolve_config,
     warn_if_environment_changed,
 )
-from quad_dob_training.run_folder import (
+from quad_dob_training.rl.run_folder import (
     RunLock,
     folder_config,
     new_run_id,
@@ -72,7 +72,7 @@ from quad_dob_training.run_folder import (
     save_model,
     write_text_atomically,
 )
-from quad_dob_training.vec_env import QuadrotorSB3VecEnv
+from quad_dob_training.rl.vec_env import QuadrotorSB3VecEnv
 
 OBSERVATION_CLIP = 10.0
 DEFAULT_INTERVAL = 100_000  # timesteps between checkpoints, and between evaluations

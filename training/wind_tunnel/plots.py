@@ -12,13 +12,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from quad_dob_training.wind_tunnel import COUNTERPARTS, NEURAL_FLY_RMS, WIND_SPEEDS
+from quad_dob_training.wind_tunnel.published import COUNTERPARTS, NEURAL_FLY_RMS, WIND_SPEEDS
 
 WINDS = [float(speed) for speed in WIND_SPEEDS]
 
 
 def _save(fig: plt.Figure, path: Path, bottom: float = 0.1) -> Path:
-    # fixed margins, as quad_dob_training.plots: a layout engine costs more than the figure
+    # fixed margins, as evaluation.plots: a layout engine costs more than the figure
     fig.subplots_adjust(left=0.1, right=0.97, bottom=bottom, top=0.88, hspace=0.4, wspace=0.3)
     fig.savefig(path, dpi=80)
     plt.close(fig)

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_training.flight_logs import FlightLog
+from quad_dob_training.wind_tunnel.flight_logs import FlightLog
 
 SKIP = 5.0  # [s] Neural-Fly's table scores after the first 5 s
 GRAVITY = 9.81  # [m/s²] as Neural-Fly's fa

@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 
 from quad_dob_env.benchmark import TOOLS_BENCHMARK
-from quad_dob_training.flight_logs import NEURAL_FLY_METHODS, FlightLog
-from quad_dob_training.flight_statistics import (
+from quad_dob_training.wind_tunnel.flight_logs import NEURAL_FLY_METHODS, FlightLog
+from quad_dob_training.wind_tunnel.flight_statistics import (
     HARMONICS,
     SKIP,
     LogStatistics,
@@ -32,7 +32,12 @@ from quad_dob_training.flight_statistics import (
     lap_window,
     log_statistics,
 )
-from quad_dob_training.wind_tunnel import COUNTERPARTS, NEURAL_FLY_RMS, WIND_SPEEDS, side_by_side
+from quad_dob_training.wind_tunnel.published import (
+    COUNTERPARTS,
+    NEURAL_FLY_RMS,
+    WIND_SPEEDS,
+    side_by_side,
+)
 
 # Neural-Fly's method -> the simulated controller that stands for it (NF, NF-T: none)
 SIMULATED_OF = {method: spec for method, label in NEURAL_FLY_METHODS.items()
@@ -46,8 +51,8 @@ def fly_logs(spec: str, scenario: Any, seeds: list[int], wind_speed: float | Non
     """One episode of controller ``spec`` per seed in ``scenario``, all in one vector env,
     each as the ``FlightLog`` its ``info`` makes (stopped at its episode's end)."""
     from quad_dob_composition import make_vector_env
-    from quad_dob_training.flight_logs import InfoRecorder
     from quad_dob_training.policies import make_policy
+    from quad_dob_training.wind_tunnel.flight_logs import InfoRecorder
 
     policy = make_policy(spec)
     if policy.model is not None:
@@ -230,9 +235,9 @@ def _plain(value: Any) -> Any:
 def main(benchmark: str | None, seeds: str, neural_fly: Path | None, out: Path,
          duration: float | None = None) -> int:
     """The command: fly, score, print, and write ``wind_tunnel.json`` and the figures."""
-    from quad_dob_training.evaluate import parse_seeds
-    from quad_dob_training.flight_logs import read_neural_fly_folder
-    from quad_dob_training.wind_tunnel_plots import write_figures
+    from quad_dob_training.evaluation.evaluate import parse_seeds
+    from quad_dob_training.wind_tunnel.flight_logs import read_neural_fly_folder
+    from quad_dob_training.wind_tunnel.plots import write_figures
 
     benchmark = benchmark or TOOLS_BENCHMARK
     real = [] if neural_fly is None else read_neural_fly_folder(neural_fly)
@@ -261,7 +266,7 @@ def main(benchmark: str | None, seeds: str, neural_fly: Path | None, out: Path,
 
 def command(args: argparse.Namespace) -> int:
     """``quad-dob wind-tunnel``'s handler."""
-    from quad_dob_training.cli_checks import _writable_folder
+    from quad_dob_training.cli.checks import _writable_folder
 
     _writable_folder(args.out, "--out")
     return main(args.benchmark, args.seeds, args.neural_fly, args.out, args.duration)
@@ -270,7 +275,7 @@ def command(args: argparse.Namespace) -> int:
 def add_parser(commands: Any) -> None:
     """The ``wind-tunnel`` subcommand of ``quad-dob``."""
     from quad_dob_env.benchmark import BENCHMARKS
-    from quad_dob_training.cli_checks import _positive_float
+    from quad_dob_training.cli.checks import _positive_float
 
     tunnel = commands.add_parser(
         "wind-tunnel", help="fly the counterparts of Neural-Fly's controllers on the "

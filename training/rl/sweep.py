@@ -44,7 +44,7 @@ import numpy as np
 import yaml
 
 from quad_dob_env.validation import unknown_name_error
-from quad_dob_training.evaluate import parse_seeds
+from quad_dob_training.evaluation.evaluate import parse_seeds
 
 KINDS = ("evaluate", "train")
 EVALUATE_AXES = ("policy", "scenario", "wind_scale", "observer_rate")
@@ -56,7 +56,7 @@ CONFIG_KEYS = ("kind", "name", "grid", "random", "seeds", "env", "mode", "timest
 
 # --- the config --------------------------------------------------------------------------
 
-SHIPPED_SWEEPS = Path(__file__).parent / "sweeps"
+SHIPPED_SWEEPS = Path(__file__).parents[1] / "sweeps"
 
 
 def find_config(path: Path | str) -> Path:
@@ -134,7 +134,7 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
 
 def _evaluate_task(task: dict[str, Any]) -> dict[str, Any]:
     from quad_dob_env.scenarios import make_scenario
-    from quad_dob_training.metrics import flight_metrics
+    from quad_dob_training.evaluation.metrics import flight_metrics
     from quad_dob_training.policies import Policy, fly_policy, make_policy
 
     params = task["params"]
@@ -163,10 +163,10 @@ def _train_task(task: dict[str, Any]) -> dict[str, Any]:
     import tempfile
 
     from quad_dob_env.scenarios import make_scenario
-    from quad_dob_training.metrics import flight_metrics
+    from quad_dob_training.evaluation.metrics import flight_metrics
     from quad_dob_training.policies import Policy, fly_policy
-    from quad_dob_training.run_config import resolve_config
-    from quad_dob_training.train import train
+    from quad_dob_training.rl.run_config import resolve_config
+    from quad_dob_training.rl.train import train
 
     params = dict(task["params"])
     seed = int(params.pop("seed", 0))

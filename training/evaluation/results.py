@@ -31,7 +31,7 @@ import numpy as np
 
 SCHEMA_NAME = "quad_dob_env.evaluation"
 SCHEMA_VERSION = 1
-SCHEMA_PATH = Path(__file__).parent / "schemas" / "evaluation.schema.json"
+SCHEMA_PATH = Path(__file__).parents[1] / "schemas" / "evaluation.schema.json"
 # the per-row columns the provenance takes out of the flat row
 PROVENANCE_KEYS = ("policy_spec", "policy_fingerprint", "benchmark", "vehicle", "sensing",
                    "env_entry_point", "env_id")

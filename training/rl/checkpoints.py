@@ -48,7 +48,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnvWrapper
 
-from quad_dob_training.run_folder import (
+from quad_dob_training.rl.run_folder import (
     _HEADER_LIMIT,
     _write_atomically,
     folder_config,

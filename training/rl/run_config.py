@@ -20,9 +20,9 @@ import yaml
 
 import quad_dob_env
 from quad_dob_env.validation import unknown_name_error
-from quad_dob_training.model_files import ALGORITHMS, algorithm_class
+from quad_dob_training.rl import ALGORITHMS, HYPERPARAMS
+from quad_dob_training.rl.model_files import algorithm_class
 
-HYPERPARAMS = Path(__file__).parent / "hyperparams"
 MODES = ("residual", "direct")
 # rl-zoo3's keys that are not the algorithm's own keywords
 SCHEMA_KEYS = ("env_kwargs", "n_envs", "n_timesteps", "policy", "normalize", "policy_kwargs")

@@ -48,7 +48,7 @@ def key_values(pairs: list[str], option: str) -> dict[str, object]:
 def _delay_grid(text: str) -> tuple[float, ...]:
     """``"0,0.01,0.02"`` -> increasing latencies >= 0 [s] (``margins.check_grid``), or
     argparse's error."""
-    from quad_dob_training.margins import check_grid
+    from quad_dob_training.evaluation.margins import check_grid
 
     try:
         return check_grid(text)
@@ -120,7 +120,7 @@ _seed = _number_in(int, 0, MAX_SEED, "a whole number")
 def _tuning_seeds(text: str) -> tuple[int, ...]:
     """``quad-dob tune --seeds``: a count or range as for evaluate, none of them an
     evaluation seed (9001-9020: reported on, so never tuned on)."""
-    from quad_dob_training.evaluate import parse_seeds
+    from quad_dob_training.evaluation.evaluate import parse_seeds
 
     try:
         seeds = parse_seeds(text)

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-# the stable-baselines3 algorithms quad-dob train trains and ALGO:PATH loads (here, not in
-# model_files, so the CLI can offer them without importing the simulator)
-ALGORITHMS = ("ppo", "sac", "td3")
+from quad_dob_training.rl import ALGORITHMS, HYPERPARAMS
 
 
 def main() -> int:
@@ -96,7 +94,5 @@ def _number(value: object) -> str:
 def print_hyperparams(algo: str) -> int:
     """``quad-dob hyperparams ALGO``: the installed hyperparameter file's path (rl-zoo3's
     ``--conf-file`` from any directory; ``quad-dob train`` reads the same file)."""
-    from quad_dob_training.run_config import HYPERPARAMS
-
     print(HYPERPARAMS / f"{algo}.yml")
     return 0

@@ -1,15 +1,15 @@
 """``quad-dob evaluate``: every policy on every scenario over the given seeds.
 
-Scores (``quad_dob_training.metrics``, the code ``quad-dob paper`` uses), after t = 2 s:
+Scores (``quad_dob_training.evaluation.metrics``, the code ``quad-dob paper`` uses), after t = 2 s:
 RMS position error, RMS geodesic attitude error ‖log RdᵀR‖, RMS tilt error ∠(b3, b3d), RMS
 heading error, control effort (RMS applied moment norm), and the crash rate. Each score
 gets its mean, std and 95 % bootstrap interval over the seeds, and every policy its paired
 per-seed difference to ``baseline`` (default the recommended geometric + NDOB) with a 95 %
-bootstrap interval (``quad_dob_training.statistics``): "better" means that interval lies
+bootstrap interval (``quad_dob_training.evaluation.statistics``): "better" means that interval lies
 below zero.
 
 Writes ``evaluation.md``, ``evaluation.csv``, ``evaluation.json`` (the rows with their
-provenance, in the schema others' results merge by: ``quad_dob_training.results``),
+provenance, in the schema others' results merge by: ``quad_dob_training.evaluation.results``),
 ``evaluation.png`` (bars with their 95 % intervals) and the interactive ``report.html``
 (figures of the first seed), or prints the rows as JSON. JSON and CSV keys:
 ``{score}_mean``, ``_std``, ``_low``, ``_high`` for each score (and for the settled RMS
@@ -30,20 +30,20 @@ from quad_dob_baselines import gain_set
 from quad_dob_env import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.benchmark import TOOLS_BENCHMARK
 from quad_dob_env.scenarios import make_scenario
-from quad_dob_training.margins import benchmark_delay_path, check_grid, delay_margin
-from quad_dob_training.metrics import flight_metrics
-from quad_dob_training.plots import evaluation_bars
-from quad_dob_training.policies import fly_policy, make_policy
-from quad_dob_training.report import write_report
-from quad_dob_training.results import (
+from quad_dob_training.evaluation.margins import benchmark_delay_path, check_grid, delay_margin
+from quad_dob_training.evaluation.metrics import flight_metrics
+from quad_dob_training.evaluation.plots import evaluation_bars
+from quad_dob_training.evaluation.report import write_report
+from quad_dob_training.evaluation.results import (
     merged_leaderboard,
     read_document,
     results_document,
     source_labels,
     write_document,
 )
+from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
+from quad_dob_training.policies import fly_policy, make_policy
 from quad_dob_training.rollout import check_flight_memory
-from quad_dob_training.statistics import bootstrap_mean, paired_difference
 
 SCORES = (("rms_position_settled", "RMS ‖e_x‖ [m]"),
           ("rms_attitude_settled", "RMS ‖log RdᵀR‖ [rad]"),
@@ -132,7 +132,7 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
     flight metrics in seed order, for comparisons the rows do not hold. ``trust_pickle``:
     model files may be unpickled (``model_files.load_model``). ``scenario_options`` go to
     every scenario (``make_scenario(name, **scenario_options)``). ``delay_grid``, when
-    given: each row's ``delay_margin`` on it (``quad_dob_training.margins``), its latency on
+    given: each row's ``delay_margin`` on it (``evaluation.margins``), its latency on
     ``delay_path`` (None: where the scenario's benchmark puts its margin's)."""
     specs = list(dict.fromkeys(policies))
     flown = specs if baseline is None or baseline in specs else [*specs, baseline]
@@ -352,7 +352,7 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
     ``delay_grid`` (``--delay-margins``): the latencies each delay margin is searched on;
     ``delay_path`` (``--delay-on``): where they are added (None: the benchmark's margin's).
     ``merge`` (``--merge``): other runs' ``evaluation.json`` files, merged with this one's
-    into ``leaderboard-merged.md`` (``quad_dob_training.results``); ``command`` is recorded
+    into ``leaderboard-merged.md`` (``evaluation.results``); ``command`` is recorded
     in ``evaluation.json``."""
     others = [(path, read_document(path)) for path in merge]  # a bad file fails first
     baseline = DEFAULT_BASE_CONTROLLER if baseline is None else baseline

@@ -93,7 +93,7 @@ from quad_dob_env.disturbances import Constant
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.scenario import Scenario
 from quad_dob_env.scenarios import make_scenario
-from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy
 
 TUNING_SEEDS = tuple(range(100, 110))

@@ -23,9 +23,9 @@ from stable_baselines3.common.vec_env import VecNormalize
 
 import quad_dob_env
 from quad_dob_env.benchmark import scenario_options_for
-from quad_dob_training.metrics import flight_metrics
+from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy
-from quad_dob_training.run_folder import save_model, write_text_atomically
+from quad_dob_training.rl.run_folder import save_model, write_text_atomically
 
 EVAL_SEEDS = list(range(10_000, 10_008))  # held out: training seeds count up from --seed
 # the classical baselines a policy trained in Benchmark v2's loop is timed against: the

@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from quad_dob_training.metrics import attitude_errors
+from quad_dob_training.evaluation.metrics import attitude_errors
 from quad_dob_training.rollout import Flight
 
 AXES = ("x", "y", "z")

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from quad_dob_env.benchmark import TOOLS_BENCHMARK
-from quad_dob_training.cli_checks import (
+from quad_dob_training.cli.checks import (
     MAX_TIMESTEPS,
     _delay_grid,
     _names,
@@ -26,9 +26,9 @@ from quad_dob_training.cli_checks import (
     _writable_folder,
     key_values,
 )
-from quad_dob_training.listing import ALGORITHMS, print_hyperparams
-from quad_dob_training.listing import main as list_main
-from quad_dob_training.margins import DELAY_GRID, DELAY_PATHS
+from quad_dob_training.cli.listing import ALGORITHMS, print_hyperparams
+from quad_dob_training.cli.listing import main as list_main
+from quad_dob_training.evaluation.margins import DELAY_GRID, DELAY_PATHS
 
 MAX_VIDEO_WIDTH = 4096  # a panel's pixels
 MAX_FPS = 1000.0
@@ -53,13 +53,13 @@ def _train(args: argparse.Namespace) -> int:
     if args.out is not None:
         _writable_folder(args.out, "--out")
     elif args.resume is not None and args.resume.suffix != ".zip" and args.resume.exists():
-        from quad_dob_training.run_folder import run_folder
+        from quad_dob_training.rl.run_folder import run_folder
 
         _writable_folder(args.resume if args.resume.is_dir() else run_folder(args.resume),
                          "--resume's run folder")
     elif args.resume is None or args.resume.suffix == ".zip":
         _writable_folder(Path(f"runs/{args.algo}"), "the default --out")
-    from quad_dob_training.train import main as train_main  # torch: seconds to import
+    from quad_dob_training.rl.train import main as train_main  # torch: seconds to import
 
     return train_main(args.algo, args.mode, args.env, args.scenario, args.timesteps,
                       args.n_envs, args.seed, args.out, args.resume, args.base,
@@ -68,7 +68,7 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from quad_dob_training.evaluate import main as evaluate_main
+    from quad_dob_training.evaluation.evaluate import main as evaluate_main
 
     if not args.json:
         _writable_folder(args.out, "--out")
@@ -88,7 +88,11 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def _leaderboard(args: argparse.Namespace) -> int:
-    from quad_dob_training.results import merged_leaderboard, read_document, source_labels
+    from quad_dob_training.evaluation.results import (
+        merged_leaderboard,
+        read_document,
+        source_labels,
+    )
 
     if args.out is not None:
         _writable_file(args.out, "--out")
@@ -102,7 +106,7 @@ def _leaderboard(args: argparse.Namespace) -> int:
 
 def _tune(args: argparse.Namespace) -> int:
     from quad_dob_env.params import get_vehicle
-    from quad_dob_training.tune import main as tune_main
+    from quad_dob_training.tuning.tune import main as tune_main
 
     get_vehicle(args.vehicle)  # an unknown name fails here, naming the presets
     _writable_folder(args.out, "--out")
@@ -126,7 +130,7 @@ def _check_controller(args: argparse.Namespace) -> int:
 
 
 def _replay(args: argparse.Namespace) -> int:
-    from quad_dob_training.replay import main as replay_main
+    from quad_dob_training.cli.replay import main as replay_main
 
     _writable_file(args.out, "--out")
     return replay_main(_names(args.policy), args.scenario, args.seed, args.out, args.fps,
@@ -134,7 +138,7 @@ def _replay(args: argparse.Namespace) -> int:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from quad_dob_training.sweep import run_sweep
+    from quad_dob_training.rl.sweep import run_sweep
 
     if not args.config.is_file():
         raise ValueError(f"sweep config {str(args.config)!r} is not a file: give a sweep's "
@@ -340,7 +344,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="local processes (default: every core); with --ray-address "
                        "local, Ray's CPUs")
     sweep.set_defaults(handler=_sweep)
-    from quad_dob_training.wind_tunnel_tool import add_parser as add_wind_tunnel
+    from quad_dob_training.wind_tunnel.tool import add_parser as add_wind_tunnel
 
     add_wind_tunnel(commands)
     listing = commands.add_parser(

@@ -41,11 +41,11 @@ import yaml
 from quad_dob_composition import make_vector_env
 from quad_dob_env.memory import check_memory
 from quad_dob_env.validation import unknown_name_error
-from quad_dob_training.listing import ALGORITHMS
-from quad_dob_training.run_folder import zip_run_id
-from quad_dob_training.vec_env import env_options
+from quad_dob_training.rl import ALGORITHMS
+from quad_dob_training.rl.run_folder import zip_run_id
+from quad_dob_training.rl.vec_env import env_options
 
-PRETRAINED = Path(__file__).parent / "pretrained"
+PRETRAINED = Path(__file__).parents[1] / "pretrained"
 SHIPPED_RESIDUAL = PRETRAINED / "residual_random_tracks.zip"
 # sha256 of the shipped zip and of the config beside it (base controller, env options,
 # observation statistics: what the policy flies with), both checked before either is read

@@ -1,0 +1,17 @@
+"""Evaluation: policies flown over scenarios and seeds, scored, compared and reported.
+
+- ``evaluate``: every policy on every scenario over seeds (``quad-dob evaluate``): tables
+  with intervals and the paired difference to a baseline, distinct flights, the
+  estimator's errors, bar plot, JSON.
+- ``metrics``: the scores every report uses (position; geodesic, tilt and heading errors).
+- ``statistics``: bootstrap intervals and paired differences over seeds.
+- ``margins``: delay margins (the extra latency a policy's flights take).
+- ``results``: ``evaluation.json`` (its schema in ``schemas/``) and leaderboards merged from
+  many users' files.
+- ``report``: the self-contained interactive ``report.html``.
+- ``plots``: the PNG figures (the paper's, the evaluation's bars).
+
+May import ``quad_dob_env``, ``quad_dob_composition``, ``quad_dob_baselines`` and the top
+modules of ``quad_dob_training`` (``rollout``, ``policies``); not ``cli``, ``rl``'s training
+and sweeps, ``tuning`` or ``wind_tunnel`` (``tests/test_layering.py``).
+"""

@@ -1,0 +1,28 @@
+"""The wind-tunnel check: simulated figure-8 flights beside Neural-Fly's real ones.
+
+- ``published``: Neural-Fly's published table (RMS error per controller and wind speed),
+  the counterparts and the side-by-side with its factor of 2.
+- ``tool``: ``quad-dob wind-tunnel``: both sides through one code path, from a Neural-Fly
+  folder the user supplies (never shipped).
+- ``flight_logs``: Neural-Fly's logs read as flights (the same records simulated flights
+  give).
+- ``flight_statistics``: the statistics both sides share: per-axis error, the z share, the
+  vertical residual force and its fit.
+- ``plots``: the tool's figures.
+
+May import ``quad_dob_env``, ``quad_dob_composition``, ``quad_dob_baselines``, the top
+modules of ``quad_dob_training`` and ``evaluation``.
+"""
+
+# what ``quad_dob_training.wind_tunnel`` held when it was one module (before 2026-12-05)
+from quad_dob_training.wind_tunnel.published import (
+    COUNTERPARTS,
+    FACTOR,
+    NEURAL_FLY_RMS,
+    WIND_SPEEDS,
+    rms_by_wind,
+    side_by_side,
+)
+
+__all__ = ["COUNTERPARTS", "FACTOR", "NEURAL_FLY_RMS", "WIND_SPEEDS", "rms_by_wind",
+           "side_by_side"]
