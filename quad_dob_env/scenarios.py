@@ -38,10 +38,8 @@ from quad_dob_env.trajectories.family import LANDING_HEIGHT
 from quad_dob_env.validation import as_finite, unknown_name_error
 from quad_dob_env.variation import Randomization
 from quad_dob_env.wind_tunnel import (
-    FIGURE8_TURBULENCE_INTENSITY,
     FIGURE8_WINDS,
     figure8_wind,
-    tunnel_wind,
 )
 
 # The paper's translational disturbance magnitudes [N], Scenarios I, II, II-A.
@@ -237,13 +235,6 @@ TRAINING_KINDS = ("circle", "sinusoids", "hover", "helix", "landing")  # lemnisc
 # references of the training kinds, ``heldout-hops`` a kind no training family holds
 HELD_OUT_POOL_SEED = 20_261_203
 HELD_OUT_POOL_COUNT = 60
-# A training family in a wind tunnel's steady wind, stronger than the moderate preset's 6 m/s
-# mean: up to 13 m/s, past Neural-Fly's fastest 12.1. Its references are training's kinds
-# but the landings (a strong wind at the floor is no tunnel's), from their own pool: no
-# figure-eights, so the figure-8s stay held out.
-TUNNEL_KINDS = ("circle", "sinusoids", "hover", "helix")
-TUNNEL_POOL_SEED = 2
-TUNNEL_WIND = 13.0  # [m/s]
 
 
 @functools.lru_cache(maxsize=16)
@@ -262,30 +253,19 @@ def _feasible_pool(vehicle: VehicleParams, kinds: tuple[str, ...], pool_seed: in
 
 def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRAINING_KINDS,
                    pool_seed: int = 0, count: int = 240, wind_scale: float = 1.0,
-                   name: str = "random-tracks", tunnel_speed: float | None = None) -> Scenario:
+                   name: str = "random-tracks") -> Scenario:
     """Each vehicle flies a reference of the pool, drawn at reset, in wind drawn per vehicle
     from none to the moderate preset (direction uniform), the two gusts, mass, inertia and
-    drag randomised: the task distribution generalists train on. With ``tunnel_speed``
-    [m/s], the wind is instead a tunnel's: a mean drawn per vehicle from none to that, from
-    a random direction, carrying the figure-8s' turbulence in proportion, and no gusts."""
+    drag randomised: the task distribution generalists train on."""
     vehicle = get_vehicle(vehicle)
     family = _feasible_pool(vehicle, tuple(kinds), pool_seed, count)
     start = family.members[0].evaluate(0.0)
-    if tunnel_speed is None:
-        disturbance = Dryden(wind_speed_6m=WIND_PRESETS["moderate"][1], altitude=HELIX_ALTITUDE,
-                             direction=None, mean_wind_speed=WIND_PRESETS["moderate"][0],
-                             intensity_scale=(0.0, as_finite(wind_scale, "wind_scale", 0.0))
-                             ) + _gust_pair()
-        wind = ("wind from none to the moderate preset (6 m/s mean, W20 30 kt) per vehicle "
-                "from a random direction, the two gusts")
-    else:
-        top = tunnel_speed * as_finite(wind_scale, "wind_scale", 0.0)
-        disturbance = tunnel_wind(top, FIGURE8_TURBULENCE_INTENSITY, HELIX_ALTITUDE, None,
-                                  (0.0, 1.0))
-        # the turbulence's time constants are those of the top speed's (Dryden's spectra
-        # take one mean wind); its intensity scales with each vehicle's
-        wind = (f"a steady wind of 0-{top:g} m/s per vehicle from a random direction, "
-                f"{100 * FIGURE8_TURBULENCE_INTENSITY:g} % turbulence")
+    disturbance = Dryden(wind_speed_6m=WIND_PRESETS["moderate"][1], altitude=HELIX_ALTITUDE,
+                         direction=None, mean_wind_speed=WIND_PRESETS["moderate"][0],
+                         intensity_scale=(0.0, as_finite(wind_scale, "wind_scale", 0.0))
+                         ) + _gust_pair()
+    wind = ("wind from none to the moderate preset (6 m/s mean, W20 30 kt) per vehicle "
+            "from a random direction, the two gusts")
     return Scenario(
         name=name, vehicle=vehicle, trajectory=family, duration=TRACK_DURATION,
         disturbance=disturbance, drag=True, motor_lag=True, floor_height=0.0,
@@ -313,10 +293,6 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
     "takeoff-landing-wind": _takeoff_landing_wind,
     "helix-force-torque": _helix_force_torque,
     "random-tracks": _random_tracks,
-    # training's kinds but the landings, in a steady wind (issue 29: what the figure-8s fly)
-    "tunnel-tracks": lambda **kw: _random_tracks(
-        kinds=TUNNEL_KINDS, pool_seed=TUNNEL_POOL_SEED, name="tunnel-tracks",
-        tunnel_speed=TUNNEL_WIND, **kw),
     # held out of training: another kind, another pool
     "random-lemniscates": lambda **kw: _random_tracks(
         kinds=("lemniscate",), pool_seed=1, count=32, name="random-lemniscates", **kw),
@@ -339,7 +315,7 @@ _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "gusty-hover": tuple(inspect.signature(_gusty_hover).parameters),
     "takeoff-landing-wind": tuple(inspect.signature(_takeoff_landing_wind).parameters),
     "helix-force-torque": ("vehicle",),
-    "random-tracks": ("vehicle", "wind_scale"), "tunnel-tracks": ("vehicle", "wind_scale"),
+    "random-tracks": ("vehicle", "wind_scale"),
     "random-lemniscates": ("vehicle", "wind_scale"),
     "heldout-tracks": ("vehicle", "wind_scale"), "heldout-hops": ("vehicle", "wind_scale"),
     **{f"figure8-wind-{speed:g}": ("vehicle", "turbulence_intensity", "benchmark")

@@ -14,11 +14,27 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+# Experiments removed from the code (issue 41), each named with the page that keeps its
+# finding and the commands that reproduce it at the last commit that had it: a config or
+# call that still names one is told where it went, not only that it is unknown
+REMOVED_EXPERIMENTS_PAGE = "docs/research/removed-experiments.md"
+REMOVED_EXPERIMENTS: dict[str, str] = {
+    "termination_penalty": "the training key termination_penalty",
+    "tunnel-tracks": "the scenario tunnel-tracks",
+}
+
 
 def unknown_name_error(kind: str, name: object, valid: Iterable[str]) -> ValueError:
-    """A ValueError naming the unknown value, every valid one, and the closest match."""
+    """A ValueError naming the unknown value, every valid one, and the closest match; a
+    removed experiment's name (``REMOVED_EXPERIMENTS``) is also told the page that keeps
+    its finding."""
     valid = list(valid)
     message = f"unknown {kind} {name!r}; valid: {', '.join(valid)}"
+    if isinstance(name, str) and name in REMOVED_EXPERIMENTS:
+        return ValueError(
+            f"{REMOVED_EXPERIMENTS[name]} was removed (issue 41); its finding and the "
+            f"commands that reproduce it at commit 666bb22 are in "
+            f"{REMOVED_EXPERIMENTS_PAGE}. {message}")
     same_but_case = [v for v in valid if v.lower() == str(name).lower()]
     close = same_but_case or difflib.get_close_matches(str(name), valid, n=1)
     if close:

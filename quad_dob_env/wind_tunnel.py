@@ -1,6 +1,6 @@
 """Neural-Fly's wind tunnel: the figure-8 scenarios flown in it, and the tunnel's wind (a
-steady mean carrying Dryden turbulence in proportion) that ``scenarios``' training family
-``tunnel-tracks`` flies too. Imports what ``scenarios`` imports, never ``scenarios``."""
+steady mean carrying Dryden turbulence in proportion). Imports what ``scenarios`` imports,
+never ``scenarios``."""
 
 from __future__ import annotations
 
@@ -29,23 +29,19 @@ FIGURE8_TURBULENCE_INTENSITY = 0.05
 # loop's tick grid, where 10 ms stays 10 ms.
 
 
-def tunnel_wind(speed: float, intensity: float, height: float, direction: float | None,
-                scale: tuple[float, float] | None = None) -> Disturbance:
-    """A steady wind of ``speed`` m/s along ``direction`` (None: random per vehicle) carrying
-    ``intensity`` σ_u / U of Dryden turbulence (``scale``: per-vehicle factors on both)."""
+def tunnel_wind(speed: float, intensity: float, height: float, direction: float) -> Disturbance:
+    """A steady wind of ``speed`` m/s along ``direction`` [rad from +x] carrying
+    ``intensity`` σ_u / U of Dryden turbulence."""
     if speed == 0:
         return Constant(wind=(0.0, 0.0, 0.0))
     if intensity == 0:
-        if direction is None or scale is not None:
-            raise ValueError("a tunnel wind with a random direction or a per-vehicle scale is "
-                             "Dryden's: give it a turbulence intensity above zero")
         # rounded so that a wind along an axis has no 1e-16 across it (sin π)
         return Constant(wind=(round(speed * math.cos(direction), 12),
                               round(speed * math.sin(direction), 12), 0.0))
     # W20 for σ_u: Dryden's own σ_u per unit W20 at this height (MIL-F-8785C, in Dryden)
     sigma_u_per_w20 = float(Dryden(wind_speed_6m=1.0, altitude=height).sigmas[0])
     return Dryden(wind_speed_6m=intensity * speed / sigma_u_per_w20, altitude=height,
-                  direction=direction, mean_wind_speed=speed, intensity_scale=scale)
+                  direction=direction, mean_wind_speed=speed)
 
 
 def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fly",

@@ -131,6 +131,10 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     ``scenario_options``: ``quad_dob_env.benchmark``; the ``-v2`` and ``-v3`` ids set theirs).
 
     ## Version history
+    - all versions, experiments removed (2026-12, issue 41; no flight changes): the scenario
+      ``tunnel-tracks`` and training's ``termination_penalty`` are gone. Naming either raises
+      an error that points at docs/research/removed-experiments.md, which keeps their
+      findings and the commands that reproduce them at commit 666bb22.
     - v3 (2026-12): the ids ``QuadDOB/Hover-v3``, ``HoverResidual-v3``, ``TrackResidual-v3``
       and ``TracksResidual-v3`` fly the v2 ids' scenarios under ``benchmark="v3"``: v2's
       loop with the real vehicle's lag and thrust path (``quad_dob_env.benchmark_v3``, every

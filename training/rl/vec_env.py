@@ -34,13 +34,16 @@ from quad_dob_env.params import VEHICLES
 from quad_dob_env.residual import ResidualOptions
 from quad_dob_env.scenarios import SCENARIOS, make_scenario
 from quad_dob_env.sensing import SENSING_PRESETS
-from quad_dob_env.validation import as_finite, checked_keywords, unknown_name_error
+from quad_dob_env.validation import checked_keywords, unknown_name_error
 
 # the keys of ``loop_randomization``: the number of groups, the sensing presets and the
 # vehicles they cycle through, and (low, high) ranges of the scenario options drawn per group
 LOOP_RANDOMIZATION_KEYS = ("groups", "sensing", "vehicle", "scenario", "extra_latency",
                            "motor_time_constant_scale", "wind_scale")
-TRAINING_ONLY_KEYS = ("loop_randomization", "termination_penalty")
+TRAINING_ONLY_KEYS = ("loop_randomization",)
+# training-only keys that were removed (docs/research/removed-experiments.md): configs of runs
+# trained with them still load for evaluation, which never took them
+REMOVED_TRAINING_KEYS = ("termination_penalty",)
 # where a drawn loop names the scenario its group flies instead of the env's (not an option
 # of the scenario: ``QuadrotorSB3VecEnv`` takes it out)
 SCENARIO_KEY = "scenario"
@@ -49,7 +52,8 @@ SCENARIO_KEY = "scenario"
 def env_options(env_kwargs: dict[str, Any]) -> dict[str, Any]:
     """``env_kwargs`` without the options that only shape training (``loop_randomization``):
     what builds the env a model flies in evaluation."""
-    return {key: value for key, value in env_kwargs.items() if key not in TRAINING_ONLY_KEYS}
+    return {key: value for key, value in env_kwargs.items()
+            if key not in TRAINING_ONLY_KEYS + REMOVED_TRAINING_KEYS}
 
 
 def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[str, Any]]:
@@ -119,16 +123,11 @@ class QuadrotorSB3VecEnv(VecEnv):
     """``num_envs`` vehicles of ``scenario`` as an SB3 VecEnv; other keyword arguments are
     ``QuadrotorVectorEnv``'s. With ``loop_randomization`` (``draw_loops``) the vehicles are
     split into groups of nearly equal size, each flying its own drawn loop; vehicle i is
-    seeded ``seed + i`` either way. ``termination_penalty`` P (0 by default) is taken from
-    the reward of every step that ends an episode early (a crash, the vehicle out of
-    bounds or its attitude lost; not the time limit): the env's reward forfeits only the
-    steps left, which a loss late in an episode makes few."""
+    seeded ``seed + i`` either way."""
 
     @checked_keywords(ResidualVectorEnv.__init__, QuadrotorVectorEnv.__init__, ResidualOptions)
     def __init__(self, num_envs: int, scenario: str = "paper-none", seed: int | None = None,
-                 loop_randomization: dict[str, Any] | None = None,
-                 termination_penalty: float = 0.0, **env_kwargs: Any) -> None:
-        self.termination_penalty = as_finite(termination_penalty, "termination_penalty", 0.0)
+                 loop_randomization: dict[str, Any] | None = None, **env_kwargs: Any) -> None:
         dt = None  # the clock the latency draws were made on
         if loop_randomization is None:
             self.loops: list[dict[str, Any]] = [{}]
@@ -191,7 +190,6 @@ class QuadrotorSB3VecEnv(VecEnv):
             rewards[group] = venv.rewards()
             terminated, truncated = core.terminated, core.truncated
             dones[group] = terminated | truncated
-            rewards[group] -= self.termination_penalty * terminated
             ended = np.flatnonzero(dones[group])
             if ended.size:
                 last = venv.observations()[ended]
