@@ -1,9 +1,10 @@
 """quad_dob_env: quadrotor environments for disturbance-rejection research.
 
 Layers, each importing only from those above it (docs/design.md): ``validation``, ``memory``,
-``linalg``, ``rng``, ``threads`` (shared utilities: input checks, the memory budget large
-requests are sized against, small matrix functions, counter-based per-vehicle noise, compiled
-loops split across cores), ``params`` (vehicle presets; their sources in ``vehicle_sources``),
+``linalg``, ``rng``, ``threads``, ``observation_entry`` (shared utilities: input checks, the
+memory budget large requests are sized against, small matrix functions, counter-based
+per-vehicle noise, compiled loops split across cores, the record naming an observation
+entry), ``params`` (vehicle presets; their sources in ``vehicle_sources``),
 ``so3`` (rotations), ``dynamics`` (state, actuation, integrator, rotors), ``disturbances``
 (forces, torques, wind, ground effect), ``trajectories``, ``flatness`` (the attitude, rates and
 inputs that fly a reference), ``feasibility`` (a reference's needs against the actuators),

@@ -4,6 +4,10 @@
   step, observation, reward, termination, ``info``, randomisation, and the sensing stage
   (``quad_dob_env.sensing``) whose ``measurement`` every policy reads. Written once for
   every env.
+- ``termination``: ``TerminationCode``, why an episode ended (the codes the step kernels
+  write, the reasons ``info`` reports).
+- ``observation``: ``observation_table``, every observation entry by name, unit, range and
+  columns, for each layout an env can take (rotation representation, residual options).
 - ``limits``: the core's settings records (``EpisodeLimits``, ``RewardWeights``) and
   ``SpecWithEpisodeLength``, which makes both envs' ``spec`` report their episodes'
   length.
@@ -29,22 +33,23 @@ takes its base controller as an object.
 """
 
 from quad_dob_env.envs.actions import ACTION_MODES, ActionMap
-from quad_dob_env.envs.core import (
-    TERMINATION_REASONS,
-    EpisodeLimits,
-    QuadrotorBatch,
-    RewardWeights,
-)
+from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
+from quad_dob_env.envs.observation import ObservationEntry, observation_table
 from quad_dob_env.envs.quadrotor_env import QuadrotorEnv
+from quad_dob_env.envs.termination import TERMINATION_REASONS, TIME_LIMIT, TerminationCode
 from quad_dob_env.envs.vector_env import QuadrotorVectorEnv
 
 __all__ = [
     "ACTION_MODES",
     "TERMINATION_REASONS",
+    "TIME_LIMIT",
     "ActionMap",
     "EpisodeLimits",
+    "ObservationEntry",
     "QuadrotorBatch",
     "QuadrotorEnv",
     "QuadrotorVectorEnv",
     "RewardWeights",
+    "TerminationCode",
+    "observation_table",
 ]

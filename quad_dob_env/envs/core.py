@@ -33,12 +33,18 @@ from quad_dob_env.envs.limits import (
     check_vehicle_memory,
     episode_steps,
 )
+from quad_dob_env.envs.observation import env_entries, observation_size
 from quad_dob_env.envs.step_kernels import (
     StartArguments,
     StepArguments,
     observation_kernel,
     start_kernel,
     step_kernel,
+)
+from quad_dob_env.envs.termination import (
+    INVALID_ACTION,
+    TIME_LIMIT,
+    TerminationCode,
 )
 from quad_dob_env.envs.vehicle_loop import VehicleLoop
 from quad_dob_env.flatness import flat_attitude
@@ -49,13 +55,7 @@ from quad_dob_env.sensing import Measurement, SensingStage
 from quad_dob_env.so3 import exp as so3_exp
 from quad_dob_env.threads import run_over_batch
 from quad_dob_env.trajectories import REFERENCE_FIELDS, Reference, TrajectoryFamily
-from quad_dob_env.validation import unknown_name_error
 
-ROTATION_REPRESENTATIONS = {"matrix": 9, "6d": 6}
-# Index 0 means "still flying"; the rest are info["termination_reason"] values.
-TERMINATION_REASONS = ("", "crashed", "out_of_bounds", "attitude_lost", "non_finite_state",
-                       "invalid_action")
-TIME_LIMIT = "time_limit"
 # --- the core ----------------------------------------------------------------------------
 
 class QuadrotorBatch:
@@ -64,9 +64,7 @@ class QuadrotorBatch:
     def __init__(self, scenario: Scenario, num_vehicles: int = 1,
                  action_mode: str = "thrust_moments", rotation_representation: str = "matrix",
                  limits: EpisodeLimits | None = None, reward: RewardWeights | None = None) -> None:
-        if rotation_representation not in ROTATION_REPRESENTATIONS:
-            raise unknown_name_error("rotation_representation", rotation_representation,
-                                     ROTATION_REPRESENTATIONS)
+        entries = env_entries(rotation_representation)  # refuses an unknown one, named
         if not isinstance(num_vehicles, (int, np.integer)) or num_vehicles < 1:
             raise ValueError(f"num_vehicles must be an integer >= 1, got {num_vehicles!r}")
         check_vehicle_memory(int(num_vehicles))
@@ -78,7 +76,7 @@ class QuadrotorBatch:
         self.vehicle = scenario.vehicle
         self.actuator = Actuator(self.vehicle, scenario.actuation)
         self.action_map = ActionMap(self.vehicle, self.actuator, action_mode)
-        self.observation_size = 3 + 3 + ROTATION_REPRESENTATIONS[rotation_representation] + 3 + 6
+        self.observation_size = observation_size(entries)
         self.thrust_law = (NO_GROUND_EFFECT if scenario.ground_effect is None
                            else scenario.ground_effect.law(self.vehicle, scenario.floor_height))
         self._law = tuple(float(value) for value in self.thrust_law)
@@ -93,7 +91,8 @@ class QuadrotorBatch:
         # which member each vehicle flies, and its row in the stacked reference table
         self.reference_member = np.zeros(n, dtype=np.int64)
         self.reference_start = np.zeros(n, dtype=np.int64)  # its start's row in the member
-        self.reference_row, self.step_count = np.zeros(n, np.int64), np.zeros(n, np.int64)
+        self.reference_row = np.zeros(n, np.int64)
+        self.step_count = np.zeros(n, np.int64)
         self._start_steps = scenario.start_spread_steps
         self._tabulate(scenario.table_rows)
         # an episode is truncated after this many steps (``set_time_limit``)
@@ -104,13 +103,14 @@ class QuadrotorBatch:
         self._kernel_tuples: tuple[tuple, tuple] = ((), ())  # see _kernel_arguments
         self._kernel_tables = None
         self._reference_now: Reference | None = None
-        self.termination_code = np.zeros(n, dtype=np.int8)
+        self.termination_code = np.zeros(n, dtype=np.int8)  # a TerminationCode per vehicle
         self.obs = np.zeros((n, self.observation_size), dtype=np.float32)
         self.rewards = np.zeros(n)
         self.applied = AppliedCommand(np.zeros(n), np.zeros((n, 3)), np.zeros((n, 4)),
                                       np.zeros(n, dtype=np.bool_))
-        self.disturbance_force, self.disturbance_torque, self.wind_velocity = (
-            np.zeros((n, 3)) for _ in range(3))
+        self.disturbance_force = np.zeros((n, 3))
+        self.disturbance_torque = np.zeros((n, 3))
+        self.wind_velocity = np.zeros((n, 3))
         self._own = tuple(np.zeros((n, samples, 3)) for _ in range(3))  # force, torque, wind
         # per-vehicle physics (mass, inertia, inverse, drag), so vehicles can differ
         self._nominal = physics_arrays(self.vehicle, 1, scenario.drag,
@@ -123,10 +123,7 @@ class QuadrotorBatch:
         time_constant = scenario.rotor_time_constants[0]
         self._actuator = (self.actuator.to_wrench, self.actuator.to_rotors, float(time_constant),
                           self.actuator_state)
-        floor, limits_ = scenario.floor_height, self.limits
-        self._limits = (float(limits_.max_position_error), float(np.cos(limits_.max_tilt)),
-                        float(limits_.max_body_rate), floor is not None,
-                        0.0 if floor is None else float(floor))
+        self._limits = self.limits.kernel_limits(scenario.floor_height)
         self._reward = (float(self.reward_weights.position_scale),
                         float(self.reward_weights.effort_weight))
         self._rotation_mode = 0 if rotation_representation == "matrix" else 1
@@ -249,7 +246,8 @@ class QuadrotorBatch:
         offsets = np.zeros((count, 6))  # position, velocity
         offsets[:, :3] = draws[:, :3] * sc.initial_position_noise
         rows = members * self._member_rows + starts
-        self.reference_member[indices], self.reference_start[indices] = members, starts
+        self.reference_member[indices] = members
+        self.reference_start[indices] = starts
         self.reference_row[indices] = rows
         first = self._initial_rotation
         if len(self._members) > 1 or self._start_steps:  # on its reference where it starts:
@@ -382,7 +380,7 @@ class QuadrotorBatch:
     def end_for_invalid_actions(self, indices: NDArray[np.intp]) -> None:
         """End the episodes of vehicles whose action was NaN or infinite (flown at the
         hover command) with reason ``invalid_action``."""
-        self.termination_code[indices] = TERMINATION_REASONS.index("invalid_action")
+        self.termination_code[indices] = INVALID_ACTION
 
     def set_time_limit(self, max_episode_steps: int | None) -> None:
         """Truncate episodes after ``max_episode_steps`` steps (``make_vec(...,
@@ -399,7 +397,7 @@ class QuadrotorBatch:
 
     def termination_reason(self, index: int) -> str:
         """``info["termination_reason"]`` for a vehicle whose episode ended, else ''."""
-        code = int(self.termination_code[index])
+        code = TerminationCode(int(self.termination_code[index]))
         if code:
-            return TERMINATION_REASONS[code]
+            return code.reason
         return TIME_LIMIT if self.step_count[index] >= self.episode_steps else ""

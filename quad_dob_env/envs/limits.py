@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from gymnasium.envs.registration import EnvSpec
@@ -39,6 +39,25 @@ class EpisodeLimits:
         if self.max_tilt > np.pi:
             raise ValueError(f"max_tilt must be <= pi, got {self.max_tilt}")
         as_finite(self.max_body_rate, "max_body_rate", 0.0, strictly=True)
+
+    def kernel_limits(self, floor_height: float | None) -> KernelLimits:
+        """The record the compiled step checks each vehicle against (``step_kernels``)."""
+        return KernelLimits(
+            max_position_error=float(self.max_position_error),
+            cos_max_tilt=float(np.cos(self.max_tilt)), max_body_rate=float(self.max_body_rate),
+            has_floor=floor_height is not None,
+            floor_height=0.0 if floor_height is None else float(floor_height))
+
+
+class KernelLimits(NamedTuple):
+    """``EpisodeLimits`` as the step kernels take them: the tilt as its cosine (body z's
+    world-z component, R[2, 2]), the scenario's floor."""
+
+    max_position_error: float  # [m]
+    cos_max_tilt: float
+    max_body_rate: float  # [rad/s]
+    has_floor: bool
+    floor_height: float  # [m], 0 without a floor
 
 
 @dataclass(frozen=True)

@@ -55,7 +55,9 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
 
     ## Observation space
     ``Box(-F, F, (24,) or (21,), float32)`` with F the largest float32 (values are clamped
-    to it, so they are always finite); world frame unless stated:
+    to it, so they are always finite); world frame unless stated. The same table, with
+    each entry's name and range, is ``quad_dob_env.envs.observation_table`` (a test holds
+    this one to it):
 
     | index        | observation                                   | unit   |
     |--------------|-----------------------------------------------|--------|

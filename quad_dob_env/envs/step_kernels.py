@@ -22,6 +22,7 @@ from quad_dob_env.dynamics import (
     vehicle_physics,
 )
 from quad_dob_env.dynamics.rotors import nominal_wrench, rotor_wrench, speeds_of_output
+from quad_dob_env.envs.termination import ATTITUDE_LOST, CRASHED, NON_FINITE_STATE, OUT_OF_BOUNDS
 from quad_dob_env.envs.ticks import (
     filtered_rate,
     fly_tick,
@@ -130,13 +131,13 @@ def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
     """Write vehicle i's observation; return its termination code and position error."""
     max_error, cos_max_tilt, max_rate, has_floor, floor = limits
     error = np.sqrt(observe_vehicle(i, x, v, R, w, reference, row, rotation_mode, obs))
-    code = 0
+    code = 0  # TerminationCode.FLYING
     if error > max_error:
-        code = 2
+        code = OUT_OF_BOUNDS
     if R[8] < cos_max_tilt or max(abs(w[0]), abs(w[1]), abs(w[2])) > max_rate:
-        code = 3
+        code = ATTITUDE_LOST
     if has_floor and x[2] < floor:
-        code = 1
+        code = CRASHED
     return code, error
 
 
@@ -242,7 +243,7 @@ def finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturate
     code[i], error = _sense(i, x, v, R, w, reference, reference_row[i], rotation_mode, limits,
                             obs)
     if diverged:
-        code[i] = 4
+        code[i] = NON_FINITE_STATE
     effort = 0.0
     for k in range(4):
         effort += min(actions[i, k] * actions[i, k], 1.0)

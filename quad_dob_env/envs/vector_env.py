@@ -14,15 +14,11 @@ from numpy.typing import NDArray
 
 from quad_dob_env.benchmark import scenario_options_for
 from quad_dob_env.envs.actions import INVALID_ACTION_MODES, screen_actions
-from quad_dob_env.envs.core import (
-    TERMINATION_REASONS,
-    EpisodeLimits,
-    QuadrotorBatch,
-    RewardWeights,
-)
+from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
 from quad_dob_env.envs.limits import SpecWithEpisodeLength
 from quad_dob_env.envs.rendering import FlightRenderer
 from quad_dob_env.envs.step_kernels import OBSERVATION_BOUND, episode_ends_kernel
+from quad_dob_env.envs.termination import TERMINATION_REASONS
 from quad_dob_env.residual import ResidualCommand, ResidualOptions, split_residual_keys
 from quad_dob_env.scenarios import Scenario, make_scenario
 from quad_dob_env.validation import checked_keywords, unknown_name_error

@@ -11,6 +11,7 @@
 - ``floor_fade``: ``FloorFade``, the fade near the floor.
 - ``lowpass``: ``ResidualFilter``, the experimental low-pass on the residual.
 - ``lookahead``: the observation's experimental look-ahead of the reference.
+- ``observation``: the residual's observation entries, named (``residual_entries``).
 - ``residual_kernels``: the compiled per-vehicle command, reward and extra observation
   (``quad_dob_composition.fused`` runs them in its single pass).
 

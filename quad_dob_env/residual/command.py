@@ -86,6 +86,7 @@ from quad_dob_env.residual.gate import AuthorityGate
 from quad_dob_env.residual.lookahead import look_ahead, lookahead_steps
 from quad_dob_env.residual.lowpass import ResidualFilter
 from quad_dob_env.residual.modes import AccelerationMode
+from quad_dob_env.residual.observation import RESIDUAL_ENTRIES, residual_entries
 from quad_dob_env.residual.options import ResidualOptions
 from quad_dob_env.residual.residual_kernels import (
     join_columns,
@@ -97,7 +98,7 @@ from quad_dob_env.residual.residual_kernels import (
 if TYPE_CHECKING:
     from quad_dob_env.envs.core import QuadrotorBatch
 
-RESIDUAL_OBSERVATION_SIZE = 16
+RESIDUAL_OBSERVATION_SIZE = sum(entry.size for entry in RESIDUAL_ENTRIES)  # always there
 
 
 @runtime_checkable
@@ -183,7 +184,7 @@ class ResidualCommand:
                                 ResidualFilter(n, dt, options.residual_cutoff))
         ahead_end = RESIDUAL_OBSERVATION_SIZE + 3 * len(self.lookahead_steps)
         self.extra_observation = np.zeros(
-            (n, ahead_end + (0 if self.residual_filter is None else 4)), dtype=np.float32)
+            (n, sum(entry.size for entry in residual_entries(options))), dtype=np.float32)
         # views the look-ahead and the filter write through
         self._ahead = self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:ahead_end]
         self._filtered = self.extra_observation[:, ahead_end:]

@@ -1,0 +1,48 @@
+"""The residual's observation entries, after the env's own: what ``ResidualCommand`` and
+the compiled ``residual_observation_vehicle`` write, named (``quad_dob_env.envs.observation``
+puts them in the env's table and gives them columns).
+
+Imports only ``options`` and the entry record; a test holds each entry to the columns the
+kernels write.
+"""
+
+from __future__ import annotations
+
+import math
+
+from quad_dob_env.observation_entry import ObservationEntry
+from quad_dob_env.residual.options import ResidualOptions
+
+UNBOUNDED = (-math.inf, math.inf)
+
+# Always there, in this order, from the measurement the base controller reads.
+RESIDUAL_ENTRIES = (
+    ObservationEntry("base_command", "the base controller's command as a normalised action "
+                     "(thrust, Mx, My, Mz); with the acceleration mode, the command flown the "
+                     "step before", "-", 4, (-1.0, 1.0)),
+    ObservationEntry("force_estimate", "the observer's force estimate d̂x / (m g) (0 without "
+                     "an observer)", "-", 3, UNBOUNDED),
+    ObservationEntry("torque_estimate", "the observer's torque estimate d̂Ω / moment limit",
+                     "-", 3, UNBOUNDED),
+    ObservationEntry("body_position_error", "position error in the body frame, Rᵀ(x - x_d)",
+                     "m", 3, UNBOUNDED),
+    ObservationEntry("body_velocity_error", "velocity error in the body frame, Rᵀ(v - v_d)",
+                     "m/s", 3, UNBOUNDED),
+)
+# the low-passed residual's state: as many entries as the action
+FILTER_SIZE = 4
+
+
+def residual_entries(options: ResidualOptions) -> tuple[ObservationEntry, ...]:
+    """The residual's entries for ``options``: the five always there, then three per
+    ``lookahead`` time, then the ``residual_cutoff`` filter's state (both experimental)."""
+    ahead = tuple(
+        ObservationEntry(f"lookahead_error_{k}", f"Rᵀ(x - x_d(t + {time:g} s)): the error "
+                         f"against the reference {time:g} s ahead, in the body frame", "m", 3,
+                         UNBOUNDED)
+        for k, time in enumerate(options.lookahead))
+    low_pass = () if options.residual_cutoff is None else (
+        ObservationEntry("filtered_residual", f"the residual flown, low-passed at "
+                         f"{options.residual_cutoff:g} Hz (the filter's state)", "-",
+                         FILTER_SIZE, (-1.0, 1.0)),)
+    return RESIDUAL_ENTRIES + ahead + low_pass
