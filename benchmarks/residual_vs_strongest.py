@@ -42,7 +42,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--residuals", required=True, help="comma-separated residual specs")
     parser.add_argument("--scenarios", default="", help="comma-separated scenario names")
-    parser.add_argument("--suite", action="store_true", help="Benchmark v2's whole suite")
+    parser.add_argument("--suite", action="store_true",
+                        help="the whole suite of the benchmark flown (v2's by default)")
     parser.add_argument("--seeds", default="9201-9220")
     parser.add_argument("--scenario-option", action="append", default=[])
     parser.add_argument("--before", help="one more policy, reported in its own column")
@@ -51,14 +52,16 @@ def main() -> None:
     seeds = parse_seeds(args.seeds)
     # Benchmark v2's loop, as quad-dob evaluate flies by default
     options = {"benchmark": "v2", **key_values(args.scenario_option, "--scenario-option")}
-    scenario_names = ([name for family in SUITES["v2"].values() for name in family]
+    scenario_names = ([name for family in SUITES[options["benchmark"]].values()
+                       for name in family]
                       if args.suite else args.scenarios.split(","))
     residual_specs = args.residuals.split(",")
     before = [args.before] if args.before else []
     base_spec = make_policy(residual_specs[0]).base
     report = {}
     print("| scenario | strongest baseline (mm) | residual (mm), mean of seeds [min, max] | "
-          "change vs strongest, mean [min, max] | seeds whose paired 95 % CI < 0 | "
+          "change vs strongest, mean [min, max] | seeds whose paired 95 % CI < 0 "
+          "(each residual's paired difference [95 % CI], mm) | "
           "lost: strongest / base / residuals (of them, kept by the base) | "
           "command rate: residual / base |"
           + (f" {args.before}: mm, vs strongest, lost, command rate |" if before else ""))
@@ -108,7 +111,10 @@ def main() -> None:
               f"[{1e3 * strong['low']:.1f}, {1e3 * strong['high']:.1f}] | "
               f"{np.mean(means):.1f} [{min(means):.1f}, {max(means):.1f}] | "
               f"{np.mean(changes):+.0f} % [{min(changes):+.0f}, {max(changes):+.0f}] | "
-              f"{below}/{len(rows)} | {report[name]['strongest_lost']} / "
+              f"{below}/{len(rows)} ("
+              + ", ".join(f"{1e3 * row['paired']['mean']:+.1f} [{1e3 * row['paired']['low']:+.1f}, "
+                          f"{1e3 * row['paired']['high']:+.1f}]" for row in rows)
+              + f") | {report[name]['strongest_lost']} / "
               f"{report[name]['base_lost']} / {', '.join(str(row['lost']) for row in rows)} "
               f"({', '.join(str(row['lost_base_kept']) for row in rows)}) | "
               f"{np.mean(rates):.0f} / {report[name]['base_rate']:.0f} "

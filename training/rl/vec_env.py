@@ -19,6 +19,7 @@ the named loop.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Iterable, Sequence
@@ -29,17 +30,26 @@ from numpy.typing import NDArray
 from stable_baselines3.common.vec_env import VecEnv
 
 from quad_dob_composition import ResidualVectorEnv, make_vector_env
+from quad_dob_env.benchmark import v3_loop
+from quad_dob_env.benchmark_v3 import REAL_LOOPS
 from quad_dob_env.envs import QuadrotorVectorEnv
-from quad_dob_env.params import VEHICLES
+from quad_dob_env.params import VEHICLES, get_vehicle
 from quad_dob_env.residual import ResidualOptions
 from quad_dob_env.scenarios import SCENARIOS, make_scenario
 from quad_dob_env.sensing import SENSING_PRESETS
 from quad_dob_env.validation import checked_keywords, unknown_name_error
 
+# Benchmark v3's uncertain quantities a training loop may draw per group (low, high), each
+# drawn only when asked for: pose latency the estimator does not know [s], the rotors' PX4
+# thrust-model factor κ, the raw accelerometer vibration [m/s² RMS, before the filter], and
+# the battery: the true hover throttle at the start and its drift [1/s]
+# (quad_dob_env.benchmark_v3 holds the nominal values and their sources)
+V3_LOOP_RANGES = ("unmodelled_pose_latency", "thrust_model_factor", "accelerometer_vibration",
+                  "hover_throttle", "hover_throttle_drift")
 # the keys of ``loop_randomization``: the number of groups, the sensing presets and the
 # vehicles they cycle through, and (low, high) ranges of the scenario options drawn per group
 LOOP_RANDOMIZATION_KEYS = ("groups", "sensing", "vehicle", "scenario", "extra_latency",
-                           "motor_time_constant_scale", "wind_scale")
+                           "motor_time_constant_scale", "wind_scale", *V3_LOOP_RANGES)
 TRAINING_ONLY_KEYS = ("loop_randomization",)
 # training-only keys that were removed (docs/research/removed-experiments.md): configs of runs
 # trained with them still load for evaluation, which never took them
@@ -110,13 +120,60 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
     # drawn last, and only when asked for, so specs without it draw as they did before it
     low, high = ranges["wind_scale"]
     wind = low + (high - low) * stratified() if "wind_scale" in spec else None
+    # v3's quantities after it, each only when asked for; the battery's two are ranges
+    # themselves (each group flies a slice of the spread, drawn per episode within it)
+    v3: list[dict[str, Any]] = [{} for _ in range(groups)]
+    for key in V3_LOOP_RANGES:
+        if key not in spec:
+            continue
+        low, high = (float(v) for v in spec[key])
+        if not 0.0 <= low <= high:
+            raise ValueError(f"loop_randomization {key} must be a range 0 <= low <= high, "
+                             f"got {spec[key]!r}")
+        if key in ("hover_throttle", "hover_throttle_drift"):
+            edges = np.linspace(low, high, groups + 1)
+            order = rng.permutation(groups)
+            for g in range(groups):
+                v3[g][key] = [round(float(edges[order[g]]), 6),
+                              round(float(edges[order[g] + 1]), 6)]
+        else:
+            draws = low + (high - low) * stratified()
+            for g in range(groups):
+                v3[g][key] = round(float(draws[g]), 6)
     return [{**({"sensing": sensing[g % len(sensing)]} if sensing else {}),
              "extra_latency": round(float(latency[g]), 6),
              "motor_time_constant_scale": round(float(motor[g]), 4),
              **({"vehicle": vehicles[g % len(vehicles)]} if vehicles else {}),
              **({"wind_scale": round(float(wind[g]), 4)} if wind is not None else {}),
-             **({SCENARIO_KEY: scenarios[g % len(scenarios)]} if scenarios else {})}
+             **({SCENARIO_KEY: scenarios[g % len(scenarios)]} if scenarios else {}),
+             **v3[g]}
             for g in range(groups)]
+
+
+def loop_scenario_options(loop: dict[str, Any], vehicle: str) -> dict[str, Any]:
+    """A drawn loop as scenario options: v3's thrust-model factor, vibration and battery
+    ranges become the throttle map and IMU vibration of ``vehicle``'s v3 loop with those
+    values replaced (``benchmark_v3.REAL_LOOPS``); the rest are options as they are."""
+    options = {key: value for key, value in loop.items() if key != SCENARIO_KEY}
+    throttle = {key: options.pop(key) for key in ("thrust_model_factor", "hover_throttle",
+                                                  "hover_throttle_drift") if key in options}
+    vibration = options.pop("accelerometer_vibration", None)
+    if throttle or vibration is not None:
+        real = REAL_LOOPS.get(vehicle)
+        if real is None:
+            raise ValueError(f"loop_randomization's v3 quantities need a vehicle with a v3 "
+                             f"loop ({', '.join(REAL_LOOPS)}), got {vehicle!r}")
+        if throttle:
+            options["throttle_map"] = dataclasses.replace(
+                real.throttle_map, **{key: tuple(value) if isinstance(value, list) else value
+                                      for key, value in throttle.items()})
+        if vibration is not None:
+            # what the autopilot's filter leaves is linear in the raw level: v3's own
+            # filtered level scaled by raw / nominal raw
+            gyro, accelerometer = v3_loop(get_vehicle(vehicle), "loop")["imu_vibration"]
+            options["imu_vibration"] = (gyro, accelerometer * vibration
+                                        / real.accelerometer_vibration)
+    return options
 
 
 class QuadrotorSB3VecEnv(VecEnv):
@@ -141,12 +198,13 @@ class QuadrotorSB3VecEnv(VecEnv):
             raise ValueError(f"loop_randomization has {len(self.loops)} groups for "
                              f"{num_envs} vehicles: at most one group per vehicle")
         bounds = np.linspace(0, num_envs, len(self.loops) + 1).round().astype(int)
+        default_vehicle = str((env_kwargs.get("scenario_options") or {}).get("vehicle", "paper"))
         self.groups = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
         self.vector_envs = [
             make_vector_env(group.stop - group.start, loop.get(SCENARIO_KEY, scenario), **{
                 **env_kwargs, "scenario_options": {
                     **(env_kwargs.get("scenario_options") or {}),
-                    **{key: value for key, value in loop.items() if key != SCENARIO_KEY}}})
+                    **loop_scenario_options(loop, loop.get("vehicle", default_vehicle))}})
             for group, loop in zip(self.groups, self.loops, strict=True)]
         first = self.vector_envs[0]
         for loop, venv in zip(self.loops, self.vector_envs, strict=True):
