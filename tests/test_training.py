@@ -277,5 +277,9 @@ def test_a_v2_id_trains_and_is_evaluated_during_training_in_v2s_loop(tmp_path):
     train(config, run, evaluate_every=10**9, progress_bar=False)
     policy = make_policy(f"residual:{run}")
     assert policy.base_benchmark == "v2"
-    with pytest.raises(ValueError, match=r"env id 'QuadDOB/Hover-v3'.*QuadDOB/Hover-v2"):
+    # an id that is not registered is refused with the registered ones, v3's among them
+    with pytest.raises(ValueError, match=r"unknown env id 'QuadDOB/Hover-v9'.*QuadDOB/Hover-v3"):
+        resolve_config("ppo", "direct", "QuadDOB/Hover-v9", None, 10, 1, 0)
+    # a v3 id is trained, given hyperparameters: the file names the entries it has
+    with pytest.raises(ValueError, match=r"no entry for QuadDOB/Hover-v3"):
         resolve_config("ppo", "direct", "QuadDOB/Hover-v3", None, 10, 1, 0)
