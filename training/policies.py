@@ -11,11 +11,13 @@ A policy is what ``quad-dob evaluate --policies`` names:
 | ``residual``        | the shipped residual policy (``training/pretrained``) on its base|
 | ``residual:v1``     | the same policy, by the benchmark it was trained in              |
 | ``residual:v2``     | the shipped policy trained in Benchmark v2's loop (issue 29)     |
+| ``residual:v3``     | the shipped policy trained in Benchmark v3's loop (issue 42)     |
 | ``residual:PATH``   | a residual model from ``quad-dob train --mode residual``         |
 
 The shipped policies' zips and their configs (base controller, env options, observation
 statistics) are checked against ``SHIPPED_RESIDUAL_SHA256`` and
-``SHIPPED_RESIDUAL_CONFIG_SHA256`` (v2: ``SHIPPED_RESIDUAL_V2_*``) before either is read.
+``SHIPPED_RESIDUAL_CONFIG_SHA256`` (v2, v3: ``SHIPPED_RESIDUAL_V2_*``,
+``SHIPPED_RESIDUAL_V3_*``) before either is read.
 
 Every policy flies in a ``QuadrotorVectorEnv`` with one vehicle per seed: a controller is
 the base of a residual env given zero residuals (which flies it exactly), a residual model
@@ -59,6 +61,9 @@ from quad_dob_training.rl.model_files import (
     SHIPPED_RESIDUAL_V2,
     SHIPPED_RESIDUAL_V2_CONFIG_SHA256,
     SHIPPED_RESIDUAL_V2_SHA256,
+    SHIPPED_RESIDUAL_V3,
+    SHIPPED_RESIDUAL_V3_CONFIG_SHA256,
+    SHIPPED_RESIDUAL_V3_SHA256,
     load_model,
     sha256,
 )
@@ -67,10 +72,11 @@ from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memor
 
 # the shipped residual policies by the benchmark they were trained in, each its zip, the
 # zip's sha256 and its config's: ``residual:v1`` (and bare ``residual``, as before v2's
-# policy shipped) and ``residual:v2``
+# policy shipped), ``residual:v2`` and ``residual:v3``
 SHIPPED_POLICIES = {
     "v1": (SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256, SHIPPED_RESIDUAL_CONFIG_SHA256),
     "v2": (SHIPPED_RESIDUAL_V2, SHIPPED_RESIDUAL_V2_SHA256, SHIPPED_RESIDUAL_V2_CONFIG_SHA256),
+    "v3": (SHIPPED_RESIDUAL_V3, SHIPPED_RESIDUAL_V3_SHA256, SHIPPED_RESIDUAL_V3_CONFIG_SHA256),
 }
 
 

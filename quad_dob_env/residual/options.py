@@ -161,4 +161,10 @@ RESIDUAL_PRESETS: dict[str, ResidualOptions] = {
                                    residual_effort_weight=0.1, residual_rate_weight=0.5,
                                    authority_gate=0.04, authority_signal="wind",
                                    floor_fade=(0.3, 0.6)),
+    # v3's recipe keeps v2's options; what changed is the loop it trained in
+    "residual:v3": ResidualOptions(residual_mode="acceleration", acceleration_scale=3.0,
+                                   vertical_floor=0.5, moment_scale=0.3,
+                                   residual_effort_weight=0.1, residual_rate_weight=0.5,
+                                   authority_gate=0.04, authority_signal="wind",
+                                   floor_fade=(0.3, 0.6)),
 }

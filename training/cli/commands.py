@@ -228,14 +228,15 @@ def build_parser() -> argparse.ArgumentParser:
     train.set_defaults(handler=_train)
     evaluate = commands.add_parser(
         "evaluate", help="score policies on scenarios over seeds: table, CSV, JSON, bar plot")
-    # the demo's comparison: v2's strongest classical baselines, the v1 policy (the "before")
-    # and the policy trained in v2's loop
+    # the demo's comparison: the strongest classical baselines, the v1 policy (the "before")
+    # and the policies trained in v2's and v3's loops
     evaluate.add_argument("--policies", default="geometric-ndob:tuned,indi,pid,"
-                          "residual:v1,residual:v2", help="comma-separated: controller names, "
+                          "residual:v1,residual:v2,residual:v3",
+                          help="comma-separated: controller names, "
                           "py:package.module:Name (your own), ppo:PATH, sac:PATH, td3:PATH, "
                           "residual or residual:v1 (the policy shipped for v1's ideal loop), "
-                          "residual:v2 (the one trained in v2's loop), residual:PATH "
-                          "(default: %(default)s)")
+                          "residual:v2 (the one trained in v2's loop), residual:v3 (in v3's), "
+                          "residual:PATH (default: %(default)s)")
     evaluate.add_argument("--scenarios", default="dryden-helix-gusts",
                           help="comma-separated scenario names (default: %(default)s)")
     evaluate.add_argument("--seeds", default="9001-9020",

@@ -39,7 +39,8 @@ def main() -> int:
         gains = ", ".join(f"{key} {value:.4g}" for key, value in options.items())
         print(f"    {name:<27} {benchmark} {vehicle:<11} {gains}")
     print("Policies: any controller, residual (the shipped v1 policy; residual:v1 names it "
-          "too), residual:v2 (the shipped policy trained in v2's loop), residual:PATH, "
+          "too), residual:v2 and residual:v3 (the shipped policies trained in v2's and v3's "
+          "loops), residual:PATH, "
           + ", ".join(f"{algo}:PATH" for algo in ALGORITHMS))
     print("Vehicles (every number and its source):")
     for name, sources in VEHICLE_SOURCES.items():
