@@ -1,8 +1,10 @@
 """Flights lost under issue 29's margin, on many seeds: which, and which of them the base kept.
 
 Twenty seeds a scenario say little about a rare loss. This flies each policy on many seeds
-of the given scenarios under the margin (10 ms of extra latency, a motor 1.5 times slower,
-Benchmark v2's loop) and prints, per scenario and policy: the flights, the landings among
+of the given scenarios under the margin of the benchmark flown (``--benchmark``; v2's: 10 ms
+of extra latency on every reading and a motor 1.5 times slower; v3's, its gain sets' tuning
+margin ``benchmark_v3.TUNING_MARGIN``: 20 ms on the pose, unknown to the estimator, and the
+same slower motor) and prints, per scenario and policy: the flights, the landings among
 them (seeds whose vehicle draws a take-off and landing reference), the lost flights by seed
 (landings marked), and how many of those the base (the first policy named) kept.
 ``--json FILE`` keeps every number.
@@ -38,8 +40,7 @@ from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.evaluation.evaluate import parse_seeds
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy, make_policy
-
-MARGIN = {"extra_latency": 0.01, "motor_time_constant_scale": 1.5}
+from quad_dob_training.tuning.tune import MARGINS  # each benchmark's: what its gains keep
 
 
 def reference_kinds(scenario, seeds: list[int]) -> list[str]:
@@ -102,9 +103,12 @@ def main() -> None:
                         help="the dither's correlation time [s] (0: white)")
     parser.add_argument("--dither-draws", type=int, default=3,
                         help="noise streams per dither amplitude")
+    parser.add_argument("--benchmark", choices=tuple(MARGINS), default="v2",
+                        help="the loop flown, and its margin (default: %(default)s)")
     parser.add_argument("--json", help="write every number to this file")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
+    margin = MARGINS[args.benchmark]
     specs = args.policies.split(",")
     policies = [make_policy(spec) for spec in specs]
     amplitudes = [float(a) for a in args.dither.split(",") if a]
@@ -128,7 +132,7 @@ def main() -> None:
           "lost seeds (L: a landing) |")
     print("|---|---|---|---|---|---|---|")
     for name in args.scenarios.split(","):
-        scenario = make_scenario(name, benchmark="v2", **MARGIN)
+        scenario = make_scenario(name, benchmark=args.benchmark, **margin)
         kind_of = dict(zip(seeds, reference_kinds(scenario, seeds), strict=True))
         landings = sum(kind == "landing" for kind in kind_of.values())
         report[name] = {}
@@ -152,7 +156,7 @@ def main() -> None:
                   f"{len(beyond) if index else '-'} | {shown or '-'} |", flush=True)
     if args.json:
         with open(args.json, "w") as file:
-            json.dump({"seeds": seeds, "scenario_options": MARGIN,
+            json.dump({"seeds": seeds, "benchmark": args.benchmark, "scenario_options": margin,
                        "policies": specs + [p.name for p in policies[len(specs):]],
                        "scenarios": report}, file, indent=1)
 

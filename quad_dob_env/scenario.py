@@ -419,4 +419,21 @@ class Scenario:
             changes = {**changes, "sensing": None}
         # the loop fields as they were given (None: the benchmark's), so a change of
         # benchmark resolves them again
+        given = {**{key: getattr(self, key) for key in changes}, **{
+            key: value for key, value in self.loop_given.items() if key in changes}}
+        if all(_same(changes[key], given[key]) for key in changes):
+            # nothing changes (an env handed a built scenario and its own benchmark): the
+            # scenario itself, not a copy validated again (that checks every reference)
+            return self
         return dataclasses.replace(self, **{**self.loop_given, **changes})
+
+
+def _same(new: object, old: object) -> bool:
+    """Whether a changed field's value is the one it has: equal and of one type; arrays and
+    anything whose equality is not a plain bool count as changed (the safe side: a copy)."""
+    if new is old:
+        return True
+    try:
+        return type(new) is type(old) and bool(new == old)
+    except (TypeError, ValueError):
+        return False

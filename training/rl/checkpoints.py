@@ -86,8 +86,16 @@ class HeaderedPickle:
 def read_headered(path: Path, magic: bytes, what: str) -> HeaderedPickle:
     """Split a file written by ``_with_header``; a file without ``magic`` is an old one."""
     data = Path(path).read_bytes()
+    header, start = _parse_header(data, magic, path, what)
+    return HeaderedPickle(header, data[start:])
+
+
+def _parse_header(data: bytes, magic: bytes, path: Path,
+                  what: str) -> tuple[dict[str, Any] | None, int]:
+    """The header at the start of ``data`` (None: an old file, all pickle) and where the
+    pickle starts."""
     if not data.startswith(magic):
-        return HeaderedPickle(None, data)
+        return None, 0
     end = data.find(b"\n", len(magic), len(magic) + _HEADER_LIMIT)
     try:
         if end < 0:
@@ -99,12 +107,17 @@ def read_headered(path: Path, magic: bytes, what: str) -> HeaderedPickle:
         raise ValueError(f"{what} {str(path)!r} could not be read (its header: {error}): it "
                          "is damaged; resume from an earlier checkpoint in the same folder, or "
                          "train again") from error
-    return HeaderedPickle(header, data[end + 1:])
+    return header, end + 1
 
 
 def state_run_id(path: Path) -> str | None:
-    """The run id a ``.state`` claims, from its header alone."""
-    return read_headered(path, STATE_MAGIC, "checkpoint state").run_id
+    """The run id a ``.state`` claims, from its header alone (the file's first bytes: a
+    state holds every vehicle's state, some 170 MB, and each checkpoint's pruning asks
+    this of the ones before it)."""
+    with open(path, "rb") as file:
+        head = file.read(len(STATE_MAGIC) + _HEADER_LIMIT)
+    header, _ = _parse_header(head, STATE_MAGIC, path, "checkpoint state")
+    return None if header is None else header.get("run_id")
 
 
 # --- pickled env stack and RNGs ---------------------------------------------------------------
