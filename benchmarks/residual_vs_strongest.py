@@ -6,10 +6,14 @@ position error after the settle time), and prints, per scenario: the strongest, 
 residual's change against it with the 95 % bootstrap interval of the paired per-seed
 difference, their mean and spread over the residuals (training seeds), the lost flights (and
 of each residual's, those its base keeps), and the RMS rotor-command rate against the
-residual's base; ``--before SPEC`` adds one more policy's column (the v1 policy,
+residual's base, and each residual's change against its base (paired, mean over the
+residuals with their range); ``--before SPEC`` adds one more policy's column (the v1 policy,
 ``residual:v1``). ``--scenario-option`` flies every scenario with that option (the margin
-check: ``extra_latency=0.01 motor_time_constant_scale=1.5``). ``--json FILE`` keeps every
-number.
+check: ``extra_latency=0.01 motor_time_constant_scale=1.5``). ``--loop KEY=VALUE`` sets one
+of v3's loop quantities as ``loop_randomization`` names them (``thrust_model_factor``,
+``hover_throttle=[a,b]``, ``hover_throttle_drift=[a,b]``, ``accelerometer_vibration``) on
+``--vehicle``'s v3 loop, as training draws them (``loop_scenario_options``): issue 42's
+held-out world. ``--json FILE`` keeps every number.
 
 Run by hand, e.g. ``python benchmarks/residual_vs_strongest.py --residuals
 residual:runs/a,residual:runs/b --seeds 9201-9220 --suite``.
@@ -27,6 +31,7 @@ from quad_dob_training.evaluation.evaluate import SUITES, evaluate, parse_seeds
 from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
 from quad_dob_training.policies import make_policy
 from quad_dob_training.rl.baseline_evaluation import CLASSICAL_BASELINES
+from quad_dob_training.rl.vec_env import loop_scenario_options
 
 
 def scores(metrics: list[dict]) -> dict[str, np.ndarray]:
@@ -46,12 +51,18 @@ def main() -> None:
                         help="the whole suite of the benchmark flown (v2's by default)")
     parser.add_argument("--seeds", default="9201-9220")
     parser.add_argument("--scenario-option", action="append", default=[])
+    parser.add_argument("--loop", action="append", default=[],
+                        help="a v3 loop quantity as loop_randomization names it, KEY=VALUE")
+    parser.add_argument("--vehicle", default="paper",
+                        help="the vehicle whose v3 loop --loop changes (default: %(default)s)")
     parser.add_argument("--before", help="one more policy, reported in its own column")
     parser.add_argument("--json", help="write every number to this file")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
     # Benchmark v2's loop, as quad-dob evaluate flies by default
     options = {"benchmark": "v2", **key_values(args.scenario_option, "--scenario-option")}
+    if args.loop:
+        options.update(loop_scenario_options(key_values(args.loop, "--loop"), args.vehicle))
     scenario_names = ([name for family in SUITES[options["benchmark"]].values()
                        for name in family]
                       if args.suite else args.scenarios.split(","))
@@ -63,9 +74,10 @@ def main() -> None:
           "change vs strongest, mean [min, max] | seeds whose paired 95 % CI < 0 "
           "(each residual's paired difference [95 % CI], mm) | "
           "lost: strongest / base / residuals (of them, kept by the base) | "
-          "command rate: residual / base |"
+          "command rate: residual / base | change vs its base, mean [min, max] "
+          "(seeds whose paired 95 % CI < 0) |"
           + (f" {args.before}: mm, vs strongest, lost, command rate |" if before else ""))
-    print("|---|---|---|---|---|---|---|" + ("---|" if before else ""))
+    print("|---|---|---|---|---|---|---|---|" + ("---|" if before else ""))
     per_seed: dict[tuple[str, str], list[dict]] = {}
     specs = list(dict.fromkeys((*CLASSICAL_BASELINES, *residual_specs, *before)))
     for name in scenario_names:
@@ -81,9 +93,12 @@ def main() -> None:
         for spec in residual_specs:
             mine = flown[spec]
             difference = paired_difference(mine["rms"], bar["rms"])
+            against_base = paired_difference(mine["rms"], base["rms"])
             rows.append({"spec": spec, "rms": bootstrap_mean(mine["rms"])._asdict(),
                          "change": difference.mean / bar["rms"].mean(),
                          "paired": difference._asdict(), "lost": int(mine["lost"].sum()),
+                         "change_vs_base": against_base.mean / base["rms"].mean(),
+                         "paired_vs_base": against_base._asdict(),
                          # issue 29's margin target: no flight lost that the base keeps
                          "lost_base_kept": int((mine["lost"] & ~base["lost"]).sum()),
                          "rate": float(np.nanmean(mine["rate"]))})
@@ -106,6 +121,8 @@ def main() -> None:
         changes = [100 * row["change"] for row in rows]
         below = sum(row["paired"]["high"] < 0 for row in rows)
         rates = [row["rate"] for row in rows]
+        vs_base = [100 * row["change_vs_base"] for row in rows]
+        below_base = sum(row["paired_vs_base"]["high"] < 0 for row in rows)
         strong = report[name]["strongest_rms"]
         print(f"| {name} | {strongest} {1e3 * strong['mean']:.1f} "
               f"[{1e3 * strong['low']:.1f}, {1e3 * strong['high']:.1f}] | "
@@ -119,11 +136,15 @@ def main() -> None:
               f"({', '.join(str(row['lost_base_kept']) for row in rows)}) | "
               f"{np.mean(rates):.0f} / {report[name]['base_rate']:.0f} "
               f"({np.mean(rates) / report[name]['base_rate']:.2f}x, max "
-              f"{max(rates) / report[name]['base_rate']:.2f}x) |" + extra, flush=True)
+              f"{max(rates) / report[name]['base_rate']:.2f}x) | "
+              f"{np.mean(vs_base):+.0f} % [{min(vs_base):+.0f}, {max(vs_base):+.0f}] "
+              f"({below_base}/{len(rows)}) |" + extra, flush=True)
     if args.json:
         with open(args.json, "w") as file:
-            json.dump({"seeds": seeds, "scenario_options": options, "scenarios": report}, file,
-                      indent=1)
+            json.dump({"seeds": seeds, "scenario_options": {
+                key: value if isinstance(value, (str, int, float, bool, type(None))) else
+                repr(value) for key, value in options.items()}, "scenarios": report}, file,
+                indent=1)
 
 
 if __name__ == "__main__":
