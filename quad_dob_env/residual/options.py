@@ -20,8 +20,10 @@ down to ``ResidualCommand``, which hands its parts to the objects that use them.
 | ``lookahead``            | times [s] the observation reads the reference ahead     | yes  |
 | ``residual_cutoff``      | corner [Hz] of a low-pass on the residual (``lowpass``) | yes  |
 
-``lookahead`` and ``residual_cutoff`` are experimental: neither is in a shipped recipe, and
-both wait for Benchmark v3's residual issue to measure them there (docs/research/).
+``lookahead`` and ``residual_cutoff`` are experimental: neither is in a shipped recipe.
+Measured in Benchmark v3 (docs/residual-v3.md, "The two experimental options"), neither
+helps there; they stay only until their removal records them in
+docs/research/removed-experiments.md.
 
 ``RESIDUAL_PRESETS`` holds the residual options of each shipped policy. A *recipe* is more
 than its preset: the env options (scenario, benchmark, reward scale) go in the env's own
