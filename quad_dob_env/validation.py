@@ -18,9 +18,13 @@ from numpy.typing import ArrayLike, NDArray
 # finding and the commands that reproduce it at the last commit that had it: a config or
 # call that still names one is told where it went, not only that it is unknown
 REMOVED_EXPERIMENTS_PAGE = "docs/research/removed-experiments.md"
-REMOVED_EXPERIMENTS: dict[str, str] = {
-    "termination_penalty": "the training key termination_penalty",
-    "tunnel-tracks": "the scenario tunnel-tracks",
+# each removed experiment's name: what it was, the issue that removed it, and the last
+# commit that holds it (where the page's commands reproduce its finding)
+REMOVED_EXPERIMENTS: dict[str, tuple[str, int, str]] = {
+    "termination_penalty": ("the training key termination_penalty", 41, "666bb22"),
+    "tunnel-tracks": ("the scenario tunnel-tracks", 41, "666bb22"),
+    "lookahead": ("the residual option lookahead", 42, "8a6fabb"),
+    "residual_cutoff": ("the residual option residual_cutoff", 42, "8a6fabb"),
 }
 
 
@@ -31,10 +35,10 @@ def unknown_name_error(kind: str, name: object, valid: Iterable[str]) -> ValueEr
     valid = list(valid)
     message = f"unknown {kind} {name!r}; valid: {', '.join(valid)}"
     if isinstance(name, str) and name in REMOVED_EXPERIMENTS:
+        what, issue, commit = REMOVED_EXPERIMENTS[name]
         return ValueError(
-            f"{REMOVED_EXPERIMENTS[name]} was removed (issue 41); its finding and the "
-            f"commands that reproduce it at commit 666bb22 are in "
-            f"{REMOVED_EXPERIMENTS_PAGE}. {message}")
+            f"{what} was removed (issue {issue}); its finding and the commands that "
+            f"reproduce it at commit {commit} are in {REMOVED_EXPERIMENTS_PAGE}. {message}")
     same_but_case = [v for v in valid if v.lower() == str(name).lower()]
     close = same_but_case or difflib.get_close_matches(str(name), valid, n=1)
     if close:

@@ -42,19 +42,14 @@ def _expected(env, representation):
             "body_position_error": body,
             "body_velocity_error": np.einsum("nji,nj->ni", R, m.velocity - reference.velocity),
         })
-        for k, steps in enumerate(residual.lookahead_steps):
-            ahead = core.reference_table[core.reference_row + steps, 0]
-            expected[f"lookahead_error_{k}"] = np.einsum("nji,nj->ni", R, m.position - ahead)
-        if residual.residual_filter is not None:
-            expected["filtered_residual"] = residual.residual_filter.state
     return expected
 
 
 @pytest.mark.parametrize("representation", ["matrix", "6d"])
 @pytest.mark.parametrize("options", [
     None,  # the env alone
-    {},  # the residual's entries that are always there
-    {"lookahead": (0.1, 0.3), "residual_cutoff": 2.0},  # and the experimental ones
+    {},  # the residual's entries
+    {"authority_gate": 0.05, "floor_fade": (0.3, 0.6)},  # the same with the gate and fade
 ])
 def test_each_entry_holds_what_its_name_says(representation, options):
     residual = None if options is None else ResidualOptions(**options)

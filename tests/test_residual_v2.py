@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quad_dob_composition import ResidualVectorEnv, make_residual_env, make_vector_env
+from quad_dob_composition import ResidualVectorEnv, make_vector_env
+from quad_dob_env.residual import ResidualOptions
 from quad_dob_env.residual.gate import WIND_GATE_TIME_CONSTANT
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.trajectories import WaypointHops
@@ -163,41 +164,6 @@ def test_held_out_families_are_new_references():
     assert "hops" not in training.kinds
 
 
-@pytest.mark.parametrize("options", [
-    {"scenario": "random-tracks", "benchmark": "v2", **V2_ACCELERATION},  # the staged pass
-    {"scenario": "dryden-helix", "base_controller": "geometric-ndob"},  # v1's compiled pass
-])
-def test_the_look_ahead_is_the_reference_ahead_in_the_estimates_body_frame(options):
-    lookahead = (0.2, 0.5)
-    # 1.5 s episodes: the look-ahead reads past the scenario's end before each one ends
-    env = ResidualVectorEnv(3, lookahead=lookahead, scenario_options={"duration": 1.5},
-                            **options)
-    assert (env.residual._fused is None) == (options.get("benchmark") == "v2")
-    obs, _ = env.reset(seed=[4, 5, 6])
-    core = env.core
-    assert obs.shape[1] == env.single_observation_space.shape[0] == core.observation_size + 22
-    for step in range(core.scenario.steps - 1):
-        if step % 7 == 0:
-            # an oracle from the trajectory itself, not the table
-            for i in range(3):
-                member = core.scenario.trajectory
-                if hasattr(member, "members"):
-                    member = member.members[core.reference_member[i]]
-                now = (core.reference_start[i] + core.step_count[i]) * core.scenario.dt
-                estimate = core.measurement
-                for k, ahead in enumerate(lookahead):
-                    target = member.evaluate(now + ahead).position[0]
-                    expected = estimate.rotation[i].T @ (estimate.position[i] - target)
-                    seen = obs[i, -6 + 3 * k:-3 + 3 * k or None]
-                    np.testing.assert_allclose(seen, expected, rtol=1e-5, atol=1e-6)
-        obs, *_ = env.step(np.full((3, 4), 0.1, np.float32))
-        assert not env.core.termination_code.any()  # one episode each: the oracle's times
-    with pytest.raises(ValueError, match="multiples of the control step"):
-        ResidualVectorEnv(1, "hover-calm", lookahead=(0.015,))
-    with pytest.raises(ValueError, match="must increase"):
-        ResidualVectorEnv(1, "hover-calm", lookahead=(0.5, 0.2))
-
-
 def test_the_floor_fade_is_its_equation_on_the_measured_height():
     # a floor 5 cm below the scenario's, so a height read from z alone fails; with the gate,
     # as residual:v2 flies both
@@ -278,109 +244,6 @@ def test_the_figure8s_wind_lies_along_its_axis():
     assert np.array_equal(still.wind, np.zeros(3))
 
 
-def _step_responses(levels, switch, cutoff, steps, dt):
-    """The continuous first-order filter's output at t = k dt, k = 1..steps, for an input
-    (N, 4) that is ``levels[0]`` until ``switch`` steps and ``levels[1]`` after: the sum of
-    two step responses, 1 - e^(-2π f t) each (no recursion)."""
-    time = dt * np.arange(1, steps + 1)[:, None, None]
-    first, second = (np.clip(level, -1, 1) for level in levels)
-    after = np.maximum(time - switch * dt, 0.0)
-    return (first * -np.expm1(-2 * np.pi * cutoff * time)
-            + (second - first) * -np.expm1(-2 * np.pi * cutoff * after))
-
-
-def test_the_residual_low_pass_is_its_equation_and_the_observation_shows_its_state():
-    cutoff, lookahead, steps, switch = 2.0, (0.1, 0.2), 90, 40
-    flown = make_scenario("gusty-hover", sensing="mocap", benchmark="v2")
-    env = make_vector_env(2, flown, residual_cutoff=cutoff, lookahead=lookahead,
-                          **V2_ACCELERATION)
-    plain = make_vector_env(2, flown, lookahead=lookahead, **V2_ACCELERATION)
-    obs, plain_obs = env.reset(seed=[1, 2])[0], plain.reset(seed=[1, 2])[0]
-    assert obs.shape[1] == plain_obs.shape[1] + 4  # after the look-ahead's
-    assert np.array_equal(obs[:, -4:], np.zeros((2, 4)))
-    # a zero residual leaves every other entry, the look-ahead's included, as without it
-    for _ in range(5):
-        obs, plain_obs = (e.step(np.zeros((2, 4), np.float32))[0] for e in (env, plain))
-        assert np.array_equal(obs[:, :-4], plain_obs) and not obs[:, -4:].any()
-    env.reset(seed=[1, 2])
-    # each vehicle its own input, stepping up then down, float32-exact; 1.75 clipped to 1
-    levels = (np.array([[0.5, -0.5, 0.25, 1.75], [-0.25, 0.75, -1.0, 0.125]]),
-              np.array([[-0.5, 0.0, 0.75, -0.25], [0.5, -0.125, 0.0, 1.0]]))
-    expected = _step_responses(levels, switch, cutoff, steps, flown.dt)
-    for k in range(steps):
-        obs, *_ = env.step(levels[k >= switch].astype(np.float32))
-        np.testing.assert_allclose(obs[:, -4:], expected[k], rtol=0, atol=1e-6)
-        # what flew is the filtered residual (no gate, no fade here)
-        np.testing.assert_allclose(env.residual.previous_residual, expected[k], rtol=0,
-                                   atol=1e-12)
-    # a fresh episode starts from the base alone: the filter's state is zero again
-    assert np.array_equal(env.reset(seed=[3, 4])[0][:, -4:], np.zeros((2, 4)))
-    for bad, message in ((0.0, "residual_cutoff"), (-1.0, "residual_cutoff"),
-                         ("2", "residual_cutoff")):
-        with pytest.raises(ValueError, match=message):
-            make_vector_env(1, flown, residual_cutoff=bad, **V2_ACCELERATION)
-
-
-@pytest.mark.slow
-def test_the_residual_low_pass_restarts_with_each_vehicle_in_every_path():
-    # thrust-and-moment residuals on the true state: the compiled pass and the separate
-    # stages; actions strong enough that some vehicles crash and restart mid-run
-    flown = make_scenario("random-tracks")
-    actions = np.random.default_rng(0).uniform(-1.5, 1.5, (400, 3, 4)).astype(np.float32)
-    cutoff = 2.0
-    blend = -np.expm1(-2 * np.pi * cutoff * flown.dt)
-
-    def flight(compiled):
-        env = make_vector_env(3, flown, base_controller="geometric-ndob", compiled=compiled,
-                              residual_cutoff=cutoff, lookahead=(0.1,), thrust_scale=1.0,
-                              moment_scale=1.0)
-        assert (env.residual._fused is not None) == compiled
-        env.reset(seed=[1, 2, 3])
-        seen, ended = [], []
-        for step in actions:
-            obs, _, terminated, truncated, _ = env.step(step)
-            seen.append(obs.copy())
-            ended.append(terminated | truncated)
-        return np.array(seen), np.array(ended)
-
-    fused, ended = flight(True)
-    staged, _ = flight(False)
-    assert np.array_equal(fused, staged) and ended.any()
-    state, restarting = np.zeros((3, 4)), np.zeros(3, bool)
-    for step, obs, ends in zip(actions, fused, ended, strict=True):
-        state = np.where(restarting[:, None], 0.0,  # next-step autoreset: a fresh episode
-                         state + blend * (np.clip(step, -1, 1) - state))
-        np.testing.assert_allclose(obs[:, -4:], state, rtol=0, atol=1e-6)
-        restarting = ends
-    # the single env wrapper: the same entries, zero at each reset
-    single = make_residual_env("geometric-ndob", residual_cutoff=cutoff,
-                               scenario="random-tracks")
-    obs, _ = single.reset(seed=0)
-    assert obs.shape == single.observation_space.shape and not obs[-4:].any()
-    for k in range(1, 6):
-        obs, *_ = single.step(np.float32([1, -1, 0.5, 0]))
-        np.testing.assert_allclose(obs[-4:], np.array([1, -1, 0.5, 0]) * -np.expm1(
-            -2 * np.pi * cutoff * k * flown.dt), rtol=0, atol=1e-6)
-    assert not single.reset(seed=1)[0][-4:].any()
-
-
-def test_under_the_floor_fade_a_low_passed_residual_flies_the_base_alone_bit_for_bit():
-    def flight(action, cutoff):
-        env = ResidualVectorEnv(2, "ground-effect-landing", benchmark="v2", floor_fade=(0.2, 0.4),
-                                residual_cutoff=cutoff,
-                                **{k: v for k, v in V2_ACCELERATION.items()
-                                   if k != "base_controller"})
-        obs, _ = env.reset(seed=9)
-        for _ in range(300):  # all under the fade's 0.2 m: the filter runs, nothing flies
-            obs, *_ = env.step(np.full((2, 4), action, np.float32))
-        return obs
-
-    filtered = flight(0.9, 1.0)
-    assert np.array_equal(filtered[:, :-4], flight(0.0, None))
-    np.testing.assert_allclose(filtered[:, -4:], 0.9 * -np.expm1(-2 * np.pi * 1.0 * 3.0),
-                               rtol=1e-6)
-
-
 def test_removed_experiments_are_refused_naming_the_page_that_keeps_their_finding():
     page = r"docs/research/removed-experiments\.md"
     with pytest.raises(ValueError, match=rf"termination_penalty was removed.*666bb22.*{page}"):
@@ -398,3 +261,12 @@ def test_removed_experiments_are_refused_naming_the_page_that_keeps_their_findin
     for name in ("termination_penalty", "tunnel-tracks"):
         assert f"`{name}`" in text
     assert text.count("git checkout 666bb224b75452f724a360450ddc6323afe093a6") == 2
+    # issue 42's: the residual options measured in v3, refused wherever options are taken
+    for name, value in (("lookahead", (0.2, 0.5)), ("residual_cutoff", 3.0)):
+        with pytest.raises(ValueError, match=rf"option {name} was removed \(issue 42\).*"
+                                             rf"8a6fabb.*{page}"):
+            ResidualVectorEnv(1, "hover-calm", **{name: value})
+        with pytest.raises(ValueError, match=rf"{name} was removed.*{page}"):
+            ResidualOptions.from_keys({name: value})
+        assert f"`{name}`" in text
+    assert text.count("git checkout 8a6fabb22243b93573686afec6b8b61344f690b5") == 1

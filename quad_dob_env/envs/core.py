@@ -186,10 +186,6 @@ class QuadrotorBatch:
         member. It is replaced (not grown in place) when flown past its end."""
         return self._reference_table
 
-    def tabulate_ahead(self, steps: int) -> None:
-        """Each member's table ``steps`` rows longer, for a reader of the reference ahead."""
-        self._tabulate(self._member_rows + steps)
-
     def member_reference(self, index: int, steps: int) -> NDArray[np.float64]:
         """Vehicle ``index``'s reference over its first ``steps`` rows, (steps, 8, 3)."""
         first = int(self.reference_member[index]) * self._member_rows

@@ -133,6 +133,10 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     ``scenario_options``: ``quad_dob_env.benchmark``; the ``-v2`` and ``-v3`` ids set theirs).
 
     ## Version history
+    - all versions, residual options removed (2026-12, issue 42; no flight without them
+      changes): ``lookahead`` and ``residual_cutoff``, measured in Benchmark v3 and of no
+      help there. Naming either raises an error that points at
+      docs/research/removed-experiments.md (commands at commit 8a6fabb).
     - all versions, experiments removed (2026-12, issue 41; no flight changes): the scenario
       ``tunnel-tracks`` and training's ``termination_penalty`` are gone. Naming either raises
       an error that points at docs/research/removed-experiments.md, which keeps their

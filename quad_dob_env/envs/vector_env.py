@@ -230,9 +230,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     def step_vehicles(self, actions: Any) -> None:
         """One step of every vehicle (residual mode: with the residuals, and the next base
         command planned); NaN/inf rows raise or, with ``invalid_actions="terminate"``, fly
-        at hover (residual mode: at the base command, a zero residual; with
-        ``residual_cutoff``, a zero input to its low-pass, which flies what is left of its
-        state) and end those episodes."""
+        at hover (residual mode: at the base command, a zero residual) and end those
+        episodes."""
         actions, invalid = screen_actions(actions, (self.num_envs, 4), self.invalid_actions)
         if self.residual is None:
             self.core.step(actions)

@@ -9,8 +9,6 @@
 - ``modes``: the command's two modes, ``AccelerationMode`` and its guard.
 - ``gate``: ``AuthorityGate``, the gate on the observed disturbance, its state and factor.
 - ``floor_fade``: ``FloorFade``, the fade near the floor.
-- ``lowpass``: ``ResidualFilter``, the experimental low-pass on the residual.
-- ``lookahead``: the observation's experimental look-ahead of the reference.
 - ``observation``: the residual's observation entries, named (``residual_entries``).
 - ``residual_kernels``: the compiled per-vehicle command, reward and extra observation
   (``quad_dob_composition.fused`` runs them in its single pass).

@@ -41,8 +41,8 @@ observed disturbance; ``floor_fade``: a fade near the floor) is ``AuthorityGate`
 (``gate``) and ``FloorFade``'s (``floor_fade``); the acceleration mode is
 ``AccelerationMode``'s (``modes``). The base sits behind ``BaseController``.
 
-Observation: the env's own observation followed by 16 entries (and 3 per look-ahead time),
-from the measurement the base controller reads:
+Observation: the env's own observation followed by 16 entries, from the measurement the
+base controller reads:
 
 | index (after the env's) | entry                                                   | unit |
 |-------------------------|---------------------------------------------------------|------|
@@ -51,19 +51,9 @@ from the measurement the base controller reads:
 | 7-9                     | observer's torque estimate d̂Ω / moment limit            | -    |
 | 10-12                   | position error in the body frame, Rᵀ(x - x_d)           | m    |
 | 13-15                   | velocity error in the body frame, Rᵀ(v - v_d)           | m/s  |
-| 16 + 3k to 18 + 3k      | with ``lookahead``: Rᵀ(x - x_d(t + τ_k)), τ_k its k-th time | m    |
-| then 4 more             | with ``residual_cutoff``: the low-passed residual flown  | -    |
 
 The body-frame errors are there because the residual acts through body moments: with them
-a correction is nearly linear in what the policy sees, whatever the heading. ``lookahead``
-(times in seconds, multiples of the control step up to 2 s; none by default)
-adds the error against the reference that far ahead, as DATT's feedforward reads the
-trajectory's next points (Huang et al., "DATT", CoRL 2023, arXiv:2310.09053); the reference
-is tabulated that much past the episode's end, and a vehicle flown past even that (no
-reset) reads its last row. x and R are the measurement the base reads, as in every entry.
-``residual_cutoff`` (Hz; none by default) low-passes the residual before the gate and fade
-(``quad_dob_env.residual.lowpass``); the last 4 entries are then that filter's state,
-the policy's own past output filtered.
+a correction is nearly linear in what the policy sees, whatever the heading.
 
 Reward: the env's reward (built with no effort term) minus
 ``residual_effort_weight · mean(a²)``, so only the policy's own effort is penalised, and
@@ -83,8 +73,6 @@ from numpy.typing import NDArray
 
 from quad_dob_env.residual.floor_fade import FloorFade
 from quad_dob_env.residual.gate import AuthorityGate
-from quad_dob_env.residual.lookahead import look_ahead, lookahead_steps
-from quad_dob_env.residual.lowpass import ResidualFilter
 from quad_dob_env.residual.modes import AccelerationMode
 from quad_dob_env.residual.observation import RESIDUAL_ENTRIES, residual_entries
 from quad_dob_env.residual.options import ResidualOptions
@@ -177,17 +165,8 @@ class ResidualCommand:
                                                1.0 / limit])
         self.base_thrust, self.base_moment = np.zeros(n), np.zeros((n, 3))
         self.requested_thrust = np.zeros(n)  # base + residual, before the actuators' limits
-        self.lookahead_steps = lookahead_steps(options.lookahead, dt)
-        if len(self.lookahead_steps):  # so that an episode's last step still sees ahead
-            core.tabulate_ahead(int(self.lookahead_steps[-1]))
-        self.residual_filter = (None if options.residual_cutoff is None else
-                                ResidualFilter(n, dt, options.residual_cutoff))
-        ahead_end = RESIDUAL_OBSERVATION_SIZE + 3 * len(self.lookahead_steps)
         self.extra_observation = np.zeros(
             (n, sum(entry.size for entry in residual_entries(options))), dtype=np.float32)
-        # views the look-ahead and the filter write through
-        self._ahead = self.extra_observation[:, RESIDUAL_OBSERVATION_SIZE:ahead_end]
-        self._filtered = self.extra_observation[:, ahead_end:]
         self.rewards = np.zeros(n)
         self._body_errors = np.zeros((n, 6))
         self._base_action = np.zeros((n, 4))
@@ -235,9 +214,6 @@ class ResidualCommand:
         self.previous_residual[indices] = 0.0  # an episode starts from the base alone
         if self.gate is not None:
             self.gate.restart(indices)
-        if self.residual_filter is not None:
-            self.residual_filter.restart(indices)
-            self._filtered[indices] = 0.0
         if self.residual_mode == "acceleration":
             # the base runs in ``command``: until a vehicle's first one it shows hover, no
             # residual and no estimate
@@ -250,7 +226,6 @@ class ResidualCommand:
             self.plan()
         else:
             self._fused.restart(indices)
-            look_ahead(self.core, self.lookahead_steps, self._ahead)
 
     def step(self, residual: NDArray[np.float64]) -> None:
         """Step the core with base + ``residual`` (N, 4) and plan the next base command:
@@ -258,7 +233,6 @@ class ResidualCommand:
         ``core.step``, ``record`` and ``plan``."""
         if self._fused is not None:
             self._fused.step(self._gate_flown(residual))
-            look_ahead(self.core, self.lookahead_steps, self._ahead)
             return
         self.core.step(self.command(residual))
         self.record()
@@ -294,11 +268,7 @@ class ResidualCommand:
         return actions
 
     def _gate_flown(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``gated``, the ``"wind"`` filter and the residual's low-pass advanced first: once
-        per flown step."""
-        if self.residual_filter is not None:  # the gate and fade then scale what it passes
-            residual = self.residual_filter.step(residual)
-            self._filtered[:] = residual
+        """``gated``, the ``"wind"`` filter advanced first: once per flown step."""
         if self.gate is not None:  # the "wind" signal's low-pass, at the step's start
             self.gate.advance(self.extra_observation[:, 4:7])
         return self.gated(residual)
@@ -353,7 +323,6 @@ class ResidualCommand:
             state.position, state.velocity, state.rotation, core.reference_table,
             core.reference_row, core.action_map.inverse, self._base_action, self._body_errors,
             self.extra_observation)
-        look_ahead(self.core, self.lookahead_steps, self._ahead)
 
     def requested_command(self, base_moment: NDArray | None = None
                           ) -> tuple[NDArray, NDArray]:

@@ -29,20 +29,9 @@ RESIDUAL_ENTRIES = (
     ObservationEntry("body_velocity_error", "velocity error in the body frame, Rᵀ(v - v_d)",
                      "m/s", 3, UNBOUNDED),
 )
-# the low-passed residual's state: as many entries as the action
-FILTER_SIZE = 4
 
 
 def residual_entries(options: ResidualOptions) -> tuple[ObservationEntry, ...]:
-    """The residual's entries for ``options``: the five always there, then three per
-    ``lookahead`` time, then the ``residual_cutoff`` filter's state (both experimental)."""
-    ahead = tuple(
-        ObservationEntry(f"lookahead_error_{k}", f"Rᵀ(x - x_d(t + {time:g} s)): the error "
-                         f"against the reference {time:g} s ahead, in the body frame", "m", 3,
-                         UNBOUNDED)
-        for k, time in enumerate(options.lookahead))
-    low_pass = () if options.residual_cutoff is None else (
-        ObservationEntry("filtered_residual", f"the residual flown, low-passed at "
-                         f"{options.residual_cutoff:g} Hz (the filter's state)", "-",
-                         FILTER_SIZE, (-1.0, 1.0)),)
-    return RESIDUAL_ENTRIES + ahead + low_pass
+    """The residual's entries for ``options``: the same five for every option set (the
+    options that added entries, ``lookahead`` and ``residual_cutoff``, were removed)."""
+    return RESIDUAL_ENTRIES

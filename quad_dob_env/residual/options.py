@@ -17,13 +17,11 @@ down to ``ResidualCommand``, which hands its parts to the objects that use them.
 | ``authority_gate``       | the disturbance gate [m g] (``gate``); None: off        | no   |
 | ``authority_signal``     | what the gate reads: ``"force"`` or ``"wind"``          | no   |
 | ``floor_fade``           | heights (h₀, h₁) [m] it fades in over (``floor_fade``)  | no   |
-| ``lookahead``            | times [s] the observation reads the reference ahead     | yes  |
-| ``residual_cutoff``      | corner [Hz] of a low-pass on the residual (``lowpass``) | yes  |
 
-``lookahead`` and ``residual_cutoff`` are experimental: neither is in a shipped recipe.
-Measured in Benchmark v3 (docs/residual-v3.md, "The two experimental options"), neither
-helps there; they stay only until their removal records them in
-docs/research/removed-experiments.md.
+Two experimental options, ``lookahead`` (the reference read ahead) and ``residual_cutoff``
+(a low-pass on the residual), were measured in Benchmark v3, helped nowhere and were removed
+(issue 42); docs/research/removed-experiments.md keeps their findings. No option is
+experimental now (``EXPERIMENTAL_OPTIONS``).
 
 ``RESIDUAL_PRESETS`` holds the residual options of each shipped policy. A *recipe* is more
 than its preset: the env options (scenario, benchmark, reward scale) go in the env's own
@@ -34,7 +32,7 @@ kwargs, the training-only keys (``loop_randomization``) in the SB3 adapter
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -43,8 +41,8 @@ from quad_dob_env.validation import as_finite, unknown_name_error
 
 RESIDUAL_MODES = ("thrust_moments", "acceleration")
 AUTHORITY_SIGNALS = ("force", "wind")
-# the options no shipped recipe uses yet, measured in v3 by the residual issue
-EXPERIMENTAL_OPTIONS = ("lookahead", "residual_cutoff")
+# the options no shipped recipe uses yet, still to be measured (none since issue 42)
+EXPERIMENTAL_OPTIONS: tuple[str, ...] = ()
 
 
 def _floor_fade(fade: Sequence[float] | None) -> tuple[float, float] | None:
@@ -61,12 +59,6 @@ def _floor_fade(fade: Sequence[float] | None) -> tuple[float, float] | None:
     return low, high
 
 
-def _lookahead(times: Sequence[float]) -> tuple[float, ...]:
-    if isinstance(times, (str, bytes)) or not isinstance(times, (Sequence, np.ndarray)):
-        raise ValueError(f"lookahead must be a sequence of times in s, got {times!r}")
-    return tuple(as_finite(t, "lookahead time", 0.0, strictly=True) for t in times)
-
-
 @dataclass(frozen=True, kw_only=True)
 class ResidualOptions:
     """The residual's options (table in the module docstring); validated when made."""
@@ -81,8 +73,6 @@ class ResidualOptions:
     authority_gate: float | None = None
     authority_signal: str = "force"
     floor_fade: tuple[float, float] | None = None
-    lookahead: tuple[float, ...] = field(default=(), metadata={"experimental": True})
-    residual_cutoff: float | None = field(default=None, metadata={"experimental": True})
 
     def __post_init__(self) -> None:
         if self.residual_mode not in RESIDUAL_MODES:
@@ -110,9 +100,6 @@ class ResidualOptions:
                                                       "residual_effort_weight", 0.0)
         checked["residual_rate_weight"] = as_finite(self.residual_rate_weight,
                                                     "residual_rate_weight", 0.0)
-        checked["lookahead"] = _lookahead(self.lookahead)
-        checked["residual_cutoff"] = (None if self.residual_cutoff is None else as_finite(
-            self.residual_cutoff, "residual_cutoff [Hz]", 0.0, strictly=True))
         for name, value in checked.items():  # frozen: the normalised values, set once
             object.__setattr__(self, name, value)
 
