@@ -55,3 +55,11 @@ def test_every_tool_flies_v3_unless_told(monkeypatch, tmp_path):
                     ("evaluate", "evaluate", "tune", "check-controller")]
     assert inspect.signature(evaluate.leaderboard).parameters["benchmark"].default == "v3"
     assert evaluate.SUITES["v3"] == evaluate.SUITES["v2"]
+
+
+def test_an_unknown_shipped_name_is_told_the_shipped_ones(capsys):
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", "residual:v9", "--seeds", "1"])
+    error = capsys.readouterr().err
+    assert "'residual:v9' names no shipped policy (residual:v1, residual:v2, residual:v3" in error
+    assert "no file or run folder 'v9'" in error

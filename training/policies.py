@@ -135,6 +135,12 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
         return Policy(spec, config["base_controller"], model, config,
                       trained_benchmark(config), digest)
     if (kind in ALGORITHMS or kind == "residual") and path:
+        if kind == "residual" and not Path(path).exists() and path not in SHIPPED_POLICIES:
+            # "residual:v9" reads as a shipped name more often than as a missing file
+            shipped = ", ".join(f"residual:{name}" for name in SHIPPED_POLICIES)
+            raise ValueError(f"{spec!r} names no shipped policy ({shipped}, and bare "
+                             f"'residual') and no file or run folder {path!r}: give one of "
+                             "those, or the path of a model .zip or its run folder")
         model, config = load_model(path, trust_pickle=trust_pickle)
         mode, algo = config.get("mode"), config.get("algo", "ppo")
         if kind == "residual" and mode != "residual":
