@@ -63,3 +63,12 @@ def test_an_unknown_shipped_name_is_told_the_shipped_ones(capsys):
     error = capsys.readouterr().err
     assert "'residual:v9' names no shipped policy (residual:v1, residual:v2, residual:v3" in error
     assert "no file or run folder 'v9'" in error
+
+
+def test_a_negative_seed_range_gets_the_seeds_message_not_argparses(capsys):
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--seeds", "-5-3", "--policies", "pid"])
+    error = capsys.readouterr().err
+    assert "expected one argument" not in error
+    assert "seeds must be a count >= 1 such as 20 or an inclusive range A-B" in error
+    assert "got '-5-3'" in error

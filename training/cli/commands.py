@@ -360,10 +360,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _seeds_given_whole(argv: list[str]) -> list[str]:
+    """``--seeds -5-3`` as ``--seeds=-5-3``: argparse takes a value that starts with a dash
+    and is not a plain negative number for an option, and answers "expected one argument";
+    joined, the value reaches ``parse_seeds``, which says what seeds may be."""
+    joined: list[str] = []
+    rest = iter(argv)
+    for word in rest:
+        if word == "--seeds":
+            value = next(rest, None)
+            if value is not None and value[:1] == "-" and value[1:2].isdigit():
+                joined.append(f"--seeds={value}")
+                continue
+            joined.append(word)
+            if value is not None:
+                joined.append(value)
+            continue
+        joined.append(word)
+    return joined
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_seeds_given_whole(argv))
     args.argv = argv  # what evaluation.json records as its command
     try:
         return args.handler(args)
