@@ -45,8 +45,6 @@ RESIDUAL_CASES = {
                    "authority_gate": 0.02, "reward_position_scale": 0.1},
     "gate-tilt": {"authority_gate": 0.05, "authority_signal": "wind",
                   "residual_rate_weight": 0.05, "thrust_scale": 0.2},
-    # "fade-lookahead", "cutoff" and "cutoff-acceleration" flew the options issue 42
-    # removed; their records stay in the data file, unflown
 }
 BASES = ("geometric-ndob:tuned", "pid")
 ACCELERATION_BASES = ("geometric-ndob:tuned", "geometric")  # the mode's bases

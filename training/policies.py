@@ -135,7 +135,7 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
         return Policy(spec, config["base_controller"], model, config,
                       trained_benchmark(config), digest)
     if (kind in ALGORITHMS or kind == "residual") and path:
-        if kind == "residual" and not Path(path).exists() and path not in SHIPPED_POLICIES:
+        if kind == "residual" and not Path(path).exists():
             # "residual:v9" reads as a shipped name more often than as a missing file
             shipped = ", ".join(f"residual:{name}" for name in SHIPPED_POLICIES)
             raise ValueError(f"{spec!r} names no shipped policy ({shipped}, and bare "

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 from quad_dob_env.observation_entry import ObservationEntry
-from quad_dob_env.residual.observation import UNBOUNDED, residual_entries
+from quad_dob_env.residual.observation import RESIDUAL_ENTRIES, UNBOUNDED
 from quad_dob_env.residual.options import ResidualOptions
 from quad_dob_env.validation import unknown_name_error
 
@@ -63,8 +63,9 @@ def observation_size(entries: Sequence[ObservationEntry]) -> int:
 def observation_table(rotation_representation: str = "matrix",
                       residual: ResidualOptions | None = None) -> tuple[ObservationEntry, ...]:
     """The observation's entries with their columns: the env's, then (for an env with a
-    base controller, ``residual`` its options) the residual's."""
+    base controller, ``residual`` its options) the residual's, the same for every option
+    set."""
     entries = env_entries(rotation_representation)
     if residual is not None:
-        entries += residual_entries(residual)
+        entries += RESIDUAL_ENTRIES
     return placed(entries)

@@ -9,7 +9,7 @@
 - ``modes``: the command's two modes, ``AccelerationMode`` and its guard.
 - ``gate``: ``AuthorityGate``, the gate on the observed disturbance, its state and factor.
 - ``floor_fade``: ``FloorFade``, the fade near the floor.
-- ``observation``: the residual's observation entries, named (``residual_entries``).
+- ``observation``: the residual's observation entries, named (``RESIDUAL_ENTRIES``).
 - ``residual_kernels``: the compiled per-vehicle command, reward and extra observation
   (``quad_dob_composition.fused`` runs them in its single pass).
 
@@ -25,7 +25,6 @@ from quad_dob_env.residual.command import (
     ResidualCommand,
 )
 from quad_dob_env.residual.options import (
-    EXPERIMENTAL_OPTIONS,
     OPTION_NAMES,
     RESIDUAL_MODES,
     RESIDUAL_PRESETS,
@@ -35,7 +34,6 @@ from quad_dob_env.residual.options import (
 
 __all__ = [
     "DEFAULT_BASE_CONTROLLER",
-    "EXPERIMENTAL_OPTIONS",
     "OPTION_NAMES",
     "RESIDUAL_MODES",
     "RESIDUAL_OBSERVATION_SIZE",

@@ -74,7 +74,7 @@ from numpy.typing import NDArray
 from quad_dob_env.residual.floor_fade import FloorFade
 from quad_dob_env.residual.gate import AuthorityGate
 from quad_dob_env.residual.modes import AccelerationMode
-from quad_dob_env.residual.observation import RESIDUAL_ENTRIES, residual_entries
+from quad_dob_env.residual.observation import RESIDUAL_ENTRIES
 from quad_dob_env.residual.options import ResidualOptions
 from quad_dob_env.residual.residual_kernels import (
     join_columns,
@@ -86,7 +86,7 @@ from quad_dob_env.residual.residual_kernels import (
 if TYPE_CHECKING:
     from quad_dob_env.envs.core import QuadrotorBatch
 
-RESIDUAL_OBSERVATION_SIZE = sum(entry.size for entry in RESIDUAL_ENTRIES)  # always there
+RESIDUAL_OBSERVATION_SIZE = sum(entry.size for entry in RESIDUAL_ENTRIES)
 
 
 @runtime_checkable
@@ -165,8 +165,7 @@ class ResidualCommand:
                                                1.0 / limit])
         self.base_thrust, self.base_moment = np.zeros(n), np.zeros((n, 3))
         self.requested_thrust = np.zeros(n)  # base + residual, before the actuators' limits
-        self.extra_observation = np.zeros(
-            (n, sum(entry.size for entry in residual_entries(options))), dtype=np.float32)
+        self.extra_observation = np.zeros((n, RESIDUAL_OBSERVATION_SIZE), dtype=np.float32)
         self.rewards = np.zeros(n)
         self._body_errors = np.zeros((n, 6))
         self._base_action = np.zeros((n, 4))

@@ -2,7 +2,7 @@
 the compiled ``residual_observation_vehicle`` write, named (``quad_dob_env.envs.observation``
 puts them in the env's table and gives them columns).
 
-Imports only ``options`` and the entry record; a test holds each entry to the columns the
+Imports only the entry record; a test holds each entry to the columns the
 kernels write.
 """
 
@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 
 from quad_dob_env.observation_entry import ObservationEntry
-from quad_dob_env.residual.options import ResidualOptions
 
 UNBOUNDED = (-math.inf, math.inf)
 
@@ -29,9 +28,3 @@ RESIDUAL_ENTRIES = (
     ObservationEntry("body_velocity_error", "velocity error in the body frame, Rᵀ(v - v_d)",
                      "m/s", 3, UNBOUNDED),
 )
-
-
-def residual_entries(options: ResidualOptions) -> tuple[ObservationEntry, ...]:
-    """The residual's entries for ``options``: the same five for every option set (the
-    options that added entries, ``lookahead`` and ``residual_cutoff``, were removed)."""
-    return RESIDUAL_ENTRIES

@@ -20,8 +20,7 @@ down to ``ResidualCommand``, which hands its parts to the objects that use them.
 
 Two experimental options, ``lookahead`` (the reference read ahead) and ``residual_cutoff``
 (a low-pass on the residual), were measured in Benchmark v3, helped nowhere and were removed
-(issue 42); docs/research/removed-experiments.md keeps their findings. No option is
-experimental now (``EXPERIMENTAL_OPTIONS``).
+(issue 42); docs/research/removed-experiments.md keeps their findings.
 
 ``RESIDUAL_PRESETS`` holds the residual options of each shipped policy. A *recipe* is more
 than its preset: the env options (scenario, benchmark, reward scale) go in the env's own
@@ -41,8 +40,6 @@ from quad_dob_env.validation import as_finite, unknown_name_error
 
 RESIDUAL_MODES = ("thrust_moments", "acceleration")
 AUTHORITY_SIGNALS = ("force", "wind")
-# the options no shipped recipe uses yet, still to be measured (none since issue 42)
-EXPERIMENTAL_OPTIONS: tuple[str, ...] = ()
 
 
 def _floor_fade(fade: Sequence[float] | None) -> tuple[float, float] | None:
@@ -150,10 +147,6 @@ RESIDUAL_PRESETS: dict[str, ResidualOptions] = {
                                    residual_effort_weight=0.1, residual_rate_weight=0.5,
                                    authority_gate=0.04, authority_signal="wind",
                                    floor_fade=(0.3, 0.6)),
-    # v3's recipe keeps v2's options; what changed is the loop it trained in
-    "residual:v3": ResidualOptions(residual_mode="acceleration", acceleration_scale=3.0,
-                                   vertical_floor=0.5, moment_scale=0.3,
-                                   residual_effort_weight=0.1, residual_rate_weight=0.5,
-                                   authority_gate=0.04, authority_signal="wind",
-                                   floor_fade=(0.3, 0.6)),
 }
+# v3's recipe keeps v2's options; what changed is the loop it trained in
+RESIDUAL_PRESETS["residual:v3"] = RESIDUAL_PRESETS["residual:v2"]
