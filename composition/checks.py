@@ -7,7 +7,8 @@ Each check answers one thing the envs and ``quad-dob`` rely on:
   default builds too (as the tuning will try) and changes the first second of flight (a
   gain that changes nothing would be searched for nothing); a made-up gain is refused;
 - ``compute`` returns thrust (N,) and moment (N, 3), finite, for a batch of four, without
-  writing into the state or reference it was given;
+  writing into the state or reference it was given (checked on values with no exact zero,
+  so that a write which scales or zeroes a field shows);
 - ``reset`` of one vehicle leaves the others' next commands as they were;
 - each vehicle's command depends on that vehicle alone (a vehicle flown in a batch of four
   flies as it does alone, to 1e-9 m), both with the scenario's inner loop and with one
@@ -126,11 +127,28 @@ def _first_step(scenario: Any, seeds: tuple[int, ...]) -> Any:
     return env
 
 
+def _without_zeros(state: Any, reference: Any) -> tuple[Any, Any]:
+    """The first step's state and reference with a small, distinct offset on every vector
+    field: at the start of a hover the velocities, rates and the reference's derivatives
+    are exactly zero, and an in-place write that scales or zeroes them (``state.velocity
+    *= 0.5``) would leave them as they were and pass unseen. The rotation keeps its value:
+    an offset would make it no rotation, and its non-zero entries show a write anyway."""
+    offsets = 1e-3 * (1.0 + np.arange(state.position.size, dtype=float)).reshape(
+        state.position.shape)
+    for name in ("position", "velocity", "angular_velocity", "gyroscope"):
+        if getattr(state, name, None) is not None:
+            setattr(state, name, getattr(state, name) + offsets)
+    reference = dataclasses.replace(reference, **{
+        field.name: getattr(reference, field.name) + offsets
+        for field in dataclasses.fields(reference) if field.name != "heading"})
+    return state, reference
+
+
 def _command_problems(build: Callable[[dict], Controller], spec: str, scenario: Any
                       ) -> list[str]:
     core = _first_step(scenario, BATCH_SEEDS).core
     n = len(BATCH_SEEDS)
-    state, reference = core.measurement.copy(), core.reference
+    state, reference = _without_zeros(core.measurement.copy(), core.reference)
     before = state.copy()
     before_reference = {field.name: getattr(reference, field.name).copy()
                         for field in dataclasses.fields(reference)}
@@ -153,8 +171,9 @@ def _command_problems(build: Callable[[dict], Controller], spec: str, scenario: 
                         f"({n}, 3)")
     elif not (np.all(np.isfinite(thrust)) and np.all(np.isfinite(moment))):
         problems.append(f"{spec}: compute returned a NaN or infinite command at hover")
-    for name in ("position", "velocity", "rotation", "angular_velocity"):
-        if not np.array_equal(getattr(state, name), getattr(before, name)):
+    for name in ("position", "velocity", "rotation", "angular_velocity", "gyroscope",
+                 "accelerometer", "rotor_speeds"):
+        if not np.array_equal(getattr(state, name, None), getattr(before, name, None)):
             problems.append(f"{spec}: compute wrote into state.{name}; the state is the "
                             "env's, shared with the rest of the step: copy before changing")
     for name, value in before_reference.items():

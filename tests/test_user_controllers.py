@@ -120,6 +120,17 @@ class WritesState(Controller):
         state.position -= reference.position
         return np.full(self.n, 1.0), np.zeros((self.n, 3))
 
+class ScalesVelocity(Controller):
+    """an in-place write the first step of a hover hides: its velocity is exactly zero"""
+    def compute(self, time, state, reference):
+        state.velocity *= 0.5
+        return np.full(self.n, self.vehicle.hover_thrust), np.zeros((self.n, 3))
+
+class ZeroesReferenceJerk(Controller):
+    def compute(self, time, state, reference):
+        reference.jerk[:] = 0.0
+        return np.full(self.n, self.vehicle.hover_thrust), np.zeros((self.n, 3))
+
 class Transposed(Controller):
     def compute(self, time, state, reference):
         return np.full(self.n, self.vehicle.hover_thrust), np.zeros((3, self.n))
@@ -161,10 +172,15 @@ class NotAController:
             check_controller("py:syntax_error:X")[0]
         assert any("wrote into state.position" in p
                    for p in check_controller("py:broken:WritesState"))
+        assert any("wrote into state.velocity" in p
+                   for p in check_controller("py:broken:ScalesVelocity"))
+        assert any("wrote into reference.jerk" in p
+                   for p in check_controller("py:broken:ZeroesReferenceJerk"))
         assert "does not derive from quad_dob_baselines.Controller" in \
             check_controller("py:broken:NotAController")[0]
         assert "has no 'Missing'; it defines ForgetsEveryone, MixesTheBatch, NotAController, " \
-            "Transposed, WritesState, WrongShape, dead_gain" in \
+            "ScalesVelocity, Transposed, WritesState, WrongShape, ZeroesReferenceJerk, " \
+            "dead_gain" in \
             check_controller("py:broken:Missing")[0]
         assert "cannot import module 'not_there'" in check_controller("py:not_there:X")[0]
         sloppy = check_controller("py:example_pd.controller:HoverPD")
@@ -265,7 +281,7 @@ def test_sac_and_td3_zips_evaluate_by_their_prefix(algo, tmp_path, capsys):
 
 
 def test_tune_refuses_a_declared_bandwidth_above_the_cap_and_keeps_small_gains(outside):
-    from quad_dob_training import tune
+    from quad_dob_training.tuning import tune
 
     _, packages = outside
     (packages / "declared.py").write_text('''
