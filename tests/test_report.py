@@ -66,3 +66,23 @@ def test_evaluation_report_opens_without_console_errors_and_shows_plots(chromium
     # the two policies' traces are drawn: plotly's first two colours appear in the picture
     for colour in ((31, 119, 180), (214, 39, 40)):
         assert (np.abs(pixels - colour).sum(axis=1) < 30).sum() > 200, colour
+
+
+def test_the_table_scrolls_in_its_own_box_and_the_baseline_row_compares_with_nothing(tmp_path):
+    from quad_dob_training.evaluation.report import write_report
+
+    rows = [{"scenario": "gusty-hover", "policy": "pid", "rms_position_settled_diff_mean": 0.0,
+             "rms_position_settled_diff_low": 0.0, "rms_position_settled_diff_high": 0.0},
+            {"scenario": "gusty-hover", "policy": "residual:v3",
+             "rms_position_settled_diff_mean": -0.01, "rms_position_settled_diff_low": -0.02,
+             "rms_position_settled_diff_high": -0.005}]
+    columns = [("scenario", "scenario"), ("policy", "policy"),
+               *((f"rms_position_settled_diff_{part}", part) for part in ("mean", "low", "high"))]
+    text = write_report(tmp_path / "report.html", "t", rows, columns, {}, baseline="pid",
+                        notes=["use <residual:v3>"]).read_text()
+    table = re.search(r"<div class='table-box'><table>(.*?)</table></div>", text).group(1)
+    baseline_row, residual_row = re.findall(r"<tr>(<td>.*?)</tr>", table)
+    assert re.findall(r"<td>(.*?)</td>", baseline_row)[2:] == ["baseline"] * 3
+    assert re.findall(r"<td>(.*?)</td>", residual_row)[2:] == ["-0.01", "-0.02", "-0.005"]
+    assert ".table-box{overflow-x:auto" in text
+    assert "<p class='note'>use &lt;residual:v3&gt;</p>" in text

@@ -19,24 +19,36 @@ from quad_dob_training.rollout import Flight
 
 _COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2",
             "#17becf")
-_STYLE = """body{font-family:system-ui,sans-serif;margin:24px;color:#222}
+# the table scrolls sideways inside its own box, so a wide one (a score, its spread and the
+# paired change for each) never pushes the page wider than the window
+_STYLE = """body{font-family:system-ui,sans-serif;margin:24px;color:#222;max-width:1400px}
+.table-box{overflow-x:auto;max-width:100%}
 table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #ccc;padding:3px 8px;
-text-align:right}th{background:#f2f2f2}td:first-child,td:nth-child(2){text-align:left}
-h2{margin-top:36px}"""
+text-align:right;white-space:nowrap}th{background:#f2f2f2;white-space:normal;
+vertical-align:bottom;min-width:4em}td:first-child,td:nth-child(2){text-align:left}
+p.note{max-width:60em;line-height:1.4}h2{margin-top:36px}"""
+# the columns that compare a row with the baseline: the baseline's own row has no
+# comparison, which the table says in words rather than as a change of 0 [0, 0]
+_COMPARISON_MARK = "_diff_"
 
 
-def _table(rows: Sequence[dict], columns: Sequence[tuple[str, str]]) -> str:
+def _table(rows: Sequence[dict], columns: Sequence[tuple[str, str]],
+           baseline: str | None = None) -> str:
     head = "".join(f"<th>{html.escape(label)}</th>" for _, label in columns)
     body = []
     for row in rows:
         cells = []
+        is_baseline = baseline is not None and row.get("policy") == baseline
         for key, _ in columns:
             value = row.get(key)
-            text = ("—" if value is None else f"{value:.4g}" if isinstance(value, float)
-                    else str(value))
+            if is_baseline and _COMPARISON_MARK in key:
+                text = "baseline"
+            else:
+                text = ("—" if value is None else f"{value:.4g}" if isinstance(value, float)
+                        else str(value))
             cells.append(f"<td>{html.escape(text)}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
-    return f"<table><tr>{head}</tr>{''.join(body)}</table>"
+    return f"<div class='table-box'><table><tr>{head}</tr>{''.join(body)}</table></div>"
 
 
 def _paths_figure(scenario: str, flights: Sequence[Flight]):
@@ -104,9 +116,14 @@ def _series_figure(scenario: str, flights: Sequence[Flight]):
 
 def write_report(path: Path, title: str, rows: Sequence[dict],
                  columns: Sequence[tuple[str, str]],
-                 flights_by_scenario: dict[str, Sequence[Flight]]) -> Path:
-    """Write the report; ``flights_by_scenario`` holds one flight per controller/policy."""
-    parts = [f"<h1>{html.escape(title)}</h1>", _table(rows, columns)]
+                 flights_by_scenario: dict[str, Sequence[Flight]], *,
+                 baseline: str | None = None, notes: Sequence[str] = ()) -> Path:
+    """Write the report; ``flights_by_scenario`` holds one flight per controller/policy.
+    ``baseline``: the policy the comparison columns are against (its row says so instead
+    of a change of zero); ``notes``: paragraphs of plain text shown under the title."""
+    parts = [f"<h1>{html.escape(title)}</h1>",
+             *(f"<p class='note'>{html.escape(note)}</p>" for note in notes),
+             _table(rows, columns, baseline)]
     first = True
     for scenario, flights in flights_by_scenario.items():
         parts.append(f"<h2>{html.escape(scenario)}</h2>")
