@@ -121,7 +121,7 @@ def test_normalised_observations_travel_with_the_model(tmp_path):
 
 @pytest.mark.slow
 def test_the_shipped_residual_beats_its_base_in_gusty_turbulence():
-    # a guard on the shipped policy: five of the 20 held-out seeds of docs/residual-rl.md
+    # a guard on the shipped policy: five of the 20 seeds of docs/research/residual-v1-generalist.md's table (seen when v1's design was chosen)
     rows = evaluate(["geometric-ndob:tuned", "residual"], ["dryden-helix-gusts"],
                     parse_seeds("9001-9005"))
     base, residual = rows

@@ -4,7 +4,7 @@ base flies alone. Touching the floor ends a flight. Under issue 29's margin (10 
 latency, a motor 1.5 times slower) the base's own hover at a landing's 8 cm, in wind and
 ground effect, is marginal: it tilts by up to 18° and swings its rotor commands between 4
 and 13 N. A residual acting there, or handing the base a state it would not have flown
-into, made it lose landings its base kept (docs/residual-rl.md, "The floor fade"). The fade
+into, made it lose landings its base kept (docs/research/landings-under-margin.md). The fade
 does not stop all of it. What the residual does higher up, early in the descent, can
 leave the base's attitude mode swinging into the hover ("What loses the landings under
 the margin").
