@@ -229,7 +229,7 @@ def observation_section(env, residual: bool) -> list[str]:
         lines.append(f"- a base controller (the `...Residual` ids, or `base_controller=` on "
                      f"`QuadrotorVectorEnv`) appends the residual's {extra} columns: "
                      + ", ".join(f"`{e.name}`" for e in RESIDUAL_ENTRIES) + ".")
-    return lines + [""]
+    return [*lines, ""]
 
 
 def action_section(env, residual: bool) -> list[str]:
@@ -306,8 +306,8 @@ def reward_section(env, residual: bool) -> list[str]:
     else:
         lines.append(f"| effort | -`reward_effort_weight` · mean(a²) | "
                      f"{weights.effort_weight:g} |")
-    return lines + ["", "The tracking term is 1 on the reference and positive near it, so "
-                    "ending early never pays.", ""]
+    return [*lines, "", "The tracking term is 1 on the reference and positive near it, so "
+            "ending early never pays.", ""]
 
 
 def termination_comments() -> dict[str, str]:
