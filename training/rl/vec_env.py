@@ -14,7 +14,9 @@ draw, for scenarios that take one), by splitting the N
 vehicles into ``groups``, each a vector env of its own loop, drawn from the ranges given
 (``draw_loops``); mass, inertia, drag, thrust coefficient and wind are drawn per vehicle by
 the scenario. It is a training option only: ``env_options`` drops it, so evaluation flies
-the named loop.
+the named loop. rl-zoo3, which hands ``env_kwargs`` to ``gym.make`` for each single env, takes
+it as an ``env_wrapper`` (``loop_randomization.LoopRandomization``) drawn from the same
+functions here.
 """
 
 from __future__ import annotations
@@ -176,6 +178,30 @@ def loop_scenario_options(loop: dict[str, Any], vehicle: str) -> dict[str, Any]:
     return options
 
 
+def loop_clock(scenario: Any, env_kwargs: dict[str, Any]) -> float:
+    """The control step ``draw_loops`` draws latencies on for an env of ``scenario`` built
+    with ``env_kwargs``: the scenario's ``dt`` under its options and the env's benchmark."""
+    options = dict(env_kwargs.get("scenario_options") or {})
+    if env_kwargs.get("benchmark") is not None:
+        options.setdefault("benchmark", env_kwargs["benchmark"])
+    return make_scenario(scenario, **options).dt
+
+
+def loop_env_kwargs(loop: dict[str, Any], scenario: Any,
+                    env_kwargs: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
+    """The scenario and env keyword arguments that fly one drawn ``loop`` (``draw_loops``)
+    in an env of ``scenario`` built with ``env_kwargs``: the loop's scenario where it names
+    one, and its options (``loop_scenario_options``, for the loop's vehicle, else the
+    env's) laid over the env's ``scenario_options``. The vector envs of
+    ``QuadrotorSB3VecEnv``'s groups and rl-zoo3's single envs
+    (``loop_randomization.LoopRandomization``) are both built from it."""
+    vehicle = str((env_kwargs.get("scenario_options") or {}).get("vehicle", "paper"))
+    return loop.get(SCENARIO_KEY, scenario), {
+        **env_kwargs, "scenario_options": {
+            **(env_kwargs.get("scenario_options") or {}),
+            **loop_scenario_options(loop, loop.get("vehicle", vehicle))}}
+
+
 class QuadrotorSB3VecEnv(VecEnv):
     """``num_envs`` vehicles of ``scenario`` as an SB3 VecEnv; other keyword arguments are
     ``QuadrotorVectorEnv``'s. With ``loop_randomization`` (``draw_loops``) the vehicles are
@@ -189,23 +215,17 @@ class QuadrotorSB3VecEnv(VecEnv):
         if loop_randomization is None:
             self.loops: list[dict[str, Any]] = [{}]
         else:
-            options = dict(env_kwargs.get("scenario_options") or {})
-            if env_kwargs.get("benchmark") is not None:
-                options.setdefault("benchmark", env_kwargs["benchmark"])
-            dt = make_scenario(scenario, **options).dt
+            dt = loop_clock(scenario, env_kwargs)
             self.loops = draw_loops(loop_randomization, seed, dt)
         if len(self.loops) > num_envs:
             raise ValueError(f"loop_randomization has {len(self.loops)} groups for "
                              f"{num_envs} vehicles: at most one group per vehicle")
         bounds = np.linspace(0, num_envs, len(self.loops) + 1).round().astype(int)
-        default_vehicle = str((env_kwargs.get("scenario_options") or {}).get("vehicle", "paper"))
         self.groups = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
-        self.vector_envs = [
-            make_vector_env(group.stop - group.start, loop.get(SCENARIO_KEY, scenario), **{
-                **env_kwargs, "scenario_options": {
-                    **(env_kwargs.get("scenario_options") or {}),
-                    **loop_scenario_options(loop, loop.get("vehicle", default_vehicle))}})
-            for group, loop in zip(self.groups, self.loops, strict=True)]
+        self.vector_envs = []
+        for group, loop in zip(self.groups, self.loops, strict=True):
+            flown, kwargs = loop_env_kwargs(loop, scenario, env_kwargs)
+            self.vector_envs.append(make_vector_env(group.stop - group.start, flown, **kwargs))
         first = self.vector_envs[0]
         for loop, venv in zip(self.loops, self.vector_envs, strict=True):
             # one policy flies every group: the same spaces and the clock the latency draws
