@@ -24,8 +24,10 @@ from quad_dob_training.rl import ALGORITHMS, HYPERPARAMS
 from quad_dob_training.rl.model_files import algorithm_class
 
 MODES = ("residual", "direct")
-# rl-zoo3's keys that are not the algorithm's own keywords
-SCHEMA_KEYS = ("env_kwargs", "n_envs", "n_timesteps", "policy", "normalize", "policy_kwargs")
+# rl-zoo3's keys that are not the algorithm's own keywords (``env_wrapper``: only the
+# training-only ``loop_randomization.LoopRandomization``, read into ``env_kwargs``)
+SCHEMA_KEYS = ("env_kwargs", "n_envs", "n_timesteps", "policy", "normalize", "policy_kwargs",
+               "env_wrapper")
 # keywords of the algorithm that the run itself sets
 RUN_KEYWORDS = ("self", "policy", "env", "policy_kwargs", "seed", "device", "verbose",
                 "tensorboard_log", "_init_setup_model")
@@ -121,6 +123,15 @@ def resolve_config(algo: str, mode: str, env_id: str, scenario: str | None,
         raise ValueError(f"policy_kwargs in {where} must be a YAML mapping, not "
                          f"{policy_kwargs!r} (quad-dob train does not eval config files)")
     env_kwargs = {**gym.spec(env_id).kwargs, **entry.get("env_kwargs", {})}
+    if entry.get("env_wrapper") is not None:
+        # rl-zoo3's form of the training-only keys, which no env id takes as a keyword
+        from quad_dob_training.rl.loop_randomization import training_options
+
+        for key, value in training_options(entry["env_wrapper"], where).items():
+            if key in env_kwargs:
+                raise ValueError(f"{key} in {where} is given twice, in env_kwargs and as "
+                                 "env_wrapper: keep the env_wrapper, which rl-zoo3 takes too")
+            env_kwargs[key] = value
     if scenario:
         env_kwargs["scenario"] = scenario
     if base_controller is not None:
