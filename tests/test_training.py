@@ -121,7 +121,8 @@ def test_normalised_observations_travel_with_the_model(tmp_path):
 
 @pytest.mark.slow
 def test_the_shipped_residual_beats_its_base_in_gusty_turbulence():
-    # a guard on the shipped policy: five of the 20 seeds of docs/research/residual-v1-generalist.md's table (seen when v1's design was chosen)
+    # a guard on the shipped policy: five of the 20 seeds of
+    # docs/research/residual-v1-generalist.md's table (seen when v1's design was chosen)
     rows = evaluate(["geometric-ndob:tuned", "residual"], ["dryden-helix-gusts"],
                     parse_seeds("9001-9005"))
     base, residual = rows
@@ -280,6 +281,7 @@ def test_a_v2_id_trains_and_is_evaluated_during_training_in_v2s_loop(tmp_path):
     # an id that is not registered is refused with the registered ones, v3's among them
     with pytest.raises(ValueError, match=r"unknown env id 'QuadDOB/Hover-v9'.*QuadDOB/Hover-v3"):
         resolve_config("ppo", "direct", "QuadDOB/Hover-v9", None, 10, 1, 0)
-    # a v3 id is trained, given hyperparameters: the file names the entries it has
-    with pytest.raises(ValueError, match=r"no entry for QuadDOB/Hover-v3"):
-        resolve_config("ppo", "direct", "QuadDOB/Hover-v3", None, 10, 1, 0)
+    # a v3 id is trained, given hyperparameters: a file without its entry names the entries
+    # it has (the shipped files have one for every id: tests/test_rl_zoo.py)
+    with pytest.raises(ValueError, match=r"no entry for QuadDOB/Hover-v3.*HoverResidual-v2"):
+        resolve_config("ppo", "direct", "QuadDOB/Hover-v3", None, 10, 1, 0, hyperparams=conf)
