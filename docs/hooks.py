@@ -140,7 +140,7 @@ def env_page(env_id: str) -> str:
                           if isinstance(v, float))
         rows.append(("base controller", f"`{base['name']}` ({gains}); any controller name, "
                                         "or `py:package.module:Name`, by `base_controller=`"))
-    lines = [f"# {env_id}", "", "| | |", "|---|---|",
+    lines = [f"# {env_id}", "", "| property | value |", "|---|---|",
              *(f"| {key} | {value} |" for key, value in rows), ""]
     lines += ["The tables below are for the id's default options, generated from the code "
               "(`docs/hooks.py`). The observation, action, reward, start and end are those of "
