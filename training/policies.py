@@ -8,11 +8,22 @@ A policy is what ``quad-dob evaluate --policies`` names:
 | ``py:pkg.mod:Name`` | a user's controller (or a name an installed package registers)   |
 | ``ppo:PATH``        | a PPO model from ``quad-dob train``, direct or residual as its   |
 |                     | config says; ``sac:PATH``, ``td3:PATH`` the same for SAC, TD3    |
-| ``residual``        | the shipped residual policy (``training/pretrained``) on its base|
-| ``residual:v1``     | the same policy, by the benchmark it was trained in              |
+|                     | (PATH a zip or its run folder). A zip saved by SB3 or rl-zoo3    |
+|                     | with no config beside it takes ``env_id`` (``--env ID``), the id |
+|                     | it was trained on (``rl.foreign_models``)                        |
+| ``residual``        | the newest shipped residual policy trained in the benchmark      |
+|                     | being flown (the scenario's ``benchmark``): ``residual:v1`` in   |
+|                     | v1, ``residual:v2`` in v2, ``residual:v3`` in v3; the newest one |
+|                     | overall in a benchmark none was trained in (``resolve_spec``)    |
+| ``residual:v1``     | the shipped policy trained in Benchmark v1's ideal loop          |
+|                     | (``training/pretrained``), on its base                           |
 | ``residual:v2``     | the shipped policy trained in Benchmark v2's loop (issue 29)     |
 | ``residual:v3``     | the shipped policy trained in Benchmark v3's loop (issue 42)     |
 | ``residual:PATH``   | a residual model from ``quad-dob train --mode residual``         |
+
+Results name the policy bare ``residual`` resolved to (``residual:v2``); rows written
+before it followed the benchmark named bare ``residual`` v1's policy, as their
+``policy_fingerprint`` (the zip's sha256) says.
 
 The shipped policies' zips and their configs (base controller, env options, observation
 statistics) are checked against ``SHIPPED_RESIDUAL_SHA256`` and
@@ -53,6 +64,7 @@ from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.validation import unknown_name_error
+from quad_dob_training.rl.foreign_models import model_in_folder
 from quad_dob_training.rl.model_files import (
     ALGORITHMS,
     SHIPPED_RESIDUAL,
@@ -64,15 +76,15 @@ from quad_dob_training.rl.model_files import (
     SHIPPED_RESIDUAL_V3,
     SHIPPED_RESIDUAL_V3_CONFIG_SHA256,
     SHIPPED_RESIDUAL_V3_SHA256,
+    config_env_options,
     load_model,
     sha256,
 )
-from quad_dob_training.rl.vec_env import env_options
 from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memory
 
-# the shipped residual policies by the benchmark they were trained in, each its zip, the
-# zip's sha256 and its config's: ``residual:v1`` (and bare ``residual``, as before v2's
-# policy shipped), ``residual:v2`` and ``residual:v3``
+# the shipped residual policies by the benchmark they were trained in, oldest first, each
+# its zip, the zip's sha256 and its config's: ``residual:v1``, ``residual:v2`` and
+# ``residual:v3`` (bare ``residual``: the one of the benchmark flown, ``resolve_spec````
 SHIPPED_POLICIES = {
     "v1": (SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256, SHIPPED_RESIDUAL_CONFIG_SHA256),
     "v2": (SHIPPED_RESIDUAL_V2, SHIPPED_RESIDUAL_V2_SHA256, SHIPPED_RESIDUAL_V2_CONFIG_SHA256),
@@ -112,7 +124,7 @@ class Policy:
         """The env options the model was trained with (its spaces depend on them)."""
         if self.config is None:
             return {"base_controller": self.base}
-        options = env_options(self.config.get("env_kwargs", {}))
+        options = config_env_options(self.config)
         options.pop("scenario", None)
         options["base_controller"] = self.base
         if self.base is not None and self.base_benchmark is not None:
@@ -120,17 +132,37 @@ class Policy:
         return options
 
 
-def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
+# the benchmark a scenario flies when none is named (``make_scenario``'s default)
+LIBRARY_BENCHMARK = "v1"
+
+
+def resolve_spec(spec: str, benchmark: str | None = None) -> str:
+    """``spec`` as it is flown in ``benchmark`` (None: the library's default, v1): bare
+    ``residual`` is the newest shipped policy trained in that benchmark (``residual:v2`` in
+    v2), or the newest shipped overall where none was trained there; any other spec is
+    itself."""
+    if spec != "residual":
+        return spec
+    benchmark = benchmark or LIBRARY_BENCHMARK
+    return f"residual:{benchmark if benchmark in SHIPPED_POLICIES else list(SHIPPED_POLICIES)[-1]}"
+
+
+def make_policy(spec: str, *, trust_pickle: bool = False, env_id: str | None = None,
+                benchmark: str | None = None) -> Policy:
     """The policy a ``--policies`` entry names (see the module docstring); ``trust_pickle``
     lets ``ALGO:PATH`` / ``residual:PATH`` unpickle their zips (``load_model``). The shipped
-    policy is always loaded checked and without unpickling."""
+    policies are always loaded checked and without unpickling. ``env_id``: the id a model
+    zip with no training config beside it was trained on (``--env``; ignored for models
+    with their config). ``benchmark``: the one flown, which bare ``residual`` follows
+    (``resolve_spec``); the policy is named as resolved."""
+    spec = resolve_spec(spec, benchmark)
     kind, _, path = spec.partition(":")
     if is_controller_name(spec):
         user = user_controller(spec)  # a py: module that does not import fails here, named
         return Policy(spec, base=spec, fingerprint=None if user is None else
                       _source_sha256(user[1]))
-    if kind == "residual" and (path or "v1") in SHIPPED_POLICIES:
-        zip_path, digest, config_digest = SHIPPED_POLICIES[path or "v1"]
+    if kind == "residual" and path in SHIPPED_POLICIES:
+        zip_path, digest, config_digest = SHIPPED_POLICIES[path]
         model, config = load_model(zip_path, digest, expected_config_sha256=config_digest)
         return Policy(spec, config["base_controller"], model, config,
                       trained_benchmark(config), digest)
@@ -141,22 +173,25 @@ def make_policy(spec: str, *, trust_pickle: bool = False) -> Policy:
             raise ValueError(f"{spec!r} names no shipped policy ({shipped}, and bare "
                              f"'residual') and no file or run folder {path!r}: give one of "
                              "those, or the path of a model .zip or its run folder")
-        model, config = load_model(path, trust_pickle=trust_pickle)
-        mode, algo = config.get("mode"), config.get("algo", "ppo")
+        model, config = load_model(path, trust_pickle=trust_pickle, env_id=env_id, kind=kind)
+        options = config_env_options(config)
+        algo = config.get("algo", "ppo")
+        mode = config.get("mode") or ("residual" if options.get("base_controller") else "direct")
         if kind == "residual" and mode != "residual":
             raise ValueError(f"{spec!r}: the model at {path} was trained in mode {mode!r}, "
                              "not 'residual'")
         if kind in ALGORITHMS and kind != algo:
             raise ValueError(f"{spec!r}: the model at {path} was trained with {algo} (its "
                              f"config says so), not {kind}: name it {algo}:{path}")
-        base = config.get("base_controller") if mode == "residual" else None
-        zip_path = Path(path) / "model.zip" if Path(path).is_dir() else Path(path)
+        base = options.get("base_controller") if mode == "residual" else None
+        zip_path = model_in_folder(Path(path)) if Path(path).is_dir() else Path(path)
         return Policy(f"{kind}:{_short_name(Path(path))}", base, model, config,
                       trained_benchmark(config) if base is not None else None,
                       sha256(zip_path))
     raise unknown_name_error("policy", spec, [
         *controller_names(), "py:package.module:Name",
-        *(f"{algo}:PATH" for algo in ALGORITHMS), "residual", "residual:v1", "residual:PATH"])
+        *(f"{algo}:PATH" for algo in ALGORITHMS), "residual",
+        *(f"residual:{name}" for name in SHIPPED_POLICIES), "residual:PATH"])
 
 
 def _source_sha256(found: object) -> str | None:
@@ -175,7 +210,7 @@ def trained_benchmark(config: dict) -> str:
     ``benchmark``, or its scenario options'); v1 when neither says, as for every model
     saved before Benchmark v2. A residual's base flies that benchmark's gains wherever the
     model is evaluated: the base it learnt to correct."""
-    env_kwargs = config.get("env_kwargs", {})
+    env_kwargs = config_env_options(config)  # a hand-written config's id's too
     options = env_kwargs.get("scenario_options") or {}
     return str(options.get("benchmark", env_kwargs.get("benchmark") or "v1"))
 

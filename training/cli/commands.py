@@ -79,11 +79,20 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.benchmark is not None and options.get("benchmark", args.benchmark) != args.benchmark:
         raise ValueError(f"--benchmark {args.benchmark} and --scenario-option "
                          f"benchmark={options['benchmark']} disagree: give one")
+    if args.env is not None:  # the id supplies the benchmark; one given must be the id's
+        from quad_dob_training.rl.sb3_adapter import id_benchmark
+
+        flies, given = id_benchmark(args.env), options.get("benchmark", args.benchmark)
+        if given is not None and given != flies:
+            raise ValueError(f"--benchmark {given} disagrees with --env {args.env}, whose "
+                             f"benchmark is {flies}: leave --benchmark out (the id supplies "
+                             f"it) or give the {given} id the model was trained on")
+        options.setdefault("benchmark", flies)
     options.setdefault("benchmark", args.benchmark or TOOLS_BENCHMARK)
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
                          args.json, args.baseline, args.suite, trust_pickle=args.trust_pickle,
                          scenario_options=options, delay_grid=args.delay_margins,
-                         delay_path=args.delay_on,
+                         delay_path=args.delay_on, env_id=args.env,
                          merge=args.merge, command=["quad-dob", *args.argv])
 
 
@@ -233,10 +242,20 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--policies", default="geometric-ndob:tuned,indi,pid,"
                           "residual:v1,residual:v2,residual:v3",
                           help="comma-separated: controller names, "
-                          "py:package.module:Name (your own), ppo:PATH, sac:PATH, td3:PATH, "
-                          "residual or residual:v1 (the policy shipped for v1's ideal loop), "
-                          "residual:v2 (the one trained in v2's loop), residual:v3 (in v3's), "
+                          "py:package.module:Name (your own), ppo:PATH, sac:PATH, td3:PATH "
+                          "(a model zip or its run folder: quad-dob train's, or one saved by "
+                          "stable-baselines3 or rl-zoo3, with --env), residual (the newest "
+                          "shipped policy trained in the benchmark flown: residual:v1 in v1, "
+                          "residual:v2 in v2, residual:v3 in v3; rows name the one flown), "
+                          "residual:v1 (the policy shipped for v1's ideal loop), residual:v2 "
+                          "(the one trained in v2's loop), residual:v3 (in v3's), "
                           "residual:PATH (default: %(default)s)")
+    evaluate.add_argument("--env", default=None, metavar="ID",
+                          help="the env id every model zip without a training config beside "
+                          "it (saved by stable-baselines3's model.save or by rl-zoo3) was "
+                          "trained on: it supplies the base controller, the residual options "
+                          "and the benchmark (a --benchmark must agree); --scenarios chooses "
+                          "what is flown (default: none; such a zip is refused)")
     evaluate.add_argument("--scenarios", default="dryden-helix-gusts",
                           help="comma-separated scenario names (default: %(default)s)")
     evaluate.add_argument("--seeds", default="9001-9020",

@@ -38,10 +38,11 @@ def main() -> int:
     for (name, benchmark, vehicle), options in GAIN_SETS.items():
         gains = ", ".join(f"{key} {value:.4g}" for key, value in options.items())
         print(f"    {name:<27} {benchmark} {vehicle:<11} {gains}")
-    print("Policies: any controller, residual (the shipped v1 policy; residual:v1 names it "
-          "too), residual:v2 and residual:v3 (the shipped policies trained in v2's and v3's "
-          "loops), residual:PATH, "
-          + ", ".join(f"{algo}:PATH" for algo in ALGORITHMS))
+    print("Policies: any controller, residual:v1, residual:v2 and residual:v3 (the shipped "
+          "policies trained in v1's, v2's and v3's loops), residual (the shipped one of the "
+          "benchmark flown), residual:PATH, "
+          + ", ".join(f"{algo}:PATH" for algo in ALGORITHMS)
+          + " (a zip saved by stable-baselines3 or rl-zoo3 with evaluate --env ID)")
     print("Vehicles (every number and its source):")
     for name, sources in VEHICLE_SOURCES.items():
         vehicle = quad_dob_env.VEHICLES[name]

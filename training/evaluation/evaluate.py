@@ -42,7 +42,7 @@ from quad_dob_training.evaluation.results import (
     write_document,
 )
 from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
-from quad_dob_training.policies import fly_policy, make_policy
+from quad_dob_training.policies import fly_policy, make_policy, resolve_spec
 from quad_dob_training.rollout import check_flight_memory
 
 SCORES = (("rms_position_settled", "RMS ‖e_x‖ [m]"),
@@ -124,7 +124,7 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
              scenario_options: dict[str, object] | None = None,
              delay_grid: Sequence[float] | None = None,
              per_seed: dict[tuple[str, str], list[dict]] | None = None,
-             delay_path: str | None = None) -> list[dict]:
+             delay_path: str | None = None, env_id: str | None = None) -> list[dict]:
     """One row per (scenario, policy): mean, std and 95 % interval over seeds of each score,
     the crash rate, and the paired difference to ``baseline`` (flown too if not listed;
     None for no comparison). ``first_flights``, when given, collects each scenario's
@@ -133,13 +133,25 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
     model files may be unpickled (``model_files.load_model``). ``scenario_options`` go to
     every scenario (``make_scenario(name, **scenario_options)``). ``delay_grid``, when
     given: each row's ``delay_margin`` on it (``evaluation.margins``), its latency on
-    ``delay_path`` (None: where the scenario's benchmark puts its margin's)."""
+    ``delay_path`` (None: where the scenario's benchmark puts its margin's). ``env_id``: the
+    id every model zip without a training config beside it was trained on (``--env``).
+    Bare ``residual`` flies the shipped policy of each scenario's benchmark
+    (``policies.resolve_spec``), and its rows name the one it flew."""
     specs = list(dict.fromkeys(policies))
     flown = specs if baseline is None or baseline in specs else [*specs, baseline]
-    built = [make_policy(spec, trust_pickle=trust_pickle) for spec in flown]
+    made = {name: make_scenario(name, **(scenario_options or {})) for name in scenarios}
+    # every policy each scenario's benchmark resolves a spec to, built before any flies (a
+    # bad spec or file fails first), each once
+    built_as: dict[str, object] = {}
+    for scenario in made.values():
+        for spec in flown:
+            resolved = resolve_spec(spec, scenario.benchmark)
+            if resolved not in built_as:
+                built_as[resolved] = make_policy(resolved, trust_pickle=trust_pickle,
+                                                 env_id=env_id)
     rows = []
-    for scenario_name in scenarios:
-        scenario = make_scenario(scenario_name, **(scenario_options or {}))
+    for scenario_name, scenario in made.items():
+        built = [built_as[resolve_spec(spec, scenario.benchmark)] for spec in flown]
         metrics, distinct, flights_of = {}, {}, {}
         for spec, policy in zip(flown, built, strict=True):
             flights = flights_of[spec] = fly_policy(policy, scenario, seeds)
@@ -150,11 +162,14 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
             if per_seed is not None:
                 per_seed[scenario_name, spec] = metrics[spec]
         reference = None if baseline is None else metrics[baseline]
+        compared_with = None if baseline is None else resolve_spec(baseline, scenario.benchmark)
         for spec, policy in zip(specs, built, strict=False):
-            row = _row(scenario_name, policy.name, seeds, metrics[spec], baseline, reference)
+            row = _row(scenario_name, policy.name, seeds, metrics[spec], compared_with,
+                       reference)
             row["distinct_flights"] = distinct[spec]
             row["gains"] = _gains_used(policy, scenario)
-            row.update(policy_spec=spec, policy_fingerprint=policy.fingerprint or "",
+            row.update(policy_spec=resolve_spec(spec, scenario.benchmark),
+                       policy_fingerprint=policy.fingerprint or "",
                        benchmark=scenario.benchmark,
                        vehicle=scenario.vehicle.name,
                        sensing=getattr(scenario.sensing, "name", None) or "ideal",
@@ -342,7 +357,8 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
          as_json: bool, baseline: str | None = None, suite: bool = False, *,
          trust_pickle: bool = False, scenario_options: dict[str, object] | None = None,
          delay_grid: Sequence[float] | None = None, merge: Sequence[Path] = (),
-         command: list[str] | None = None, delay_path: str | None = None) -> int:
+         command: list[str] | None = None, delay_path: str | None = None,
+         env_id: str | None = None) -> int:
     """``baseline`` None: the recommended base; "": no comparison. ``suite``: every
     scenario of the benchmark's suite (``SUITES``, by ``scenario_options["benchmark"]``,
     v1, the library's default, when not given; the CLI gives ``TOOLS_BENCHMARK``) instead
@@ -353,7 +369,8 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
     ``delay_path`` (``--delay-on``): where they are added (None: the benchmark's margin's).
     ``merge`` (``--merge``): other runs' ``evaluation.json`` files, merged with this one's
     into ``leaderboard-merged.md`` (``evaluation.results``); ``command`` is recorded
-    in ``evaluation.json``."""
+    in ``evaluation.json``. ``env_id`` (``--env``): the id model zips saved without a
+    training config (by SB3 or rl-zoo3) were trained on."""
     others = [(path, read_document(path)) for path in merge]  # a bad file fails first
     baseline = DEFAULT_BASE_CONTROLLER if baseline is None else baseline
     benchmark = str((scenario_options or {}).get("benchmark", "v1"))  # the library's
@@ -366,7 +383,7 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
     first_flights: dict = {}
     rows = evaluate(policies, scenarios, seed_list, first_flights, baseline or None,
                     trust_pickle=trust_pickle, scenario_options=scenario_options,
-                    delay_grid=delay_grid, delay_path=delay_path)
+                    delay_grid=delay_grid, delay_path=delay_path, env_id=env_id)
     if as_json:
         print(json.dumps(rows, indent=1))
         return 0

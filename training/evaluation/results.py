@@ -17,6 +17,11 @@ different loop. Where two files hold the same policy (the same spec and fingerpr
 model file's or a ``py:`` module's sha256) on the same configuration, seeds and project
 version, the table says whether their 95 % intervals of the RMS position error overlap:
 scores from two machines should agree within their intervals, though not bit for bit.
+
+A shipped residual policy is known by its fingerprint: rows written before bare
+``residual`` followed the benchmark flown named v1's policy so, and are shown (and
+compared) as ``residual:v1 (named residual)``, apart from ``residual:v2`` and
+``residual:v3`` rows.
 """
 
 from __future__ import annotations
@@ -169,7 +174,7 @@ def merged_leaderboard(sources: list[tuple[str, dict[str, Any]]]) -> str:
             for label, document, row in rows:
                 seeds = row["provenance"]["seeds"]
                 lines.append(
-                    f"| {_cell(row['policy'])} | {label} | {_seed_text(seeds)} | "
+                    f"| {_cell(policy_label(row))} | {label} | {_seed_text(seeds)} | "
                     f"{row['rms_position_settled_mean']:.4f} "
                     f"[{row['rms_position_settled_low']:.4f}, "
                     f"{row['rms_position_settled_high']:.4f}] | "
@@ -193,9 +198,30 @@ def _seed_text(seeds: list[int]) -> str:
     return f"{len(seeds)} seeds"
 
 
+def shipped_name(row: dict) -> str | None:
+    """The shipped policy (``residual:v2``) a row flew, by its fingerprint; None for any
+    other."""
+    from quad_dob_training.rl import SHIPPED_SHA256
+
+    fingerprint = row["provenance"].get("policy_fingerprint")
+    return next((f"residual:{benchmark}" for benchmark, digest in SHIPPED_SHA256.items()
+                 if fingerprint == digest), None)
+
+
+def policy_label(row: dict) -> str:
+    """A row's policy as a merged leaderboard names it: a shipped policy by the name its
+    fingerprint says, with the name the row gave where that differs (an older row's bare
+    ``residual``, which was v1's policy)."""
+    shipped = shipped_name(row)
+    if shipped is None or shipped == row["policy"]:
+        return row["policy"]
+    return f"{shipped} (named {row['policy']})"
+
+
 def _same_run(row: dict, document: dict) -> tuple:
     provenance = row["provenance"]
-    return (provenance["policy_spec"], provenance.get("policy_fingerprint"),
+    return (shipped_name(row) or provenance["policy_spec"],
+            provenance.get("policy_fingerprint"),
             tuple(provenance["seeds"]), document["project"]["version"])
 
 

@@ -5,6 +5,10 @@
   rl-zoo3's schema, the versions and CPU it ran on).
 - ``vec_env``: ``QuadrotorSB3VecEnv``, the stable-baselines3 ``VecEnv`` adapter over the
   native vector env, with the training-only keys (``loop_randomization``).
+- ``sb3_adapter``: ``make_sb3_vec_env(env_id, n, **overrides)``, that adapter built from an
+  env id, exactly as the id builds it (exported here).
+- ``foreign_models``: models saved by SB3 or rl-zoo3 with no project config (the env id
+  supplies it), and rl-zoo3's ``vecnormalize.pkl`` read without unpickling.
 - ``model_files``: model zips loaded without unpickling (and, for a run's own checkpoints,
   with); ``pretrained/`` holds the shipped residual policies.
 - ``baseline_evaluation``: the evaluation against the base on held-out seeds during
@@ -26,9 +30,30 @@ and flies them through ``vec_env``'s options.
 """
 
 from pathlib import Path
+from typing import Any
 
 # the stable-baselines3 algorithms quad-dob train trains and ALGO:PATH loads (here, not in
 # model_files, so the CLI can offer them without importing the simulator)
 ALGORITHMS = ("ppo", "sac", "td3")
 # the shipped hyperparameter files, one per algorithm (rl-zoo3's schema)
 HYPERPARAMS = Path(__file__).parents[1] / "hyperparams"
+
+# sha256 of the shipped residual policies' zips by the benchmark each was trained in
+# (``residual:v1`` ...; ``model_files`` checks the zips against them), here so that merged
+# leaderboards can name a shipped policy by a row's fingerprint without the simulator
+SHIPPED_SHA256 = {
+    "v1": "e75e4b59ef3afc351ddd0338b92b0eef63d56328f909f2d2300c88d5b7db34e5",
+    "v2": "26da3f4ba1261843ff6e869a02e5633ada4b7d6048ffaa9e16563fcfde6b9662",
+    "v3": "6be559a17e9c3545c6d06b9e32904f4d595de040967a0b135fc7d514d832695d",
+}
+
+__all__ = ["ALGORITHMS", "HYPERPARAMS", "SHIPPED_SHA256", "make_sb3_vec_env"]
+
+
+def __getattr__(name: str) -> Any:
+    # imported when first asked for: the adapter needs the simulator, the CLI does not
+    if name == "make_sb3_vec_env":
+        from quad_dob_training.rl.sb3_adapter import make_sb3_vec_env
+
+        return make_sb3_vec_env
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

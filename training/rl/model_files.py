@@ -41,7 +41,7 @@ import yaml
 from quad_dob_composition import make_vector_env
 from quad_dob_env.memory import check_memory
 from quad_dob_env.validation import unknown_name_error
-from quad_dob_training.rl import ALGORITHMS
+from quad_dob_training.rl import ALGORITHMS, SHIPPED_SHA256
 from quad_dob_training.rl.run_folder import zip_run_id
 from quad_dob_training.rl.vec_env import env_options
 
@@ -49,19 +49,19 @@ PRETRAINED = Path(__file__).parents[1] / "pretrained"
 SHIPPED_RESIDUAL = PRETRAINED / "residual_random_tracks.zip"
 # sha256 of the shipped zip and of the config beside it (base controller, env options,
 # observation statistics: what the policy flies with), both checked before either is read
-SHIPPED_RESIDUAL_SHA256 = "e75e4b59ef3afc351ddd0338b92b0eef63d56328f909f2d2300c88d5b7db34e5"
+SHIPPED_RESIDUAL_SHA256 = SHIPPED_SHA256["v1"]
 SHIPPED_RESIDUAL_CONFIG_SHA256 = "000896053c3fd23bf7ff3082e0c56301c6d8b1d93298bfb81e7049f1bd9aff52"
 # the policy trained in Benchmark v2's loop (issue 29's recipe, the median of its seeds),
 # ``residual:v2``; checked the same way
 SHIPPED_RESIDUAL_V2 = PRETRAINED / "residual_v2.zip"
-SHIPPED_RESIDUAL_V2_SHA256 = "26da3f4ba1261843ff6e869a02e5633ada4b7d6048ffaa9e16563fcfde6b9662"
+SHIPPED_RESIDUAL_V2_SHA256 = SHIPPED_SHA256["v2"]
 SHIPPED_RESIDUAL_V2_CONFIG_SHA256 = (
     "2600763be939f9a93ac487073df10322be3730a28bd8c5829e4faa803e5e3839")
 # the policy trained in Benchmark v3's loop (issue 42's recipe, QuadDOB/TracksResidual-v3;
 # seed 2, the median of seeds 0-2 by mean RMS over the wind scenarios on its evaluation
 # seeds 10000-10007: 35.0, 42.6, 39.9 mm), ``residual:v3``; checked the same way
 SHIPPED_RESIDUAL_V3 = PRETRAINED / "residual_v3.zip"
-SHIPPED_RESIDUAL_V3_SHA256 = "6be559a17e9c3545c6d06b9e32904f4d595de040967a0b135fc7d514d832695d"
+SHIPPED_RESIDUAL_V3_SHA256 = SHIPPED_SHA256["v3"]
 SHIPPED_RESIDUAL_V3_CONFIG_SHA256 = (
     "cb8e558f1abb9f0fda26fe475bebe3187542106f613defe421ff0022c380189a")
 TRUST_PICKLE_HINT = ("only if you made the file or trust where it came from, load it with "
@@ -74,9 +74,16 @@ def sha256(path: Path) -> str:
 
 def load_model(path: str | Path, expected_sha256: str | None = None, *,
                expected_config_sha256: str | None = None,
-               trust_pickle: bool = False) -> tuple[Any, dict]:
+               trust_pickle: bool = False, env_id: str | None = None,
+               kind: str | None = None) -> tuple[Any, dict]:
     """An SB3 model and the training config saved beside it by ``quad-dob train``
-    (``NAME.yaml`` beside ``NAME.zip``, else ``config.yaml``).
+    (``NAME.yaml`` beside ``NAME.zip``, else ``config.yaml``); ``path`` may be a run folder
+    (its ``model.zip``, or an rl-zoo3 run's ``ENV.zip``).
+
+    A zip with no config beside it (saved by SB3 or rl-zoo3) takes ``env_id``, the id it
+    was trained on, which supplies what the config would (``foreign_models.config_for_id``;
+    ``kind`` is the spec's ``ppo`` / ``sac`` / ``td3`` / ``residual``); without one it is
+    refused, naming ``--env``.
 
     Nothing in the zip is unpickled (see the module docstring): its pickled entries are
     rebuilt from the config and the env it describes, and a zip with one that cannot be is
@@ -84,22 +91,33 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
     whatever its pickles hold. ``expected_sha256`` (the zip) and ``expected_config_sha256``
     (the config) are checked on the bytes that are then loaded, before either is parsed.
     """
+    from quad_dob_training.rl.foreign_models import config_for_id, model_in_folder
+
     path = Path(path)
     if path.is_dir():
-        path = path / "model.zip"
+        path = model_in_folder(path)
     if not path.is_file():
         raise ValueError(f"policy file {str(path)!r} does not exist")
-    config_path = _config_path(path)
-    raw, config_bytes = _read(path, "policy file"), _read(config_path, "training config")
+    config_path = _config_path(path, needed=env_id is None)
+    raw = _read(path, "policy file")
     _check_sha256(path, raw, expected_sha256, "policy file")
-    _check_sha256(config_path, config_bytes, expected_config_sha256, "training config")
-    try:
-        config = yaml.safe_load(config_bytes)
-    except yaml.YAMLError as error:
-        raise ValueError(f"training config {str(config_path)!r} is not valid YAML "
-                         f"({(str(error).splitlines() or [''])[0]})") from None
-    if not isinstance(config, dict):
-        raise ValueError(f"training config {str(config_path)!r} is not a YAML mapping")
+    if config_path is None:  # saved by SB3 or rl-zoo3: the id says what the config would
+        if not zipfile.is_zipfile(io.BytesIO(raw)):
+            raise _not_a_zip(path)
+        config = config_for_id(env_id, kind or "ppo", path, _zip_data(raw, path),
+                               trust_pickle=trust_pickle)
+        source = f"--env {env_id}"
+    else:
+        config_bytes = _read(config_path, "training config")
+        _check_sha256(config_path, config_bytes, expected_config_sha256, "training config")
+        try:
+            config = yaml.safe_load(config_bytes)
+        except yaml.YAMLError as error:
+            raise ValueError(f"training config {str(config_path)!r} is not valid YAML "
+                             f"({(str(error).splitlines() or [''])[0]})") from None
+        if not isinstance(config, dict):
+            raise ValueError(f"training config {str(config_path)!r} is not a YAML mapping")
+        source = f"its config {str(config_path)!r}"
     if not zipfile.is_zipfile(io.BytesIO(raw)):
         raise _not_a_zip(path)
     zip_id, config_id = zip_run_id(path, raw), config.get("run_id")
@@ -110,7 +128,7 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
                          "it when that run has finished, or a model beside its own config")
     algo = config.get("algo", "ppo")
     if algo not in ALGORITHMS:
-        raise ValueError(f"{str(config_path)!r} names algorithm {algo!r}; this version loads "
+        raise ValueError(f"{source} names algorithm {algo!r}; this version loads "
                          + ", ".join(ALGORITHMS))
     algorithm = algorithm_class(algo)
     if trust_pickle:
@@ -120,7 +138,7 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
                      "clip_range": _no_schedule}
         return _load(algorithm, io.BytesIO(raw), path, custom_objects=schedules), config
     data = _checked_archive(raw, path)
-    entries = _rebuilt_entries(algorithm, config, data, path, config_path)
+    entries = _rebuilt_entries(algorithm, config, data, path, source)
     return _load(algorithm, io.BytesIO(raw), path, custom_objects=entries), config
 
 
@@ -205,13 +223,20 @@ def _no_schedule(_: float) -> float:
     return 0.0
 
 
-def _config_path(path: Path) -> Path:
+def _config_path(path: Path, needed: bool = True) -> Path | None:
+    """The training config beside ``path``; None where there is none and none is
+    ``needed`` (an env id stands in for it)."""
     config_path = path.with_name(path.stem + ".yaml")
     if not config_path.is_file():
         config_path = path.parent / "config.yaml"
     if not config_path.is_file():
+        if not needed:
+            return None
         raise ValueError(f"no training config beside {str(path)!r} (looked for "
-                         f"{path.stem}.yaml and config.yaml): cannot tell which env it fits")
+                         f"{path.stem}.yaml and config.yaml): cannot tell which env it fits; "
+                         "for a model saved by stable-baselines3 or rl-zoo3, give the env id "
+                         "it was trained on with --env (quad-dob evaluate --env ID; "
+                         "load_model(..., env_id=ID))")
     return config_path
 
 
@@ -293,7 +318,7 @@ def pickled_entries(data: dict[str, Any]) -> list[str]:
 
 
 def _rebuilt_entries(algorithm: Any, config: dict, data: dict, path: Path,
-                     config_path: Path) -> dict[str, Any]:
+                     source: str) -> dict[str, Any]:
     """SB3's ``custom_objects``: every pickled entry of ``data``, rebuilt from the config,
     the env it describes and the algorithm, so that none is unpickled."""
     unknown = [key for key in pickled_entries(data) if key not in REBUILT_ENTRIES]
@@ -301,8 +326,8 @@ def _rebuilt_entries(algorithm: Any, config: dict, data: dict, path: Path,
         raise ValueError(f"model file {str(path)!r} holds pickled entries that loading would "
                          "run as code and that cannot be rebuilt from its config: "
                          f"{', '.join(unknown)}; {TRUST_PICKLE_HINT}")
-    policy_class = _policy_class(algorithm, config, data, path, config_path)
-    observation_space, action_space = _spaces(config, data, path, config_path)
+    policy_class = _policy_class(algorithm, config, data, path, source)
+    observation_space, action_space = _spaces(config, data, path, source)
     train_freq = (config.get("algo_kwargs") or {}).get("train_freq", 1)
     return {"policy_class": policy_class, "observation_space": observation_space,
             "action_space": action_space,
@@ -314,14 +339,14 @@ def _rebuilt_entries(algorithm: Any, config: dict, data: dict, path: Path,
 
 
 def _policy_class(algorithm: Any, config: dict, data: dict, path: Path,
-                  config_path: Path) -> Any:
+                  source: str) -> Any:
     """The algorithm's own class for the config's ``policy`` name (``MlpPolicy``: PPO's
     ``ActorCriticPolicy``, SAC's ``SACPolicy``), checked against the module the zip records
     for its class in plain text."""
     name = config.get("policy", "MlpPolicy")
     aliases = algorithm.policy_aliases
     if name not in aliases:
-        raise ValueError(f"{str(config_path)!r} names policy {name!r}, which is not one of "
+        raise ValueError(f"{source} names policy {name!r}, which is not one of "
                          f"{algorithm.__name__}'s own ({', '.join(aliases)}): the model "
                          f"beside it cannot be rebuilt without unpickling; {TRUST_PICKLE_HINT}")
     policy_class = aliases[name]
@@ -330,40 +355,80 @@ def _policy_class(algorithm: Any, config: dict, data: dict, path: Path,
     if module is not None and module != policy_class.__module__:
         raise ValueError(f"model file {str(path)!r} holds a policy class from {module!r}, "
                          f"not {algorithm.__name__}'s {name} ({policy_class.__module__}) that "
-                         f"its config names: it cannot be rebuilt without unpickling; "
+                         f"{source} names: it cannot be rebuilt without unpickling; "
                          + TRUST_PICKLE_HINT)
     return policy_class
 
 
-def _spaces(config: dict, data: dict, path: Path, config_path: Path) -> tuple[Any, Any]:
+def config_env_options(config: dict) -> dict[str, Any]:
+    """The options of the env a training config describes, for one vehicle of it: its
+    ``env_kwargs`` (less the training-only keys) over its ``env_id``'s own (a hand-written
+    config may name the id alone), and a residual's ``base_controller``."""
+    import gymnasium as gym
+
+    options = env_options(config.get("env_kwargs") or {})
+    env_id = config.get("env_id")
+    if env_id is not None:
+        if env_id not in gym.registry:
+            raise ValueError(f"env_id {env_id!r} is not a registered id (quad-dob list "
+                             "names them)")
+        options = {**env_options(dict(gym.spec(env_id).kwargs)), **options}
+    if config.get("mode") == "direct":
+        options.pop("base_controller", None)
+    elif config.get("base_controller") is not None:
+        options.setdefault("base_controller", config["base_controller"])
+    return options
+
+
+def _built_from(options: dict[str, Any], config: dict) -> str:
+    """What env the options build, in words, for a mismatch's message."""
+    described = [f"env id {config['env_id']}"] if config.get("env_id") else []
+    described.append(f"scenario {options.get('scenario', 'paper-none')}")
+    described.append(f"base {options['base_controller']}" if options.get("base_controller")
+                     else "no base (direct)")
+    if options.get("benchmark"):
+        described.append(f"benchmark {options['benchmark']}")
+    return ", ".join(described)
+
+
+def _recorded_shape(recorded: dict) -> tuple[int, ...] | None:
+    """The shape a zip's ``data`` records for a space in plain text: a list (SB3 2.x) or
+    the text of one."""
+    shape = recorded.get("_shape")
+    try:
+        if isinstance(shape, str):
+            shape = json.loads(shape)
+        return tuple(int(n) for n in shape)
+    except (TypeError, ValueError):
+        return None
+
+
+def _spaces(config: dict, data: dict, path: Path, source: str) -> tuple[Any, Any]:
     """The observation and action spaces of the env the config trained in (one vehicle of
     it), checked against the shape and dtype the zip records for its spaces in plain
     text."""
-    options = env_options(config.get("env_kwargs") or {})
-    if config.get("mode") == "residual" and config.get("base_controller") is not None:
-        options.setdefault("base_controller", config["base_controller"])
+    options = config_env_options(config)
     try:
         env = make_vector_env(1, **options)
     except Exception as error:
-        raise ValueError(f"the env options in {str(config_path)!r} do not build an env "
+        raise ValueError(f"the env options of {source} do not build an env "
                          f"({type(error).__name__}: {error}), so the spaces of the model "
-                         "beside it cannot be rebuilt") from error
+                         "cannot be rebuilt") from error
     spaces = env.single_observation_space, env.single_action_space
     env.close()
     for key, space in zip(("observation_space", "action_space"), spaces, strict=True):
         recorded = data.get(key)
         if not isinstance(recorded, dict):
             continue
-        try:
-            shape = tuple(json.loads(recorded["_shape"]))
-        except (KeyError, TypeError, ValueError):
-            shape = None
+        shape = _recorded_shape(recorded)
         dtype = recorded.get("dtype")
         if (shape is not None and shape != space.shape) or (dtype is not None
                                                              and dtype != str(space.dtype)):
-            raise ValueError(f"model file {str(path)!r} was saved with {key} of shape {shape} "
-                             f"and dtype {dtype}, but the env its config "
-                             f"{str(config_path)!r} describes has {space.shape} and "
-                             f"{space.dtype}: the config does not belong to this model")
+            what = key.replace("_space", "")
+            raise ValueError(f"model file {str(path)!r} was saved with {what}s of shape "
+                             f"{shape} and dtype {dtype}, but the env {source} describes "
+                             f"({_built_from(options, config)}) has {what}s of shape "
+                             f"{space.shape} and dtype {space.dtype}: the model was trained "
+                             "on another env (another id, mode, base or residual options); "
+                             "give the id and options it was trained with")
     return spaces
-

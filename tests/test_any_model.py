@@ -1,0 +1,248 @@
+"""Any model, evaluated: the SB3 adapter built from an env id flies what the id builds; a
+zip saved by SB3 (or an rl-zoo3 run) with no project config is evaluated with ``--env``;
+rl-zoo3's ``vecnormalize.pkl`` is read without unpickling anything but numpy and SB3's
+statistics; bare ``residual`` follows the benchmark flown."""
+
+import json
+import os
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+from quad_dob_training.cli.commands import main
+from quad_dob_training.policies import SHIPPED_POLICIES, resolve_spec
+from quad_dob_training.rl import make_sb3_vec_env
+from quad_dob_training.rl.foreign_models import read_vecnormalize, read_zoo_yaml, zoo_name
+
+# a short flight keeps every test here fast
+SHORT = {"duration": 1.0}
+RESIDUAL_ID, DIRECT_ID = "QuadDOB/HoverResidual-v2", "QuadDOB/Hover-v2"
+
+
+def _ppo(env_id, steps=128, **overrides):
+    from stable_baselines3 import PPO
+
+    env = make_sb3_vec_env(env_id, 4, seed=0, scenario_options=SHORT, **overrides)
+    model = PPO("MlpPolicy", env, n_steps=32, batch_size=64, n_epochs=1, seed=0,
+                device="cpu")
+    if steps:
+        model.learn(steps)
+    return model
+
+
+@pytest.fixture(scope="module")
+def sb3_zip(tmp_path_factory):
+    """A PPO made outside the project on the residual v2 id (untrained: what loading
+    checks does not depend on training), saved by SB3 alone."""
+    path = tmp_path_factory.mktemp("sb3") / "hover.zip"
+    _ppo(RESIDUAL_ID, steps=0).save(path)
+    return path
+
+
+@pytest.mark.parametrize("env_id", [DIRECT_ID, RESIDUAL_ID])
+def test_the_adapter_flies_what_the_ids_own_vector_env_flies(env_id):
+    ours = make_sb3_vec_env(env_id, 3, seed=5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # gymnasium: "-v2 is out of date"
+        theirs = gym.make_vec(env_id, 3, vectorization_mode="vector_entry_point")
+    assert type(theirs).__name__ == ("ResidualVectorEnv" if "Residual" in env_id
+                                     else "QuadrotorVectorEnv")
+    assert ours.observation_space == theirs.single_observation_space
+    first, _ = theirs.reset(seed=5)
+    np.testing.assert_array_equal(ours.reset(), first)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        actions = rng.uniform(-1, 1, (3, 4)).astype(np.float32)
+        obs, rewards, dones, _ = ours.step(actions)
+        expected, their_rewards, terminated, truncated, _ = theirs.step(actions)
+        np.testing.assert_array_equal(obs, expected)
+        np.testing.assert_array_equal(rewards, their_rewards.astype(np.float32))
+        np.testing.assert_array_equal(dones, terminated | truncated)
+
+
+def test_the_adapter_refuses_an_unknown_id_and_a_residual_id_without_a_base():
+    with pytest.raises(ValueError, match=r"unknown env id 'QuadDOB/Hoover-v2'.*Hover-v2"):
+        make_sb3_vec_env("QuadDOB/Hoover-v2", 2)
+    with pytest.raises(ValueError, match="residual id: base_controller must name"):
+        make_sb3_vec_env(RESIDUAL_ID, 2, base_controller=None)
+    with pytest.raises(ValueError, match="direct id and takes no base_controller"):
+        make_sb3_vec_env(DIRECT_ID, 2, base_controller="pid")
+
+
+@pytest.mark.slow
+def test_sb3_ppo_trained_outside_the_project_is_evaluated_with_env(tmp_path):
+    trained = tmp_path / "hover.zip"
+    _ppo(RESIDUAL_ID, steps=256).save(trained)  # learns: SB3 trains on the adapter
+    assert not (tmp_path / "config.yaml").exists()
+    out = tmp_path / "evaluation"
+    assert main(["evaluate", "--policies", f"ppo:{trained},residual", "--env", RESIDUAL_ID,
+                 "--scenarios", "hover-calm", "--seeds", "1-2", "--out", str(out),
+                 "--scenario-option", "duration=1"]) == 0
+    rows = json.loads((out / "evaluation.json").read_text())["rows"]
+    # the id supplied the benchmark; bare residual flew that benchmark's shipped policy
+    assert [row["policy"] for row in rows[:2]] == ["ppo:hover", "residual:v2"]
+    assert rows[0]["provenance"]["benchmark"] == "v2"
+    assert rows[0]["provenance"]["env"]["id"] == RESIDUAL_ID
+    assert rows[0]["crashes"] == 0
+
+
+def test_a_zip_without_config_or_env_is_told_to_give_env(sb3_zip, capsys):
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", f"ppo:{sb3_zip}", "--seeds", "1"])
+    assert "give the env id it was trained on with --env" in capsys.readouterr().err
+
+
+def test_a_benchmark_other_than_the_ids_is_refused_naming_both(sb3_zip, capsys):
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", f"ppo:{sb3_zip}", "--env", RESIDUAL_ID,
+              "--benchmark", "v3", "--seeds", "1"])
+    error = capsys.readouterr().err
+    assert f"--benchmark v3 disagrees with --env {RESIDUAL_ID}, whose benchmark is v2" in error
+
+
+def test_a_space_mismatch_is_named(sb3_zip, capsys):
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", f"ppo:{sb3_zip}", "--env", DIRECT_ID, "--seeds", "1",
+              "--json"])
+    error = capsys.readouterr().err
+    assert "saved with observations of shape (40,)" in error
+    assert f"env id {DIRECT_ID}" in error and "has observations of shape (24,)" in error
+
+
+def test_another_algorithms_name_is_refused(sb3_zip, capsys):
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", f"sac:{sb3_zip}", "--env", RESIDUAL_ID, "--seeds", "1"])
+    assert "saved by PPO" in capsys.readouterr().err
+
+
+def test_a_hand_written_config_naming_the_id_flies_the_ids_env(sb3_zip, tmp_path, capsys):
+    """A config naming only the id and algorithm builds the id's env (it used to build the
+    default direct env, and fail with a misleading damaged-file error)."""
+    folder = tmp_path / "hand"
+    folder.mkdir()
+    (folder / "model.zip").write_bytes(sb3_zip.read_bytes())
+    (folder / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo",
+                                                        "env_id": RESIDUAL_ID}))
+    assert main(["evaluate", "--policies", f"ppo:{folder}", "--scenarios", "hover-calm",
+                 "--seeds", "1", "--json", "--baseline", "", "--scenario-option",
+                 "duration=0.5"]) == 0
+    (folder / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo",
+                                                        "env_id": DIRECT_ID}))
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", f"ppo:{folder}", "--seeds", "1", "--json"])
+    assert "has observations of shape (24,)" in capsys.readouterr().err
+
+
+# --- rl-zoo3's files ---------------------------------------------------------------------------
+
+def _vecnormalize(path):
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    env = VecNormalize(make_sb3_vec_env(RESIDUAL_ID, 2, seed=0, scenario_options=SHORT),
+                       norm_reward=False, clip_obs=7.0)
+    env.reset()
+    for _ in range(3):
+        env.step(np.zeros((2, 4), np.float32))
+    env.save(str(path))
+    return env
+
+
+def test_the_restricted_unpickler_reads_a_real_vecnormalize_save(tmp_path):
+    saved = _vecnormalize(tmp_path / "vecnormalize.pkl")
+    read = read_vecnormalize(tmp_path / "vecnormalize.pkl")
+    np.testing.assert_array_equal(read["mean"], saved.obs_rms.mean)
+    np.testing.assert_array_equal(read["var"], saved.obs_rms.var)
+    assert read["clip"] == 7.0 and read["epsilon"] == saved.epsilon
+    assert read == read_vecnormalize(tmp_path / "vecnormalize.pkl", trust_pickle=True)
+
+
+class _System:
+    def __init__(self, marker):
+        self.marker = marker
+
+    def __reduce__(self):
+        return os.system, (f"touch {self.marker}",)
+
+
+def test_the_restricted_unpickler_refuses_any_other_class(tmp_path):
+    marker = tmp_path / "ran"
+    path = tmp_path / "vecnormalize.pkl"
+    path.write_bytes(pickle.dumps(_System(marker)))
+    with pytest.raises(ValueError, match=r"names (posix|nt)\.system, which reading observation "
+                                         r"statistics does not admit.*--trust-pickle"):
+        read_vecnormalize(path)
+    assert not marker.exists()
+
+
+def _zoo_run(root, sb3_zip, normalize):
+    """An rl-zoo3 run folder as rl-zoo3 lays it out, the model the SB3 one."""
+    run = root / f"{zoo_name(RESIDUAL_ID)}_1"
+    files = run / zoo_name(RESIDUAL_ID)
+    files.mkdir(parents=True)
+    (run / f"{zoo_name(RESIDUAL_ID)}.zip").write_bytes(sb3_zip.read_bytes())
+    from collections import OrderedDict
+
+    # rl-zoo3 dumps OrderedDicts with yaml.dump: Python tags the safe loader must be taught
+    (files / "config.yml").write_text(yaml.dump(OrderedDict(
+        [("n_envs", 4), ("normalize", normalize), ("policy", "MlpPolicy")])))
+    (files / "args.yml").write_text(yaml.dump(OrderedDict(
+        [("algo", "ppo"), ("env", RESIDUAL_ID), ("env_kwargs", None)])))
+    return run
+
+
+def test_zoo_yaml_reads_ordered_dicts_but_no_other_python_object(tmp_path):
+    from collections import OrderedDict
+
+    (tmp_path / "a.yml").write_text(yaml.dump(OrderedDict([("normalize", True)])))
+    assert read_zoo_yaml(tmp_path / "a.yml") == {"normalize": True}
+    (tmp_path / "b.yml").write_text("!!python/object/apply:os.system ['true']\n")
+    with pytest.raises(ValueError, match="holds a Python object"):
+        read_zoo_yaml(tmp_path / "b.yml")
+
+
+def test_a_normalised_zoo_run_without_its_vecnormalize_is_refused_naming_it(
+        sb3_zip, tmp_path, capsys):
+    run = _zoo_run(tmp_path, sb3_zip, "dict(norm_obs=True, norm_reward=False)")
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", f"ppo:{run}", "--env", RESIDUAL_ID, "--seeds", "1"])
+    error = capsys.readouterr().err
+    expected = run / zoo_name(RESIDUAL_ID) / "vecnormalize.pkl"
+    assert f"{str(expected)!r}, which holds their statistics, is missing" in error
+
+
+def test_a_zoo_run_on_another_id_is_refused(sb3_zip, tmp_path, capsys):
+    run = _zoo_run(tmp_path, sb3_zip, False)
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", f"ppo:{run / (zoo_name(RESIDUAL_ID) + '.zip')}",
+              "--env", "QuadDOB/HoverResidual-v3", "--seeds", "1"])
+    assert f"rl-zoo3 run on {RESIDUAL_ID}" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_normalised_zoo_run_flies_with_its_statistics(sb3_zip, tmp_path):
+    from quad_dob_training.policies import make_policy
+
+    run = _zoo_run(tmp_path, sb3_zip, True)
+    saved = _vecnormalize(run / zoo_name(RESIDUAL_ID) / "vecnormalize.pkl")
+    policy = make_policy(f"ppo:{run}", env_id=RESIDUAL_ID)
+    assert policy.config["source"] == "rl-zoo3 run"
+    np.testing.assert_array_equal(policy.config["observation_normalization"]["mean"],
+                                  saved.obs_rms.mean)
+    observations = np.ones((2, 40), np.float32)
+    expected, _ = policy.model.predict(saved.normalize_obs(observations), deterministic=True)
+    np.testing.assert_allclose(policy.act(observations), expected, atol=1e-6)
+
+
+# --- names follow the benchmark ----------------------------------------------------------------
+
+def test_bare_residual_is_the_shipped_policy_of_the_benchmark_flown():
+    assert [resolve_spec("residual", b) for b in ("v1", "v2", "v3")] == [
+        "residual:v1", "residual:v2", "residual:v3"]
+    newest = f"residual:{list(SHIPPED_POLICIES)[-1]}"
+    assert resolve_spec("residual", "v9") == newest  # none trained there: the newest
+    assert resolve_spec("residual") == "residual:v1"  # the library's default benchmark
+    assert resolve_spec("residual:v1", "v3") == "residual:v1"  # a named one stays itself
