@@ -25,8 +25,10 @@ def fly_frames(spec: str, scenario_name: str, seed: int, every: int, size: tuple
                *, trust_pickle: bool = False) -> list[NDArray[np.uint8]]:
     """Frames of one episode of policy ``spec``, one per ``every`` control steps
     (``trust_pickle``: its model file may be unpickled, ``model_files.load_model``)."""
-    policy = make_policy(spec, trust_pickle=trust_pickle)
-    env = make_vector_env(1, make_scenario(scenario_name), **policy.env_kwargs())
+    scenario = make_scenario(scenario_name)
+    # bare residual: the shipped policy of the benchmark the scenario flies
+    policy = make_policy(spec, trust_pickle=trust_pickle, benchmark=scenario.benchmark)
+    env = make_vector_env(1, scenario, **policy.env_kwargs())
     check_spaces(policy, env)
     renderer = FlightRenderer(env.core, *size)
     obs, _ = env.reset(seed=[seed])
