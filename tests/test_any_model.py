@@ -246,3 +246,35 @@ def test_bare_residual_is_the_shipped_policy_of_the_benchmark_flown():
     assert resolve_spec("residual", "v9") == newest  # none trained there: the newest
     assert resolve_spec("residual") == "residual:v1"  # the library's default benchmark
     assert resolve_spec("residual:v1", "v3") == "residual:v1"  # a named one stays itself
+
+
+def test_the_evaluation_says_which_shipped_policy_to_use_and_why(tmp_path, monkeypatch, capsys):
+    from pathlib import Path
+
+    from quad_dob_training.evaluation import evaluate as evaluation
+    from quad_dob_training.policies import shipped_policy_advice
+
+    for benchmark in ("v1", "v2", "v3"):
+        advice = shipped_policy_advice(benchmark)
+        assert f"in Benchmark {benchmark}: residual:{benchmark}, which bare" in advice
+        assert "the loop flown here" in advice
+    assert "no shipped policy was trained in Benchmark v9" in shipped_policy_advice("v9")
+    source = Path(__file__).parents[1] / "docs/research/transfer-between-benchmarks.md"
+    assert source.is_file() and "docs/research/transfer-between-benchmarks.md" in advice
+
+    # the console and report.html carry it when a shipped residual is compared, not otherwise
+    def rows(policies, scenarios, seeds, flights, baseline, **_):
+        return [{"scenario": "hover-calm", "policy": p, "seeds": "1"} for p in policies]
+
+    monkeypatch.setattr(evaluation, "evaluate", rows)
+    monkeypatch.setattr(evaluation, "write_tables", lambda *_: None)
+    monkeypatch.setattr(evaluation, "results_document", lambda *_: {})
+    monkeypatch.setattr(evaluation, "write_document", lambda *_: None)
+    monkeypatch.setattr(evaluation, "markdown_table", lambda _: "")
+    for policies, said in ((["pid", "residual"], True), (["pid", "indi"], False)):
+        evaluation.main(policies, ["hover-calm"], "1", tmp_path, False, baseline="pid",
+                        scenario_options={"benchmark": "v2"})
+        report = (tmp_path / "report.html").read_text()
+        printed = capsys.readouterr().out
+        assert ("Which shipped policy to use in Benchmark v2: residual:v2" in printed) is said
+        assert ("<p class='note'>Which shipped policy" in report) is said

@@ -84,7 +84,7 @@ from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memor
 
 # the shipped residual policies by the benchmark they were trained in, oldest first, each
 # its zip, the zip's sha256 and its config's: ``residual:v1``, ``residual:v2`` and
-# ``residual:v3`` (bare ``residual``: the one of the benchmark flown, ``resolve_spec````
+# ``residual:v3`` (bare ``residual``: the one of the benchmark flown, ``resolve_spec``)
 SHIPPED_POLICIES = {
     "v1": (SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256, SHIPPED_RESIDUAL_CONFIG_SHA256),
     "v2": (SHIPPED_RESIDUAL_V2, SHIPPED_RESIDUAL_V2_SHA256, SHIPPED_RESIDUAL_V2_CONFIG_SHA256),
@@ -145,6 +145,36 @@ def resolve_spec(spec: str, benchmark: str | None = None) -> str:
         return spec
     benchmark = benchmark or LIBRARY_BENCHMARK
     return f"residual:{benchmark if benchmark in SHIPPED_POLICIES else list(SHIPPED_POLICIES)[-1]}"
+
+
+# the loop each shipped policy learnt to correct, for the advice the tools print
+SHIPPED_TRAINED_IN = {
+    "v1": "Benchmark v1's ideal loop (the true state, no lag)",
+    "v2": "Benchmark v2's loop (sensing, latency, motor lag)",
+    "v3": "Benchmark v3's loop (the real vehicle's lag and thrust path)",
+}
+
+
+def shipped_policy_advice(benchmark: str) -> str:
+    """Which shipped residual policy to fly in ``benchmark``, and why, in one paragraph (the
+    demo's console and report.html say it). The why is measured:
+    docs/research/transfer-between-benchmarks.md."""
+    chosen = resolve_spec("residual", benchmark)
+    version = chosen.partition(":")[2]
+    others = " and ".join(f"residual:{name}" for name in SHIPPED_POLICIES if name != version)
+    if version == benchmark:
+        why = f"it was trained in {SHIPPED_TRAINED_IN[version]}, the loop flown here"
+    else:
+        why = (f"no shipped policy was trained in Benchmark {benchmark}, and it is the newest "
+               f"(trained in {SHIPPED_TRAINED_IN[version]})")
+    return (f"Which shipped policy to use in Benchmark {benchmark}: {chosen}, which bare "
+            f"'residual' names, because {why}. {others} were trained in other loops and "
+            "fly here on their own benchmark's base gains: a lower error from one of them "
+            "on a scenario is a transfer, not a recommendation. Measured: residual:v1 in "
+            "v2's loop commanded its rotors 2-4 times as fast as its base and, under v2's "
+            "margin (more latency, slower motors), oscillated and lost a flight its base "
+            "kept; residual:v2 in v3's loop leads mostly through its base's v2 gains, which "
+            "keep none of v3's margin (docs/research/transfer-between-benchmarks.md).")
 
 
 def make_policy(spec: str, *, trust_pickle: bool = False, env_id: str | None = None,

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import csv
 import json
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -42,7 +43,13 @@ from quad_dob_training.evaluation.results import (
     write_document,
 )
 from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
-from quad_dob_training.policies import fly_policy, make_policy, resolve_spec
+from quad_dob_training.policies import (
+    SHIPPED_TRAINED_IN,
+    fly_policy,
+    make_policy,
+    resolve_spec,
+    shipped_policy_advice,
+)
 from quad_dob_training.rollout import check_flight_memory
 
 SCORES = (("rms_position_settled", "RMS ‖e_x‖ [m]"),
@@ -397,8 +404,15 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
         columns += [("rms_position_settled_diff_mean", f"Δ RMS ‖e_x‖ vs {baseline} [m]"),
                     ("rms_position_settled_diff_low", "95 % CI low"),
                     ("rms_position_settled_diff_high", "high")]
+    # a shipped residual in the comparison: say which of them this benchmark calls for
+    advice = ([shipped_policy_advice(benchmark)]
+              if any(spec.startswith("residual") and resolve_spec(spec, benchmark)
+                     in (f"residual:{name}" for name in SHIPPED_TRAINED_IN) for spec in policies)
+              else [])
     write_report(out / "report.html", f"quad-dob evaluate (figures: seed {seed_list[0]})",
-                 rows, [*columns, ("crash_rate", "crash rate")], first_flights)
+                 rows, [*columns, ("crash_rate", "crash rate")], first_flights,
+                 baseline=resolve_spec(baseline, benchmark) if baseline else None,
+                 notes=advice)
     if others:
         labels = source_labels([out / "evaluation.json", *(path for path, _ in others)])
         merged = merged_leaderboard(list(zip(labels, [document, *(d for _, d in others)],
@@ -409,10 +423,14 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
         board = leaderboard(rows, benchmark)
         (out / "leaderboard.md").write_text(board + "\n")
         print(board)
+        for paragraph in advice:
+            print("\n" + textwrap.fill(paragraph, 92, break_on_hyphens=False))
         print(f"\nwrote {out / 'leaderboard.md'}, evaluation.md, evaluation.json, "
               "evaluation.csv, evaluation.png, report.html")
         return 0
     print(markdown_table(rows))
+    for paragraph in advice:
+        print("\n" + textwrap.fill(paragraph, 92, break_on_hyphens=False))
     print(f"\nwrote {out / 'evaluation.md'}, evaluation.json, evaluation.csv, evaluation.png, "
           "report.html")
     return 0
