@@ -27,7 +27,7 @@ def open_share(sensing: str, scenario: str = "paper-none", spec: str = "residual
                benchmark: str = "v1", seeds: list[int] | None = None) -> tuple[float, float]:
     """The share of steps after 2 s with the gate open, and the mean authority."""
     seeds = seeds or list(range(9001, 9021))
-    policy = make_policy(spec)
+    policy = make_policy(spec, benchmark=benchmark)  # bare residual: the benchmark's own
     flown = make_scenario(scenario, sensing=sensing, benchmark=benchmark)
     env = make_vector_env(len(seeds), flown, **policy.env_kwargs())
     obs, _ = env.reset(seed=seeds)
@@ -48,7 +48,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--policy", default="residual", help="a residual policy spec")
     parser.add_argument("--scenario", default="paper-none", help="a calm scenario")
-    parser.add_argument("--benchmark", default="v1", choices=("v1", "v2"))
+    parser.add_argument("--benchmark", default="v1", choices=("v1", "v2", "v3"))
     parser.add_argument("--seeds", default="9001-9020", help="a count or a range")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
