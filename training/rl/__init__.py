@@ -7,6 +7,9 @@
   native vector env, with the training-only keys (``loop_randomization``).
 - ``sb3_adapter``: ``make_sb3_vec_env(env_id, n, **overrides)``, that adapter built from an
   env id, exactly as the id builds it (exported here).
+- ``loop_randomization``: ``LoopRandomization``, rl-zoo3's ``env_wrapper`` form of the
+  training-only ``loop_randomization`` (each single env draws its own loop), and
+  ``training_options``, which reads it back for ``quad-dob train``.
 - ``foreign_models``: models saved by SB3 or rl-zoo3 with no project config (the env id
   supplies it), and rl-zoo3's ``vecnormalize.pkl`` read without unpickling.
 - ``model_files``: model zips loaded without unpickling (and, for a run's own checkpoints,
