@@ -5,9 +5,11 @@ mode on the tree before the redesign (commit 666bb22): every classical controlle
 shipped residuals in Benchmarks v1, v2 and v3, and every registered id and residual option
 stepped with seeded actions. The redesign moved code and renamed things; no flight may
 change. The project's VM gave these bit for bit (same CPU, numpy, numba and torch builds);
-the test allows 1e-9 (1e-8 where a torch policy flies: its matrix products round by the
-CPU's vector width) so that another CPU's rounding cannot fail it, far below any change of
-an equation.
+the test allows 1e-9 (1e-6 where a torch policy flies: its float32 matrix products round
+by the CPU's vector width, and a chattering policy grows that rounding over a flight: on an
+AMD EPYC machine `residual:v1` in v3's loop ended 3.1e-8 m from the record, beyond the 1e-8
+first allowed) so that another CPU's rounding cannot fail it, far below any change of an
+equation.
 
 Re-record only for a change meant to move flights: ``python tests/test_recorded_flights.py``.
 """
@@ -154,7 +156,7 @@ FAST_FLIGHTS = {("v1", "dryden-helix-gusts", "geometric-ndob:tuned"),
     for case in FLIGHT_CASES])
 def test_flights_are_kept_bit_for_bit(benchmark, scenario, policy):
     recorded = _recorded()["flights"][_flight_key(benchmark, scenario, policy)]
-    tolerance = 1e-8 if policy.startswith("residual") else 1e-9
+    tolerance = 1e-6 if policy.startswith("residual") else 1e-9
     _close(fly_recorded(benchmark, scenario, policy), recorded, tolerance)
 
 
