@@ -278,3 +278,46 @@ def test_the_evaluation_says_which_shipped_policy_to_use_and_why(tmp_path, monke
         printed = capsys.readouterr().out
         assert ("Which shipped policy to use in Benchmark v2: residual:v2" in printed) is said
         assert ("<p class='note'>Which shipped policy" in report) is said
+
+
+def test_specs_naming_the_same_policy_in_the_benchmark_flown_make_one_row():
+    """``residual`` is ``residual:v1`` in v1: the two fly once and make one row (they were
+    deduplicated before bare ``residual`` was resolved, and gave two identical rows)."""
+    from quad_dob_training.evaluation.evaluate import evaluate
+
+    per_seed: dict = {}
+    rows = evaluate(["residual", "residual:v1"], ["hover-calm"], [1], baseline="residual",
+                    scenario_options={"benchmark": "v1", "duration": 0.5}, per_seed=per_seed)
+    assert [row["policy_spec"] for row in rows] == ["residual:v1"]
+    assert rows[0]["baseline"] == "residual:v1"
+    # each spec as given still finds its flights
+    assert per_seed["hover-calm", "residual"] is per_seed["hover-calm", "residual:v1"]
+
+
+def test_a_models_baseline_row_and_the_header_name_the_resolved_spec(tmp_path, monkeypatch):
+    """A model's rows are named shorter than its spec (``ppo:x``): the baseline row is found
+    by its resolved spec; the comparison header names bare ``residual`` as flown."""
+    from quad_dob_training.evaluation import evaluate as evaluation
+
+    def rows(policies, scenarios, seeds, flights, baseline, **_):
+        return [{"scenario": "hover-calm", "policy": "ppo:x",
+                 "policy_spec": "ppo:runs/x/model.zip", "seeds": "1", "crashes": 0,
+                 "rms_position_settled_diff_mean": 0.0, "rms_position_settled_diff_low": 0.0,
+                 "rms_position_settled_diff_high": 0.0}]
+
+    monkeypatch.setattr(evaluation, "evaluate", rows)
+    monkeypatch.setattr(evaluation, "write_tables", lambda *_: None)
+    monkeypatch.setattr(evaluation, "results_document", lambda *_: {})
+    monkeypatch.setattr(evaluation, "write_document", lambda *_: None)
+    monkeypatch.setattr(evaluation, "markdown_table", lambda _: "")
+    evaluation.main(["ppo:runs/x/model.zip"], ["hover-calm"], "1", tmp_path, False,
+                    baseline="ppo:runs/x/model.zip", scenario_options={"benchmark": "v3"})
+    report = (tmp_path / "report.html").read_text()
+    assert report.count("<td>baseline</td>") == 3
+    evaluation.main(["pid"], ["hover-calm"], "1", tmp_path, False, baseline="residual",
+                    scenario_options={"benchmark": "v3"})
+    assert "Δ RMS ‖e_x‖ vs residual:v3 [m]" in (tmp_path / "report.html").read_text()
+    # the leaderboard's and markdown's baseline row: compared with nothing
+    row = {**rows(0, 0, 0, 0, 0)[0], "rms_position_settled_mean": 0.1, "distinct_flights": 2,
+           "flights": 2}
+    assert evaluation._difference_cell(row, "ppo:runs/x/model.zip") == "—"

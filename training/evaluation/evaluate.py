@@ -143,7 +143,9 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
     ``delay_path`` (None: where the scenario's benchmark puts its margin's). ``env_id``: the
     id every model zip without a training config beside it was trained on (``--env``).
     Bare ``residual`` flies the shipped policy of each scenario's benchmark
-    (``policies.resolve_spec``), and its rows name the one it flew."""
+    (``policies.resolve_spec``), and its rows name the one it flew; specs that resolve to
+    the same policy in a scenario (``residual`` and ``residual:v1`` in v1) fly once and make
+    one row there."""
     specs = list(dict.fromkeys(policies))
     flown = specs if baseline is None or baseline in specs else [*specs, baseline]
     made = {name: make_scenario(name, **(scenario_options or {})) for name in scenarios}
@@ -158,24 +160,29 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
                                                  env_id=env_id)
     rows = []
     for scenario_name, scenario in made.items():
-        built = [built_as[resolve_spec(spec, scenario.benchmark)] for spec in flown]
+        # each spec as this scenario's benchmark resolves it: two specs naming the same
+        # policy here (``residual`` and ``residual:v1`` in v1) fly once and make one row
+        resolved_of = {spec: resolve_spec(spec, scenario.benchmark) for spec in flown}
+        listed = list(dict.fromkeys(resolved_of[spec] for spec in specs))
         metrics, distinct, flights_of = {}, {}, {}
-        for spec, policy in zip(flown, built, strict=True):
-            flights = flights_of[spec] = fly_policy(policy, scenario, seeds)
-            if first_flights is not None and spec in specs:
+        for resolved in dict.fromkeys(resolved_of.values()):
+            flights = flights_of[resolved] = fly_policy(built_as[resolved], scenario, seeds)
+            if first_flights is not None and resolved in listed:
                 first_flights.setdefault(scenario_name, []).append(flights[0])
-            metrics[spec] = [flight_metrics(f) for f in flights]
-            distinct[spec] = distinct_flights(flights)
-            if per_seed is not None:
-                per_seed[scenario_name, spec] = metrics[spec]
-        reference = None if baseline is None else metrics[baseline]
-        compared_with = None if baseline is None else resolve_spec(baseline, scenario.benchmark)
-        for spec, policy in zip(specs, built, strict=False):
+            metrics[resolved] = [flight_metrics(f) for f in flights]
+            distinct[resolved] = distinct_flights(flights)
+        if per_seed is not None:
+            for spec in flown:
+                per_seed[scenario_name, spec] = metrics[resolved_of[spec]]
+        compared_with = None if baseline is None else resolved_of[baseline]
+        reference = None if compared_with is None else metrics[compared_with]
+        for spec in listed:
+            policy = built_as[spec]
             row = _row(scenario_name, policy.name, seeds, metrics[spec], compared_with,
                        reference)
             row["distinct_flights"] = distinct[spec]
             row["gains"] = _gains_used(policy, scenario)
-            row.update(policy_spec=resolve_spec(spec, scenario.benchmark),
+            row.update(policy_spec=spec,
                        policy_fingerprint=policy.fingerprint or "",
                        benchmark=scenario.benchmark,
                        vehicle=scenario.vehicle.name,
@@ -331,10 +338,9 @@ def leaderboard(rows: list[dict], benchmark: str = TOOLS_BENCHMARK) -> str:
         lines += ["", f"| policy | better than {baseline} | worse | not significant | "
                       "flights lost (its own / the baseline's) |", "|---|---|---|---|---|"]
         lost_by_base = {row["scenario"]: row["crashes"] for row in rows
-                        if row["policy"] == baseline}
-        for policy in dict.fromkeys(row["policy"] for row in rows):
-            if policy == baseline:
-                continue
+                        if is_baseline_row(row, baseline)}
+        for policy in dict.fromkeys(row["policy"] for row in rows
+                                    if not is_baseline_row(row, baseline)):
             mine = [row for row in rows if row["policy"] == policy]
             better = [r["scenario"] for r in mine if r["rms_position_settled_diff_high"] < 0]
             worse = [r["scenario"] for r in mine if r["rms_position_settled_diff_low"] > 0]
@@ -346,8 +352,15 @@ def leaderboard(rows: list[dict], benchmark: str = TOOLS_BENCHMARK) -> str:
     return "\n".join(lines)
 
 
+def is_baseline_row(row: dict, baseline: str | None) -> bool:
+    """Whether ``row`` is the baseline's own: its resolved spec (``policy_spec``; a row
+    without one, its name) is ``baseline``, the resolved spec compared with. A model's rows
+    are named shorter than its spec (``ppo:x`` for ``ppo:runs/x/model.zip``)."""
+    return baseline is not None and row.get("policy_spec", row.get("policy")) == baseline
+
+
 def _difference_cell(row: dict, baseline: str) -> str:
-    if row["policy"] == baseline or "rms_position_settled_diff_mean" not in row:
+    if is_baseline_row(row, baseline) or "rms_position_settled_diff_mean" not in row:
         return "—"
     key = "rms_position_settled"
     base_mean = row[f"{key}_mean"] - row[f"{key}_diff_mean"]
@@ -400,8 +413,9 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
     columns = [("scenario", "scenario"), ("policy", "policy"), ("seeds", "seeds")]
     for key, label in SCORES:
         columns += [(f"{key}_mean", f"{label} mean"), (f"{key}_std", "± std")]
-    if baseline:
-        columns += [("rms_position_settled_diff_mean", f"Δ RMS ‖e_x‖ vs {baseline} [m]"),
+    compared_with = resolve_spec(baseline, benchmark) if baseline else None
+    if compared_with:
+        columns += [("rms_position_settled_diff_mean", f"Δ RMS ‖e_x‖ vs {compared_with} [m]"),
                     ("rms_position_settled_diff_low", "95 % CI low"),
                     ("rms_position_settled_diff_high", "high")]
     # a shipped residual in the comparison: say which of them this benchmark calls for
@@ -411,7 +425,7 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
               else [])
     write_report(out / "report.html", f"quad-dob evaluate (figures: seed {seed_list[0]})",
                  rows, [*columns, ("crash_rate", "crash rate")], first_flights,
-                 baseline=resolve_spec(baseline, benchmark) if baseline else None,
+                 baseline=compared_with,
                  notes=advice)
     if others:
         labels = source_labels([out / "evaluation.json", *(path for path, _ in others)])

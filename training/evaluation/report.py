@@ -38,7 +38,9 @@ def _table(rows: Sequence[dict], columns: Sequence[tuple[str, str]],
     body = []
     for row in rows:
         cells = []
-        is_baseline = baseline is not None and row.get("policy") == baseline
+        # the baseline is its resolved spec; a model's row is named shorter than its spec
+        is_baseline = (baseline is not None
+                       and row.get("policy_spec", row.get("policy")) == baseline)
         for key, _ in columns:
             value = row.get(key)
             if is_baseline and _COMPARISON_MARK in key:
@@ -119,8 +121,9 @@ def write_report(path: Path, title: str, rows: Sequence[dict],
                  flights_by_scenario: dict[str, Sequence[Flight]], *,
                  baseline: str | None = None, notes: Sequence[str] = ()) -> Path:
     """Write the report; ``flights_by_scenario`` holds one flight per controller/policy.
-    ``baseline``: the policy the comparison columns are against (its row says so instead
-    of a change of zero); ``notes``: paragraphs of plain text shown under the title."""
+    ``baseline``: the resolved spec of the policy the comparison columns are against
+    (``policies.resolve_spec``; its row, the one whose ``policy_spec`` it is, says so
+    instead of a change of zero); ``notes``: paragraphs of plain text shown under the title."""
     parts = [f"<h1>{html.escape(title)}</h1>",
              *(f"<p class='note'>{html.escape(note)}</p>" for note in notes),
              _table(rows, columns, baseline)]
