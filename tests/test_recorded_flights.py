@@ -12,6 +12,9 @@ first allowed) so that another CPU's rounding cannot fail it, far below any chan
 equation.
 
 Re-record only for a change meant to move flights: ``python tests/test_recorded_flights.py``.
+One such change so far (issue 43): ``residual:v2`` flown in v1 and v3 flew v2's loop, its
+training config's benchmark rebuilding the scenario; its eight flights there were recorded
+again after the fix (their final states moved by 3-105 mm), every other entry is as before.
 """
 
 from __future__ import annotations

@@ -121,11 +121,16 @@ class Policy:
         return actions
 
     def env_kwargs(self) -> dict[str, Any]:
-        """The env options the model was trained with (its spaces depend on them)."""
+        """The env options the model was trained with (its spaces depend on them), less
+        what chooses the flight: the scenario, its options and the benchmark are the
+        evaluation's. A model's ``benchmark`` passed on would rebuild the scenario in the
+        loop it was trained in, so ``residual:v2`` asked to fly v3 flew v2's loop under a
+        v3 label; its base keeps the gains of its training benchmark (``base_benchmark``)."""
         if self.config is None:
             return {"base_controller": self.base}
         options = config_env_options(self.config)
-        options.pop("scenario", None)
+        for flight_choice in ("scenario", "scenario_options", "benchmark"):
+            options.pop(flight_choice, None)
         options["base_controller"] = self.base
         if self.base is not None and self.base_benchmark is not None:
             options["base_benchmark"] = self.base_benchmark
