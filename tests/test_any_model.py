@@ -321,3 +321,89 @@ def test_a_models_baseline_row_and_the_header_name_the_resolved_spec(tmp_path, m
     row = {**rows(0, 0, 0, 0, 0)[0], "rms_position_settled_mean": 0.1, "distinct_flights": 2,
            "flights": 2}
     assert evaluation._difference_cell(row, "ppo:runs/x/model.zip") == "—"
+
+
+# --- vecnormalize.pkl: what the restricted unpickler admits stays inert -----------------------
+
+def test_a_save_that_does_not_normalise_observations_flies_raw_observations(tmp_path):
+    """rl-zoo3's ``normalize: dict(norm_obs=False, norm_reward=True)``: SB3 saves no obs_rms;
+    it was refused as "not a VecNormalize save" even with --trust-pickle."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    env = VecNormalize(make_sb3_vec_env(RESIDUAL_ID, 2, seed=0, scenario_options=SHORT),
+                       norm_obs=False, norm_reward=True)
+    env.reset()
+    env.save(str(tmp_path / "vecnormalize.pkl"))
+    assert read_vecnormalize(tmp_path / "vecnormalize.pkl") is None
+    assert read_vecnormalize(tmp_path / "vecnormalize.pkl", trust_pickle=True) is None
+
+
+def _crafted(tmp_path, state):
+    """A VecNormalize 'save' whose state is ``state``, pickled with admitted names only
+    (the opcodes of ``VecNormalize.__new__`` then ``__setstate__(state)``)."""
+    body = pickle.dumps(state, protocol=3)[2:-1]  # less its PROTO and STOP
+    path = tmp_path / "vecnormalize.pkl"
+    path.write_bytes(b"\x80\x03cstable_baselines3.common.vec_env.vec_normalize\nVecNormalize\n"
+                     b")\x81" + body + b"b.")
+    return path
+
+
+@pytest.mark.parametrize("state, named", [
+    ({"norm_obs": [1, 2]}, "its norm_obs is a list, not true or false"),
+    ({"norm_obs": True}, "norm_obs is true and there is no obs_rms"),
+    ({"obs_rms": 3}, "its obs_rms holds no mean and var"),
+    ({"obs_rms": {"mean": np.zeros(2), "var": np.ones(2)}, "epsilon": [1e-8]},
+     "its epsilon is a list, not a number"),
+    ({"obs_rms": {"mean": np.zeros(2), "var": np.ones(2)}, "clip_obs": "ten"},
+     "its clip_obs is a str, not a number"),
+])
+def test_a_crafted_state_is_refused_naming_what_is_wrong(tmp_path, state, named):
+    from stable_baselines3.common.running_mean_std import RunningMeanStd
+
+    if isinstance(state.get("obs_rms"), dict):
+        rms = RunningMeanStd(shape=(2,))
+        state = {**state, "obs_rms": rms}
+    with pytest.raises(ValueError, match=named):
+        read_vecnormalize(_crafted(tmp_path, state))
+
+
+def test_admitted_names_given_arguments_build_nothing_that_runs(tmp_path):
+    """Payloads made of admitted names only: a REDUCE on a numpy.random name with arguments
+    is an inert record (the generator is not made); OrderedDict given arguments is a plain
+    dict; ``_reconstruct`` with a subtype that is not an ndarray is refused. Each file is
+    refused, naming why, and none runs a thing."""
+    from quad_dob_training.rl.foreign_models import ADMITTED, _Record, _RestrictedUnpickler
+
+    def restricted(raw):
+        import io
+
+        return _RestrictedUnpickler(io.BytesIO(raw), tmp_path / "x.pkl").load()
+
+    path = tmp_path / "vecnormalize.pkl"
+    # numpy.random.default_rng(5): pickle itself makes a Generator, the restricted one a record
+    generator = b"\x80\x02cnumpy.random\ndefault_rng\nK\x05\x85R."
+    assert type(pickle.loads(generator)).__name__ == "Generator"
+    made = restricted(generator)
+    assert isinstance(made, _Record) and made.args == (5,) and made.state is None
+    path.write_bytes(generator)
+    with pytest.raises(ValueError, match="not a VecNormalize save"):
+        read_vecnormalize(path)
+    # collections.OrderedDict([("norm_obs", True)]): a plain dict, and no save
+    ordered = pickle.dumps(__import__("collections").OrderedDict([("norm_obs", True)]),
+                           protocol=2)
+    assert type(restricted(ordered)) is dict
+    path.write_bytes(ordered)
+    with pytest.raises(ValueError, match="not a VecNormalize save"):
+        read_vecnormalize(path)
+    # numpy's _reconstruct(VecNormalize, (0,), b"b"): the record is no ndarray subtype
+    module = np.ndarray.__reduce__(np.zeros(1))[0].__module__  # where this numpy keeps it
+    subtype = (f"\x80\x02c{module}\n_reconstruct\ncstable_baselines3.common.vec_env."
+               "vec_normalize\nVecNormalize\nK\x00\x85C\x01b\x87R.").encode("latin-1")
+    path.write_bytes(subtype)
+    with pytest.raises(ValueError, match="not a readable VecNormalize save"):
+        read_vecnormalize(path)
+    # the refusal lists what is admitted, as ADMITTED says
+    path.write_bytes(b"\x80\x02cbuiltins\neval\nX\x04\x00\x00\x001+1q\x00\x85R.")
+    with pytest.raises(ValueError, match=r"names builtins\.eval") as refused:
+        read_vecnormalize(path)
+    assert ", ".join(ADMITTED) in str(refused.value)

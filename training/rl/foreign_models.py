@@ -12,10 +12,12 @@ would have written beside it is rebuilt here (``config_for_id``):
   not unpickled), which must be the one the spec names;
 - the policy name is rl-zoo3's ``policy``, else the algorithm's alias for that class;
 - the observation statistics come from rl-zoo3's ``vecnormalize.pkl`` (``read_vecnormalize``):
-  read by a restricted unpickler that builds numpy arrays and dtypes only, every other class
-  it admits (SB3's ``VecNormalize`` and ``RunningMeanStd``, Gymnasium's ``Box``, numpy's
-  random generators) being an inert record of its state, and any other refused, naming it;
-  ``trust_pickle`` unpickles it as SB3 does. A run whose config says it normalised
+  read by a restricted unpickler that builds numpy arrays, dtypes and scalars only, every
+  other name it admits (SB3's ``VecNormalize`` and ``RunningMeanStd``, Gymnasium's ``Box``,
+  ``collections.OrderedDict`` as a plain dict, and numpy.random's generator state) being an
+  inert record of its state, and any other refused, naming it (``ADMITTED``);
+  ``trust_pickle`` unpickles it as SB3 does. A save with ``norm_obs`` false holds no
+  statistics: the model flies raw observations. A run whose config says it normalised
   observations and whose file is missing is refused, naming the file expected.
 
 An rl-zoo3 run folder (``logs/ppo/QuadDOB-HoverResidual-v3_1``) holds the model as
@@ -184,19 +186,19 @@ class _RestrictedUnpickler(pickle.Unpickler):
         if module == _RANDOM or module.startswith(_RANDOM + "."):
             return _Record
         raise ValueError(f"{str(self.path)!r} names {module}.{name}, which reading "
-                         "observation statistics does not admit (it admits numpy arrays and "
-                         "generators, SB3's VecNormalize and RunningMeanStd, Gymnasium's "
-                         "Box): a "
-                         "vecnormalize.pkl holds nothing else; only if you made the file or "
-                         "trust where it came from, load it with --trust-pickle "
-                         "(trust_pickle=True), which unpickles it")
+                         "observation statistics does not admit (it admits only "
+                         + ", ".join(ADMITTED) + "): a vecnormalize.pkl holds nothing else; "
+                         "only if you made the file or trust where it came from, load it "
+                         "with --trust-pickle (trust_pickle=True), which unpickles it")
 
 
 def read_vecnormalize(path: Path, trust_pickle: bool = False) -> dict[str, Any] | None:
     """The observation statistics of an SB3 ``VecNormalize`` save as the training config's
     ``observation_normalization`` (mean, var, epsilon, clip), None where it did not
-    normalise observations. Read by the restricted unpickler (``ADMITTED``), or, with
-    ``trust_pickle``, by ``pickle`` itself."""
+    normalise observations (``norm_obs`` false: SB3 then saves no ``obs_rms``, and the
+    model flies raw observations). Read by the restricted unpickler (``ADMITTED``), or,
+    with ``trust_pickle``, by ``pickle`` itself. A file that is not such a save is a
+    ValueError naming what is wrong with it."""
     path = Path(path)
     raw = path.read_bytes()
     try:
@@ -213,23 +215,42 @@ def read_vecnormalize(path: Path, trust_pickle: bool = False) -> dict[str, Any] 
     except Exception as error:  # truncated, not a pickle, another layout
         raise ValueError(f"{str(path)!r} is not a readable VecNormalize save "
                          f"({type(error).__name__}: {error})") from error
-    if not isinstance(state, dict) or "obs_rms" not in state:
-        raise ValueError(f"{str(path)!r} is not a VecNormalize save (no obs_rms in it)")
-    if not state.get("norm_obs", True):
+    if not isinstance(state, dict):
+        raise ValueError(f"{str(path)!r} is not a VecNormalize save (it holds "
+                         f"{type(saved).__name__ if trust_pickle else 'no VecNormalize'}, "
+                         "not a VecNormalize's state)")
+    norm_obs = state.get("norm_obs", True)
+    if not isinstance(norm_obs, (bool, np.bool_)):
+        raise ValueError(f"{str(path)!r} is not a VecNormalize save: its norm_obs is a "
+                         f"{type(norm_obs).__name__}, not true or false")
+    if not norm_obs:
         return None
-    rms = state["obs_rms"]
-    rms_state = rms.state if isinstance(rms, _Record) else vars(rms)
-    if isinstance(rms_state, tuple):
-        rms_state = rms_state[0]
+    if "obs_rms" not in state:
+        raise ValueError(f"{str(path)!r} is not a VecNormalize save (norm_obs is true and "
+                         "there is no obs_rms in it)")
     try:
+        rms = state["obs_rms"]
+        rms_state = rms.state if isinstance(rms, _Record) else vars(rms)
+        if isinstance(rms_state, tuple):
+            rms_state = rms_state[0]
         mean = np.asarray(rms_state["mean"], dtype=float)
         var = np.asarray(rms_state["var"], dtype=float)
     except (KeyError, TypeError, ValueError) as error:
         raise ValueError(f"{str(path)!r}: its obs_rms holds no mean and var arrays "
                          "(a Dict observation space's statistics are not read)") from error
-    return {"mean": mean.tolist(), "var": var.tolist(),
-            "epsilon": float(state.get("epsilon", 1e-8)),
-            "clip": float(state.get("clip_obs", 10.0))}
+    if mean.shape != var.shape:
+        raise ValueError(f"{str(path)!r}: its obs_rms mean and var are of shapes "
+                         f"{mean.shape} and {var.shape}, not one shape")
+    numbers = {}
+    for key, default in (("epsilon", 1e-8), ("clip_obs", 10.0)):
+        value = state.get(key, default)
+        try:
+            numbers[key] = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{str(path)!r}: its {key} is a {type(value).__name__}, not a "
+                             "number") from None
+    return {"mean": mean.tolist(), "var": var.tolist(), "epsilon": numbers["epsilon"],
+            "clip": numbers["clip_obs"]}
 
 
 # --- the config rebuilt from the id ------------------------------------------------------------
