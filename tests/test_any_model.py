@@ -407,3 +407,59 @@ def test_admitted_names_given_arguments_build_nothing_that_runs(tmp_path):
     with pytest.raises(ValueError, match=r"names builtins\.eval") as refused:
         read_vecnormalize(path)
     assert ", ".join(ADMITTED) in str(refused.value)
+
+
+# --- which config, and which id ---------------------------------------------------------------
+
+def _beside(tmp_path, sb3_zip, config):
+    folder = tmp_path / "run"
+    folder.mkdir()
+    (folder / "model.zip").write_bytes(sb3_zip.read_bytes())
+    (folder / "config.yaml").write_text(yaml.safe_dump(config))
+    return folder
+
+
+FLY = ["--scenarios", "hover-calm", "--seeds", "1", "--json", "--baseline", "",
+       "--scenario-option", "duration=0.5"]
+
+
+def test_another_tools_config_yaml_does_not_override_env(sb3_zip, tmp_path, capsys):
+    """A Hydra config.yaml beside the zip is no training config: --env says what the model
+    fits (it overrode --env, and the error advised --trust-pickle)."""
+    folder = _beside(tmp_path, sb3_zip, {"defaults": ["_self_"], "trainer": {"lr": 3e-4}})
+    assert main(["evaluate", "--policies", f"ppo:{folder}", "--env", RESIDUAL_ID, *FLY]) == 0
+    assert json.loads(capsys.readouterr().out)[0]["env_id"] == RESIDUAL_ID
+
+
+def test_a_training_config_naming_another_id_than_env_is_refused_naming_both(
+        sb3_zip, tmp_path, capsys):
+    folder = _beside(tmp_path, sb3_zip, {"algo": "ppo", "env_id": DIRECT_ID})
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", f"ppo:{folder}", "--env", RESIDUAL_ID, *FLY])
+    error = capsys.readouterr().err
+    assert f"names env_id {DIRECT_ID}, but --env is {RESIDUAL_ID}" in error
+    assert "--trust-pickle" not in error
+    # the model's own NAME.yaml is its config, whatever config.yaml says
+    (folder / "model.yaml").write_text(yaml.safe_dump({"algo": "ppo", "env_id": RESIDUAL_ID}))
+    assert main(["evaluate", "--policies", f"ppo:{folder}", "--env", RESIDUAL_ID, *FLY]) == 0
+
+
+def test_a_config_of_another_algorithm_is_named_without_advising_trust_pickle(
+        sb3_zip, tmp_path, capsys):
+    folder = _beside(tmp_path, sb3_zip, {"algo": "sac", "env_id": RESIDUAL_ID})
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", f"sac:{folder}", *FLY])
+    error = capsys.readouterr().err
+    assert "holds a PPO policy" in error and "names algorithm sac" in error
+    assert "--trust-pickle" not in error
+
+
+def test_a_zoo_run_without_env_flies_the_id_its_args_name(sb3_zip, tmp_path, capsys):
+    """rl-zoo3's args.yml says what the run was trained on (it was refused: "no training
+    config beside"); its best_model.zip is found beside the same files."""
+    run = _zoo_run(tmp_path, sb3_zip, False)
+    assert main(["evaluate", "--policies", f"ppo:{run}", *FLY]) == 0
+    assert json.loads(capsys.readouterr().out)[0]["env_id"] == RESIDUAL_ID
+    (run / "best_model.zip").write_bytes(sb3_zip.read_bytes())
+    assert main(["evaluate", "--policies", f"ppo:{run / 'best_model.zip'}", *FLY]) == 0
+    assert json.loads(capsys.readouterr().out)[0]["env_id"] == RESIDUAL_ID

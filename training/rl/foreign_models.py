@@ -22,7 +22,9 @@ would have written beside it is rebuilt here (``config_for_id``):
 
 An rl-zoo3 run folder (``logs/ppo/QuadDOB-HoverResidual-v3_1``) holds the model as
 ``<ENV>.zip`` and its files in ``<ENV>/`` (``config.yml``, ``args.yml``,
-``vecnormalize.pkl``), ``<ENV>`` the id with ``/`` and ``:`` as ``-``. Its YAML files are
+``vecnormalize.pkl``), ``<ENV>`` the id with ``/`` and ``:`` as ``-``. Its ``args.yml``
+names the id it was trained on, which stands for ``--env`` when none is given
+(``zoo_env_id``); a ``--env`` naming another id is refused, naming both. Its YAML files are
 read with YAML's safe loader, taught only rl-zoo3's ``OrderedDict`` tag.
 """
 
@@ -79,6 +81,20 @@ def zoo_files(path: Path, env_id: str | None) -> Path | None:
         if (folder / "config.yml").is_file() or (folder / "args.yml").is_file():
             return folder
     return None
+
+
+def zoo_env_id(path: Path) -> str | None:
+    """The env id an rl-zoo3 run's ``args.yml`` says model ``path`` was trained on (its
+    ``env``): in ``<stem>/`` beside the zip, else the one folder beside it holding an
+    ``args.yml`` (rl-zoo3's ``best_model.zip`` sits beside ``<ENV>/``); None for a zip saved
+    otherwise, or where several such folders are beside it."""
+    path = Path(path)
+    own = path.parent / path.stem / "args.yml"
+    found = [own] if own.is_file() else sorted(path.parent.glob("*/args.yml"))
+    if len(found) != 1:
+        return None
+    named = read_zoo_yaml(found[0]).get("env")
+    return None if named is None else str(named)
 
 
 class _ZooLoader(yaml.SafeLoader):

@@ -82,8 +82,11 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
 
     A zip with no config beside it (saved by SB3 or rl-zoo3) takes ``env_id``, the id it
     was trained on, which supplies what the config would (``foreign_models.config_for_id``;
-    ``kind`` is the spec's ``ppo`` / ``sac`` / ``td3`` / ``residual``); without one it is
-    refused, naming ``--env``.
+    ``kind`` is the spec's ``ppo`` / ``sac`` / ``td3`` / ``residual``); an rl-zoo3 run's
+    is the id its ``args.yml`` names where ``env_id`` is not given
+    (``foreign_models.zoo_env_id``); without one it is refused, naming ``--env``. With
+    ``env_id``, a ``config.yaml`` beside the zip that is no training config (another tool's)
+    is ignored, and one naming another id is refused naming both (``_config_path``).
 
     Nothing in the zip is unpickled (see the module docstring): its pickled entries are
     rebuilt from the config and the env it describes, and a zip with one that cannot be is
@@ -91,14 +94,17 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
     whatever its pickles hold. ``expected_sha256`` (the zip) and ``expected_config_sha256``
     (the config) are checked on the bytes that are then loaded, before either is parsed.
     """
-    from quad_dob_training.rl.foreign_models import config_for_id, model_in_folder
+    from quad_dob_training.rl.foreign_models import config_for_id, model_in_folder, zoo_env_id
 
     path = Path(path)
     if path.is_dir():
         path = model_in_folder(path)
     if not path.is_file():
         raise ValueError(f"policy file {str(path)!r} does not exist")
-    config_path = _config_path(path, needed=env_id is None)
+    if env_id is None and not path.with_name(path.stem + ".yaml").is_file() \
+            and not (path.parent / "config.yaml").is_file():
+        env_id = zoo_env_id(path)  # an rl-zoo3 run says what it was trained on
+    config_path = _config_path(path, env_id)
     raw = _read(path, "policy file")
     _check_sha256(path, raw, expected_sha256, "policy file")
     if config_path is None:  # saved by SB3 or rl-zoo3: the id says what the config would
@@ -223,15 +229,42 @@ def _no_schedule(_: float) -> float:
     return 0.0
 
 
-def _config_path(path: Path, needed: bool = True) -> Path | None:
-    """The training config beside ``path``; None where there is none and none is
-    ``needed`` (an env id stands in for it)."""
+# the keys that make a config.yaml a training config (``quad-dob train`` writes both; a
+# hand-written one names at least one), not another tool's (a Hydra config)
+TRAINING_CONFIG_KEYS = ("algo", "env_id")
+
+
+def _config_path(path: Path, env_id: str | None = None) -> Path | None:
+    """The training config beside ``path``: ``NAME.yaml`` beside ``NAME.zip``, else the
+    folder's ``config.yaml``. With ``env_id`` (``--env``), None where there is none, and a
+    ``config.yaml`` that is no training config (none of ``TRAINING_CONFIG_KEYS``: another
+    tool's) is ignored; one that is must name ``env_id``, else it is refused naming both.
+    Without ``env_id``, a model with none is refused, naming ``--env``."""
     config_path = path.with_name(path.stem + ".yaml")
-    if not config_path.is_file():
-        config_path = path.parent / "config.yaml"
-    if not config_path.is_file():
-        if not needed:
+    if config_path.is_file():
+        return config_path
+    config_path = path.parent / "config.yaml"
+    if env_id is not None:
+        if not config_path.is_file():
             return None
+        try:
+            document = yaml.safe_load(config_path.read_text())
+        except (yaml.YAMLError, UnicodeDecodeError):
+            return config_path  # named as invalid where it is read
+        if not isinstance(document, dict) or not any(key in document
+                                                     for key in TRAINING_CONFIG_KEYS):
+            return None  # another tool's config.yaml: --env says what the model fits
+        named = document.get("env_id")
+        if named != env_id:
+            trained_on = (f"env_id {named}" if named is not None else
+                          "no env_id (its mode and env_kwargs describe the env)")
+            raise ValueError(f"the training config {str(config_path)!r} beside "
+                             f"{str(path)!r} names {trained_on}, but --env is {env_id}: "
+                             "drop --env to fly the env its config describes, or give the "
+                             f"model its own {path.stem}.yaml naming env_id {env_id} "
+                             "(docs/training-config.md)")
+        return config_path
+    if not config_path.is_file():
         raise ValueError(f"no training config beside {str(path)!r} (looked for "
                          f"{path.stem}.yaml and config.yaml): cannot tell which env it fits; "
                          "for a model saved by stable-baselines3 or rl-zoo3, give the env id "
@@ -353,6 +386,15 @@ def _policy_class(algorithm: Any, config: dict, data: dict, path: Path,
     recorded = data.get("policy_class")
     module = recorded.get("__module__") if isinstance(recorded, dict) else None
     if module is not None and module != policy_class.__module__:
+        from quad_dob_training.rl.foreign_models import POLICY_MODULES
+
+        if module in POLICY_MODULES:  # another algorithm's: the config is not this zip's
+            raise ValueError(f"model file {str(path)!r} holds a {POLICY_MODULES[module].upper()} "
+                             f"policy ({module}), but {source} names algorithm "
+                             f"{config.get('algo', 'ppo')} ({algorithm.__name__}'s {name}): "
+                             "the config is not this model's; put the model beside its own "
+                             "config, or give it a NAME.yaml naming its algo and env_id "
+                             "(docs/training-config.md)")
         raise ValueError(f"model file {str(path)!r} holds a policy class from {module!r}, "
                          f"not {algorithm.__name__}'s {name} ({policy_class.__module__}) that "
                          f"{source} names: it cannot be rebuilt without unpickling; "
