@@ -110,7 +110,8 @@ def main() -> None:
     seeds = parse_seeds(args.seeds)
     margin = MARGINS[args.benchmark]
     specs = args.policies.split(",")
-    policies = [make_policy(spec) for spec in specs]
+    # bare residual: the shipped policy of the benchmark flown
+    policies = [make_policy(spec, benchmark=args.benchmark) for spec in specs]
     amplitudes = [float(a) for a in args.dither.split(",") if a]
     if amplitudes:
         residuals = [p for p in policies if p.model is not None and p.base is not None]

@@ -68,7 +68,7 @@ def main() -> None:
                       if args.suite else args.scenarios.split(","))
     residual_specs = args.residuals.split(",")
     before = [args.before] if args.before else []
-    base_spec = make_policy(residual_specs[0]).base
+    base_spec = make_policy(residual_specs[0], benchmark=str(options["benchmark"])).base
     report = {}
     print("| scenario | strongest baseline (mm) | residual (mm), mean of seeds [min, max] | "
           "change vs strongest, mean [min, max] | seeds whose paired 95 % CI < 0 "

@@ -45,7 +45,9 @@ def main() -> None:
     seeds = parse_seeds(args.seeds)
     names = (args.scenarios.split(",") if args.scenarios else
              [name for family in SUITES[args.benchmark].values() for name in family])
-    residuals = [make_policy(spec) for spec in args.residuals.split(",")]
+    # bare residual: the shipped policy of the benchmark flown
+    residuals = [make_policy(spec, benchmark=args.benchmark)
+                 for spec in args.residuals.split(",")]
     # the base alone, as the residual loads it: the same env, the residual held at zero
     bases = [dataclasses.replace(policy, model=None,
                                  name=f"{policy.base} at {policy.base_benchmark} gains")
