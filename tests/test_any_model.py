@@ -463,3 +463,12 @@ def test_a_zoo_run_without_env_flies_the_id_its_args_name(sb3_zip, tmp_path, cap
     (run / "best_model.zip").write_bytes(sb3_zip.read_bytes())
     assert main(["evaluate", "--policies", f"ppo:{run / 'best_model.zip'}", *FLY]) == 0
     assert json.loads(capsys.readouterr().out)[0]["env_id"] == RESIDUAL_ID
+
+
+def test_a_scenario_option_benchmark_disagreeing_with_env_is_named_as_given(sb3_zip, capsys):
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--policies", f"ppo:{sb3_zip}", "--env", RESIDUAL_ID,
+              "--scenario-option", "benchmark=v3", "--seeds", "1"])
+    error = capsys.readouterr().err
+    assert (f"--scenario-option benchmark=v3 disagrees with --env {RESIDUAL_ID}, whose "
+            "benchmark is v2: leave that option out") in error

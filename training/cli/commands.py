@@ -84,9 +84,13 @@ def _evaluate(args: argparse.Namespace) -> int:
 
         flies, given = id_benchmark(args.env), options.get("benchmark", args.benchmark)
         if given is not None and given != flies:
-            raise ValueError(f"--benchmark {given} disagrees with --env {args.env}, whose "
-                             f"benchmark is {flies}: leave --benchmark out (the id supplies "
-                             f"it) or give the {given} id the model was trained on")
+            # name the option the value came from (the two agree where both are given)
+            said, option = ((f"--benchmark {given}", "--benchmark")
+                            if args.benchmark is not None else
+                            (f"--scenario-option benchmark={given}", "that option"))
+            raise ValueError(f"{said} disagrees with --env {args.env}, whose benchmark is "
+                             f"{flies}: leave {option} out (the id supplies it) or give the "
+                             f"{given} id the model was trained on")
         options.setdefault("benchmark", flies)
     options.setdefault("benchmark", args.benchmark or TOOLS_BENCHMARK)
     return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
@@ -255,7 +259,10 @@ def build_parser() -> argparse.ArgumentParser:
                           "it (saved by stable-baselines3's model.save or by rl-zoo3) was "
                           "trained on: it supplies the base controller, the residual options "
                           "and the benchmark (a --benchmark must agree); --scenarios chooses "
-                          "what is flown (default: none; such a zip is refused)")
+                          "what is flown. An rl-zoo3 run's args.yml names its own id, used "
+                          "when --env is left out. Left out, a zip with neither a training "
+                          "config nor an rl-zoo3 run's files beside it is refused (default: "
+                          "not given)")
     evaluate.add_argument("--scenarios", default="dryden-helix-gusts",
                           help="comma-separated scenario names (default: %(default)s)")
     evaluate.add_argument("--seeds", default="9001-9020",
@@ -304,7 +311,7 @@ def build_parser() -> argparse.ArgumentParser:
     board.set_defaults(handler=_leaderboard)
     tune = commands.add_parser(
         "tune", help="choose the baselines' gains and the observer rates on tuning seeds "
-        "(100-109), by the procedure in training/tune.py")
+        "(100-109), by the procedure in training/tuning/tune.py")
     tune.add_argument("--controllers", default=None,
                       help="comma-separated: pid, smc, geometric-integral, indi, l1, "
                       "geometric-ndob:tuned (the geometric gains; in v2 with the observer's "
