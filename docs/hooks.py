@@ -157,8 +157,9 @@ def env_page(env_id: str) -> str:
     if version == "v3":
         lines += [f"- v3 (2026-12-04): the scenario of `{other}` in Benchmark v3's loop (the "
                   "real vehicle's lag and thrust path, every value sourced: "
-                  "[Benchmark v3](../benchmark-v3.md)); until v3's own search has run, its "
-                  "controllers fly the gains tuned for v2. "
+                  "[Benchmark v3](../benchmark-v3.md)), its controllers at the gains v3's "
+                  "own search chose for that loop (shipped 2026-12-05; a name with no v3 set "
+                  "of its own flies its v2 set). "
                   f"`{other}` stays registered and flies as before."]
     elif version == "v2":
         lines += [f"- v2 (2026-12-02): the scenario of `{other}` in Benchmark v2's loop, its "

@@ -82,3 +82,14 @@ def test_the_readme_is_a_short_front_page_with_the_set_up_commands():
     assert "make demo" in readme and "make test" in readme
     for link in ("docs/getting-started.md", "docs/your-controller.md", "docs/cli.md"):
         assert f"]({link})" in readme and (ROOT / link).is_file()
+
+
+def test_the_v3_pages_say_which_gains_their_controllers_fly():
+    """v3's gain sets shipped: its pages said the controllers flew v2's until v3's search ran."""
+    from quad_dob_baselines.gain_sets import GAIN_SETS
+
+    assert any(benchmark == "v3" for _, benchmark, _ in GAIN_SETS)
+    for page in sorted((ROOT / "docs" / "environments").glob("QuadDOB-*-v3.md")):
+        text = page.read_text()
+        assert "own search has run" not in text, page.name
+        assert "the gains v3's own search chose" in text, page.name

@@ -144,8 +144,9 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     - v3 (2026-12): the ids ``QuadDOB/Hover-v3``, ``HoverResidual-v3``, ``TrackResidual-v3``
       and ``TracksResidual-v3`` fly the v2 ids' scenarios under ``benchmark="v3"``: v2's
       loop with the real vehicle's lag and thrust path (``quad_dob_env.benchmark_v3``, every
-      value sourced), the figure-8s at Neural-Fly's 50 Hz. Until v3's own search has run, a
-      controller name flies its v2 gains (``quad_dob_baselines.gain_sets.INHERITED_FROM``).
+      value sourced), the figure-8s at Neural-Fly's 50 Hz. Its controllers fly the gains v3's
+      own search chose (2026-12-05, ``quad_dob_baselines.gain_sets``); a name with no v3 set
+      of its own flies its v2 set (``quad_dob_baselines.gain_sets.INHERITED_FROM``).
       The v1 and v2 ids stay registered and fly as before, bit for bit.
     - v2, residual options (2026-12, no id bumped: the defaults fly as before, bit for bit):
       the residual's ``authority_signal`` (``"force"``, as before, or ``"wind"``: the
