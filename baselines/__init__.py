@@ -47,7 +47,7 @@ from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.validation import unknown_name_error
 
 # Observer decay rates [1/s] of the "tuned" preset, the recommended base: chosen by
-# `quad-dob tune` (training/tune.py), a grid of 1-40 /s on tuning seeds 100-109 of the v1
+# `quad-dob tune` (training/tuning/tune.py), a grid of 1-40 /s on tuning seeds 100-109 of the v1
 # wind scenarios, a force-and-torque step and a perturbed paper helix; the slowest within
 # 2 % of the best. Time constants 25 ms (translation) and 0.2 s (rotation).
 TUNED_OBSERVER_RATES = {"translational_rate": 40.0, "rotational_rate": 5.0}

@@ -55,7 +55,7 @@ class Controller:
     # a user's controller (``plugins``): the gains ``quad-dob tune`` searches, name ->
     # default (its start), and those of them that are an estimator's bandwidth [rad/s],
     # capped and tie-broken as the observers' rates are; the built-in ones are tuned by
-    # ``training/tune.py``'s own tables
+    # ``training/tuning/tune.py``'s own tables
     tunable_gains: ClassVar[dict[str, float]] = {}
     estimator_bandwidths: ClassVar[tuple[str, ...]] = ()
 

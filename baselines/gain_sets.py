@@ -1,7 +1,7 @@
 """What a controller's name means in each benchmark, on each vehicle: its gain set.
 
 A name such as ``pid`` or ``geometric-ndob:tuned`` stands for the gains ``quad-dob tune``
-chose for the benchmark and vehicle it flies in (``training/tune.py`` holds the procedure
+chose for the benchmark and vehicle it flies in (``training/tuning/tune.py`` holds the procedure
 and ``docs/`` its logs). Benchmark v1's sets are the modules' own defaults
 (``PID_GAINS``, ``SMC_GAINS``, ``TUNED_OBSERVER_RATES``, ...), unchanged, so v1's tables
 reproduce. Benchmark v2's were tuned in v2's loop with a robustness margin: a set is
@@ -27,14 +27,14 @@ from quad_dob_env.benchmark import BENCHMARKS
 from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.validation import unknown_name_error
 
-# Benchmark v2's sets: `quad-dob tune --benchmark v2 --vehicle VEHICLE` (training/tune.py,
+# Benchmark v2's sets: `quad-dob tune --benchmark v2 --vehicle VEHICLE` (training/tuning/tune.py,
 # 2026-12-02, seeds 100-109; docs/benchmark-v2.md and docs/indi-l1.md have each search's figures).
 # The geometric + NDOB's rates are tuned with its gains in v2, so its two names are one set.
 _PAPER_NDOB = {"kx_per_mass": 8.0, "kv_per_mass": 3.92, "kR": 6.167, "kOmega": 1.27,
                "translational_rate": 40.0, "rotational_rate": 9.8}
 _NEURAL_FLY_NDOB = {"kx_per_mass": 22.4, "kv_per_mass": 5.6, "kR": 4.037629,
                     "kOmega": 0.582042, "translational_rate": 40.0, "rotational_rate": 9.8}
-# v3 (below): the search slowed the v2 set's loop (training/tune.py, SLOWED_SEARCH), then
+# v3 (below): the search slowed the v2 set's loop (training/tuning/tune.py, SLOWED_SEARCH), then
 # descended; the observer's rates are searched with the gains, as in v2
 _NEURAL_FLY_NDOB_V3 = {"kx_per_mass": 14.336, "kv_per_mass": 4.48, "kR": 2.584083,
                        "kOmega": 0.465634, "translational_rate": 32.0, "rotational_rate": 5.488}

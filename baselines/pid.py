@@ -31,7 +31,7 @@ from quad_dob_env.params import VehicleParams
 from quad_dob_env.so3 import cross
 from quad_dob_env.trajectories import Reference
 
-# Chosen by `quad-dob tune` (training/tune.py: coordinate descent on seeds 100-109 of the
+# Chosen by `quad-dob tune` (training/tuning/tune.py: coordinate descent on seeds 100-109 of the
 # v1 wind scenarios) from the hand-set start kp 16, kd 6, ki 6, attitude 10, rate 25 / 20 /
 # 0.3: objective 0.0454 m -> 0.0268 m. The integral limits are clamps, not searched.
 PID_GAINS = {

@@ -31,7 +31,7 @@ from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.so3 import cross, hat
 from quad_dob_env.trajectories import Reference
 
-# Chosen by `quad-dob tune` (training/tune.py: coordinate descent on seeds 100-109 of the
+# Chosen by `quad-dob tune` (training/tuning/tune.py: coordinate descent on seeds 100-109 of the
 # v1 wind scenarios, the switching gain held at its bound) from the hand-set start
 # boundary 0.35, attitude eta 40, boundary 1.0: objective 0.4502 m (most flights lost) ->
 # 0.0308 m.

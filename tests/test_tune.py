@@ -9,7 +9,7 @@ from quad_dob_training.tuning.tune import coordinate_descent
 
 @pytest.mark.slow
 def test_the_geometric_gains_descent_gives_the_shipped_gains_and_halves_the_objective():
-    # the whole descent of training/tune.py (33 trials on seeds 100-109), as quad-dob tune
+    # the whole descent of training/tuning/tune.py (33 trials on seeds 100-109), as quad-dob tune
     # --controllers geometric-ndob:tuned runs it
     gains, history = coordinate_descent("geometric-ndob:tuned", log=lambda _: None)
     assert gains == TUNED_GEOMETRIC_GAINS
