@@ -178,8 +178,10 @@ def shipped_policy_advice(benchmark: str) -> str:
             "on a scenario is a transfer, not a recommendation. Measured: residual:v1 in "
             "v2's loop commanded its rotors 2-4 times as fast as its base and, under v2's "
             "margin (more latency, slower motors), oscillated and lost a flight its base "
-            "kept; residual:v2 in v3's loop leads mostly through its base's v2 gains, which "
-            "keep none of v3's margin (docs/research/transfer-between-benchmarks.md).")
+            "kept; residual:v2 in v3's loop flies its base at v2's gains, which keep none "
+            "of v3's margin, and lost 13 of the 40 flights of its two landing scenarios "
+            "that v3's base kept "
+            "(docs/research/transfer-between-benchmarks.md).")
 
 
 def make_policy(spec: str, *, trust_pickle: bool = False, env_id: str | None = None,
