@@ -47,6 +47,9 @@ BUDGETS = [  # (pattern, replacement): the only changes made to a README command
     (r"--ray-address (auto|HOST:\d+)", "--ray-address local --workers 2"),
 ]
 SWEEP_BUDGET = {"timesteps": 4096}  # a training sweep's config: the same grid, short runs
+# an evaluation sweep's config: the same grid on two of its seeds (its 24 tasks on ten seeds,
+# flown locally and again on Ray, were the suite's longest test)
+EVALUATION_SWEEP_BUDGET = {"seeds": "100-101"}
 
 
 def _fenced(page: Path) -> list[tuple[str, str]]:
@@ -198,13 +201,11 @@ def test_every_command_of_a_page_runs_in_order(page, tmp_path, monkeypatch,
             words = shlex.split(command)
             if words[1] == "sweep":
                 config = yaml.safe_load((ROOT / words[2]).read_text())
-                if config["kind"] == "train":
-                    config.update(SWEEP_BUDGET)
-                    short = tmp_path / Path(words[2]).name
-                    short.write_text(yaml.safe_dump(config))
-                    words[2] = str(short)
-                else:
-                    words[2] = str(ROOT / words[2])
+                config.update(SWEEP_BUDGET if config["kind"] == "train"
+                              else EVALUATION_SWEEP_BUDGET)
+                short = tmp_path / Path(words[2]).name
+                short.write_text(yaml.safe_dump(config))
+                words[2] = str(short)
                 words += ["--out", str(tmp_path / "sweeps" / f"{len(ran)}")]
             _run(shlex.join(words))
         elif command.startswith("python -m rl_zoo3."):
