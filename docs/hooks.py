@@ -52,8 +52,7 @@ def generated_pages() -> dict[str, str]:
     import quad_dob_env
 
     pages = {page_name(env_id): env_page(env_id)
-             for env_id in [*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2,
-                            *quad_dob_env.ENV_IDS_V3]}
+             for env_id in quad_dob_env.ALL_ENV_IDS}
     pages["cli.md"] = cli_page()
     pages["scenarios.md"] = scenarios_page((DOCS / "scenarios.md").read_text())
     return pages
@@ -115,11 +114,11 @@ def env_page(env_id: str) -> str:
         env = gym.make(env_id)
     core = env.unwrapped
     scenario = core.scenario
-    residual = "Residual" in env_id
+    residual = quad_dob_env.is_residual_id(env_id)
     version = env_id.rsplit("-", 1)[1]
     family = env_id.rsplit("-", 1)[0]
     other = f"{family}-{'v2' if version != 'v2' else 'v1'}"
-    known = {*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2, *quad_dob_env.ENV_IDS_V3}
+    known = set(quad_dob_env.ALL_ENV_IDS)
     spec = gym.spec(env_id)  # the entry points as registered
     entry, vector = spec.entry_point, spec.vector_entry_point
     rows = [
@@ -363,7 +362,7 @@ def scenarios_page(text: str) -> str:
     import quad_dob_env
     from quad_dob_env.scenarios import SCENARIOS, make_scenario
 
-    ids = {**quad_dob_env.ENV_IDS, **quad_dob_env.ENV_IDS_V2, **quad_dob_env.ENV_IDS_V3}
+    ids = quad_dob_env.ALL_ENV_IDS
     rows = ["| name | what | episode | vehicle | default of |", "|---|---|---|---|---|"]
     for name in SCENARIOS:
         scenario = make_scenario(name)

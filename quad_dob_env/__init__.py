@@ -64,13 +64,21 @@ ENV_IDS_V2 = {
 ENV_IDS_V3 = {env_id.replace("-v2", "-v3"): scenario for env_id, scenario in ENV_IDS_V2.items()}
 BENCHMARK_OF_ID = {**{env_id: "v2" for env_id in ENV_IDS_V2},
                    **{env_id: "v3" for env_id in ENV_IDS_V3}}
+# every id this package registers, with its default scenario, in registration order
+ALL_ENV_IDS = {**ENV_IDS, **ENV_IDS_V2, **ENV_IDS_V3}
+
+
+def is_residual_id(env_id: str) -> bool:
+    """Whether ``env_id`` is one of the residual ids (a policy's action is added to a base
+    controller's command), by the naming every residual id follows."""
+    return "Residual" in env_id
 
 
 def _register() -> None:
-    for env_id, scenario in {**ENV_IDS, **ENV_IDS_V2, **ENV_IDS_V3}.items():
+    for env_id, scenario in ALL_ENV_IDS.items():
         if env_id in gym.registry:
             continue
-        residual = "Residual" in env_id
+        residual = is_residual_id(env_id)
         # the residual ids compose a controller with the simulator: they are built by the
         # composition layer, named here only as strings (docs/design.md layering)
         gym.register(id=env_id,
@@ -91,6 +99,7 @@ def _register() -> None:
 _register()
 
 __all__ = [
+    "ALL_ENV_IDS",
     "ENV_IDS",
     "ENV_IDS_V2",
     "ENV_IDS_V3",

@@ -116,7 +116,7 @@ def _table_columns(text: str, heading: str) -> list[tuple[int, int]]:
 def test_each_env_pages_observation_table_covers_the_envs_observation_columns():
     import gymnasium as gym
 
-    for env_id in [*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2, *quad_dob_env.ENV_IDS_V3]:
+    for env_id in quad_dob_env.ALL_ENV_IDS:
         text = (DOCS / hooks().page_name(env_id)).read_text()
         spans = _table_columns(text, "## Observation space")
         with warnings.catch_warnings():

@@ -101,10 +101,9 @@ def resolve_config(algo: str, mode: str, env_id: str, scenario: str | None,
         raise unknown_name_error("algorithm", algo, ALGORITHMS)
     if mode not in MODES:
         raise unknown_name_error("mode", mode, MODES)
-    env_ids = {**quad_dob_env.ENV_IDS, **quad_dob_env.ENV_IDS_V2, **quad_dob_env.ENV_IDS_V3}
-    if env_id not in env_ids:
-        raise unknown_name_error("env id", env_id, env_ids)
-    residual_id = "Residual" in env_id
+    if env_id not in quad_dob_env.ALL_ENV_IDS:
+        raise unknown_name_error("env id", env_id, quad_dob_env.ALL_ENV_IDS)
+    residual_id = quad_dob_env.is_residual_id(env_id)
     if (mode == "residual") != residual_id:
         raise ValueError(f"mode {mode!r} does not fit env {env_id!r}: residual training takes "
                          "a ...Residual id, direct training the others")

@@ -27,24 +27,18 @@ from typing import Any
 import gymnasium as gym
 
 import quad_dob_env
-
-# what a residual id's ``base_controller`` may not be overridden with: None would build the
-# direct env under the residual id's name
-_RESIDUAL_MARK = "Residual"
+from quad_dob_env import is_residual_id
 
 
 def env_ids() -> list[str]:
     """The project's registered ids (v1, v2 and v3), in registration order."""
-    return [*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2, *quad_dob_env.ENV_IDS_V3]
+    return list(quad_dob_env.ALL_ENV_IDS)
 
 
 def id_benchmark(env_id: str) -> str:
-    """The benchmark ``env_id`` flies: its spec's ``benchmark``, v1 where it gives none."""
-    return str(id_kwargs(env_id).get("benchmark") or "v1")
-
-
-def is_residual_id(env_id: str) -> bool:
-    return _RESIDUAL_MARK in env_id
+    """The benchmark ``env_id`` flies: v2's and v3's ids name theirs, v1's none."""
+    id_kwargs(env_id)  # an unknown id is refused, naming the project's
+    return quad_dob_env.BENCHMARK_OF_ID.get(env_id, "v1")
 
 
 def id_kwargs(env_id: str) -> dict[str, Any]:

@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from quad_dob_env import is_residual_id
 from quad_dob_env.validation import unknown_name_error
 from quad_dob_training.evaluation.evaluate import parse_seeds
 
@@ -171,7 +172,7 @@ def _train_task(task: dict[str, Any]) -> dict[str, Any]:
 
     params = dict(task["params"])
     seed = int(params.pop("seed", 0))
-    mode = task.get("mode", "residual" if "Residual" in task["env"] else "direct")
+    mode = task.get("mode", "residual" if is_residual_id(task["env"]) else "direct")
     config = resolve_config("ppo", mode, task["env"], task.get("scenario"),
                             task.get("timesteps"), task.get("n_envs"), seed)
     for key, value in params.items():
