@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import yaml
 
+import quad_dob_env
 from quad_dob_training.cli.commands import main
 from quad_dob_training.policies import SHIPPED_POLICIES, resolve_spec
 from quad_dob_training.rl import make_sb3_vec_env
@@ -43,13 +44,14 @@ def sb3_zip(tmp_path_factory):
     return path
 
 
-@pytest.mark.parametrize("env_id", [DIRECT_ID, RESIDUAL_ID])
+@pytest.mark.parametrize("env_id", [DIRECT_ID, RESIDUAL_ID, "QuadDOB/TrackResidual-v1",
+                                    "QuadDOB/Hover-v3", "QuadDOB/HoverResidual-v3"])
 def test_the_adapter_flies_what_the_ids_own_vector_env_flies(env_id):
     ours = make_sb3_vec_env(env_id, 3, seed=5)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # gymnasium: "-v2 is out of date"
         theirs = gym.make_vec(env_id, 3, vectorization_mode="vector_entry_point")
-    assert type(theirs).__name__ == ("ResidualVectorEnv" if "Residual" in env_id
+    assert type(theirs).__name__ == ("ResidualVectorEnv" if quad_dob_env.is_residual_id(env_id)
                                      else "QuadrotorVectorEnv")
     assert ours.observation_space == theirs.single_observation_space
     first, _ = theirs.reset(seed=5)

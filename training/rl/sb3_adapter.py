@@ -16,8 +16,10 @@ benchmark), lays the caller's overrides over it, and builds that as a
     model.save("hover_v3.zip")  # quad-dob evaluate --policies ppo:hover_v3.zip
                                 #   --env QuadDOB/HoverResidual-v3
 
-trains on exactly the vehicles the id's vector env flies (same observations, actions and
-rewards for the same seeds), and the saved zip is evaluated with the same id.
+trains on exactly the vehicles the id's vector env flies (same observations and rewards
+for the same seeds and actions, up to the first episode's end: SB3 resets a finished
+vehicle in the step that ends it, Gymnasium's vector env in the next), and the saved zip
+is evaluated with the same id.
 """
 
 from __future__ import annotations
