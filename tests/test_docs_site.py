@@ -182,3 +182,34 @@ def test_a_broken_link_or_anchor_fails_the_build(tmp_path):
         page.write_text((DOCS / "install.md").read_text() + f"\nSee [this]{link}.\n")
         built = _build(copy, tmp_path / "site")
         assert built.returncode != 0 and message in built.stderr, built.stderr[-2000:]
+
+
+# the research notes and the residual pages are read as findings, each under this many words
+# of prose (issue 43): tables, fenced code, HTML comments and images are not counted
+PROSE_LIMIT = 3000
+
+
+def prose_words(text: str) -> int:
+    """Words of ``text`` outside fenced code, table rows, HTML comments and image lines."""
+    text = re.sub(r"<!--.*?-->", " ", text, flags=re.S)
+    words, fenced = 0, False
+    for line in text.splitlines():
+        stripped = line.strip()
+        if stripped.startswith("```"):
+            fenced = not fenced
+        elif not (fenced or stripped.startswith(("|", "!["))):
+            words += len(stripped.split())
+    return words
+
+
+def test_the_prose_counter_skips_tables_code_and_comments():
+    page = ("Two words.\n\n| a | b c d |\n|---|---|\n```\nx y z\n```\n<!-- n o -->\n"
+            "![p](q)\n- three more words\n")
+    assert prose_words(page) == 6
+
+
+@pytest.mark.parametrize("page", [*sorted((DOCS / "research").glob("*.md")),
+                                  DOCS / "residual-rl.md", DOCS / "residual-v3.md"],
+                         ids=lambda page: page.name)
+def test_each_research_and_residual_page_stays_under_the_prose_limit(page):
+    assert prose_words(page.read_text()) < PROSE_LIMIT, page
