@@ -27,3 +27,24 @@ def test_a_v2_policy_scores_differently_in_v2_and_v3():
                      scenario_options={"benchmark": benchmark, "duration": 3.0})[0]
             for benchmark in ("v2", "v3")]
     assert rows[0]["rms_position_settled_mean"] != rows[1]["rms_position_settled_mean"]
+
+
+def test_replay_flies_the_benchmark_it_is_told_with_that_benchmarks_policy(monkeypatch):
+    from quad_dob_training.cli import replay
+
+    seen = {}
+
+    class BuiltError(Exception):
+        pass
+
+    def capture(n, scenario, **kwargs):
+        seen.update(benchmark=scenario.benchmark, base_benchmark=kwargs.get("base_benchmark"))
+        raise BuiltError
+
+    monkeypatch.setattr(replay, "make_vector_env", capture)
+    with pytest.raises(BuiltError):
+        replay.fly_frames("residual", "hover-calm", 0, 10, (16, 8), benchmark="v2")
+    assert seen == {"benchmark": "v2", "base_benchmark": "v2"}  # residual:v2, in v2's loop
+    with pytest.raises(BuiltError):
+        replay.fly_frames("residual:v3", "hover-calm", 0, 10, (16, 8))
+    assert seen == {"benchmark": "v1", "base_benchmark": "v3"}  # the library's loop

@@ -147,7 +147,7 @@ def _replay(args: argparse.Namespace) -> int:
 
     _writable_file(args.out, "--out")
     return replay_main(_names(args.policy), args.scenario, args.seed, args.out, args.fps,
-                       args.width, trust_pickle=args.trust_pickle)
+                       args.width, trust_pickle=args.trust_pickle, benchmark=args.benchmark)
 
 
 def _sweep(args: argparse.Namespace) -> int:
@@ -349,6 +349,12 @@ def build_parser() -> argparse.ArgumentParser:
                         help="the scenario flown (default: %(default)s)")
     replay.add_argument("--seed", type=_seed, default=0,
                         help="the episode's seed (default: %(default)s)")
+    # v1 unless told, as the library: the default scenario is the paper's (moments applied
+    # directly), which only v1's ideal loop flies as the paper did
+    replay.add_argument("--benchmark", default="v1", choices=["v1", "v2", "v3"],
+                        help="the loop the scenario is flown in; a model flies it on its "
+                        "base's training gains, and bare residual is this benchmark's "
+                        "shipped policy (default: %(default)s)")
     replay.add_argument("--out", type=Path, default=Path("results/flight.gif"),
                         help="a .gif or .mp4 path (default: %(default)s)")
     replay.add_argument("--fps", type=_number_in(float, 0, MAX_FPS, "a number", True), default=20.0,

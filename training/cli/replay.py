@@ -22,10 +22,11 @@ VIDEO_SUFFIXES = (".gif", ".mp4")
 
 
 def fly_frames(spec: str, scenario_name: str, seed: int, every: int, size: tuple[int, int],
-               *, trust_pickle: bool = False) -> list[NDArray[np.uint8]]:
-    """Frames of one episode of policy ``spec``, one per ``every`` control steps
-    (``trust_pickle``: its model file may be unpickled, ``model_files.load_model``)."""
-    scenario = make_scenario(scenario_name)
+               *, trust_pickle: bool = False, benchmark: str = "v1") -> list[NDArray[np.uint8]]:
+    """Frames of one episode of policy ``spec`` in ``benchmark``'s loop, one per ``every``
+    control steps (``trust_pickle``: its model file may be unpickled,
+    ``model_files.load_model``)."""
+    scenario = make_scenario(scenario_name, benchmark=benchmark)
     # bare residual: the shipped policy of the benchmark the scenario flies
     policy = make_policy(spec, trust_pickle=trust_pickle, benchmark=scenario.benchmark)
     env = make_vector_env(1, scenario, **policy.env_kwargs())
@@ -75,18 +76,18 @@ def write_video(frames: list[NDArray[np.uint8]], path: Path, fps: float) -> None
 
 
 def main(policies: list[str], scenario: str, seed: int, out: Path, fps: float,
-         width: int, *, trust_pickle: bool = False) -> int:
+         width: int, *, trust_pickle: bool = False, benchmark: str = "v1") -> int:
     """``quad-dob replay``; ``trust_pickle`` (``--trust-pickle``): model files may be
-    unpickled."""
+    unpickled; ``benchmark`` (``--benchmark``): the loop flown."""
     if out.suffix not in VIDEO_SUFFIXES:
         raise ValueError(f"--out must end in {' or '.join(VIDEO_SUFFIXES)}, got {str(out)!r}")
     if not policies:
         raise ValueError("--policy needs at least one policy")
-    dt = make_scenario(scenario).dt
+    dt = make_scenario(scenario, benchmark=benchmark).dt
     every = max(1, round(1.0 / (fps * dt)))
     size = (width // 8 * 8, width * 3 // 4 // 8 * 8)  # codecs want multiples of 8
-    runs = [fly_frames(spec, scenario, seed, every, size, trust_pickle=trust_pickle)
-            for spec in policies]
+    runs = [fly_frames(spec, scenario, seed, every, size, trust_pickle=trust_pickle,
+                       benchmark=benchmark) for spec in policies]
     frames = side_by_side(runs)
     write_video(frames, out, 1.0 / (every * dt))
     print(f"wrote {out} ({len(frames)} frames, {' | '.join(policies)} in {scenario}, "

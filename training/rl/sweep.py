@@ -166,7 +166,7 @@ def _train_task(task: dict[str, Any]) -> dict[str, Any]:
 
     from quad_dob_env.scenarios import make_scenario
     from quad_dob_training.evaluation.metrics import flight_metrics
-    from quad_dob_training.policies import Policy, fly_policy
+    from quad_dob_training.policies import Policy, fly_policy, trained_benchmark
     from quad_dob_training.rl.run_config import resolve_config
     from quad_dob_training.rl.train import train
 
@@ -183,7 +183,9 @@ def _train_task(task: dict[str, Any]) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as folder:
         model = train(config, Path(folder), evaluate_every=10**12, progress_bar=False)
     policy = Policy("trained", config["base_controller"], model, config)
-    scenario = make_scenario(config["env_kwargs"]["scenario"])
+    # scored in the loop it trained in (a -v2 or -v3 id's benchmark), on its scenario
+    scenario = make_scenario(config["env_kwargs"]["scenario"],
+                             benchmark=trained_benchmark(config))
     metrics = [flight_metrics(f) for f in fly_policy(policy, scenario, task["seeds"])]
     return _scores(metrics)
 
