@@ -474,3 +474,14 @@ def test_a_scenario_option_benchmark_disagreeing_with_env_is_named_as_given(sb3_
     error = capsys.readouterr().err
     assert (f"--scenario-option benchmark=v3 disagrees with --env {RESIDUAL_ID}, whose "
             "benchmark is v2: leave that option out") in error
+
+
+def test_evaluation_md_names_the_benchmark_and_which_shipped_policy_to_use(tmp_path):
+    out = tmp_path / "evaluation"
+    assert main(["evaluate", "--policies", "pid,residual", "--scenarios", "hover-calm",
+                 "--seeds", "1", "--benchmark", "v2", "--scenario-option", "duration=2",
+                 "--baseline", "", "--out", str(out)]) == 0
+    text = (out / "evaluation.md").read_text()
+    assert "| hover-calm | residual:v2 |" in text
+    assert "Flown in Benchmark v2." in text
+    assert "Which shipped policy to use in Benchmark v2: residual:v2" in text

@@ -260,13 +260,18 @@ def _row(scenario: str, policy: str, seeds: list[int], metrics: list[dict],
     return row
 
 
-def write_tables(rows: list[dict], out: Path) -> None:
+def write_tables(rows: list[dict], out: Path, notes: Sequence[str] = ()) -> None:
+    """evaluation.csv, evaluation.md (the table, the benchmark flown and ``notes`` under
+    it) and evaluation.png."""
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "evaluation.csv", "w", newline="") as file:
         writer = csv.DictWriter(file, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    (out / "evaluation.md").write_text(markdown_table(rows) + "\n")
+    flown = ", ".join(sorted({str(row.get("benchmark", "")) for row in rows} - {""}))
+    under = [f"Flown in Benchmark {flown}."] if flown else []
+    (out / "evaluation.md").write_text(
+        "\n\n".join([markdown_table(rows), *under, *notes]) + "\n")
     evaluation_bars(rows, out / "evaluation.png")
 
 
@@ -407,7 +412,12 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
     if as_json:
         print(json.dumps(rows, indent=1))
         return 0
-    write_tables(rows, out)
+    # a shipped residual in the comparison: say which of them this benchmark calls for
+    advice = ([shipped_policy_advice(benchmark)]
+              if any(spec.startswith("residual") and resolve_spec(spec, benchmark)
+                     in (f"residual:{name}" for name in SHIPPED_TRAINED_IN) for spec in policies)
+              else [])
+    write_tables(rows, out, advice)
     document = results_document(rows, seed_list, scenario_options or {}, command)
     write_document(document, out / "evaluation.json")
     columns = [("scenario", "scenario"), ("policy", "policy"), ("seeds", "seeds")]
@@ -418,11 +428,6 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
         columns += [("rms_position_settled_diff_mean", f"Δ RMS ‖e_x‖ vs {compared_with} [m]"),
                     ("rms_position_settled_diff_low", "95 % CI low"),
                     ("rms_position_settled_diff_high", "high")]
-    # a shipped residual in the comparison: say which of them this benchmark calls for
-    advice = ([shipped_policy_advice(benchmark)]
-              if any(spec.startswith("residual") and resolve_spec(spec, benchmark)
-                     in (f"residual:{name}" for name in SHIPPED_TRAINED_IN) for spec in policies)
-              else [])
     write_report(out / "report.html", f"quad-dob evaluate (figures: seed {seed_list[0]})",
                  rows, [*columns, ("crash_rate", "crash rate")], first_flights,
                  baseline=compared_with,
