@@ -485,3 +485,10 @@ def test_evaluation_md_names_the_benchmark_and_which_shipped_policy_to_use(tmp_p
     assert "| hover-calm | residual:v2 |" in text
     assert "Flown in Benchmark v2." in text
     assert "Which shipped policy to use in Benchmark v2: residual:v2" in text
+
+
+def test_a_zip_named_without_its_suffix_loads_as_sb3_loads_it(sb3_zip, tmp_path):
+    bare = str(sb3_zip)[:-len(".zip")]
+    assert main(["evaluate", "--policies", f"ppo:{bare}", "--env", RESIDUAL_ID,
+                 "--scenarios", "hover-calm", "--seeds", "1", "--baseline", "",
+                 "--scenario-option", "duration=1", "--out", str(tmp_path / "e")]) == 0

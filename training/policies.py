@@ -64,7 +64,6 @@ from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
 from quad_dob_env.validation import unknown_name_error
-from quad_dob_training.rl.foreign_models import model_in_folder
 from quad_dob_training.rl.model_files import (
     ALGORITHMS,
     SHIPPED_RESIDUAL,
@@ -78,6 +77,7 @@ from quad_dob_training.rl.model_files import (
     SHIPPED_RESIDUAL_V3_SHA256,
     config_env_options,
     load_model,
+    model_zip,
     sha256,
 )
 from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memory
@@ -221,7 +221,7 @@ def make_policy(spec: str, *, trust_pickle: bool = False, env_id: str | None = N
             raise ValueError(f"{spec!r}: the model at {path} was trained with {algo} (its "
                              f"config says so), not {kind}: name it {algo}:{path}")
         base = options.get("base_controller") if mode == "residual" else None
-        zip_path = model_in_folder(Path(path)) if Path(path).is_dir() else Path(path)
+        zip_path = model_zip(path)
         return Policy(f"{kind}:{_short_name(Path(path))}", base, model, config,
                       trained_benchmark(config) if base is not None else None,
                       sha256(zip_path))

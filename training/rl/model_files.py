@@ -72,6 +72,20 @@ def sha256(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
+def model_zip(path: str | Path) -> Path:
+    """The zip a model path names: a run folder's model (``foreign_models.model_in_folder``),
+    or ``PATH.zip`` for a ``PATH`` that does not exist, as SB3's own save and load add the
+    suffix."""
+    from quad_dob_training.rl.foreign_models import model_in_folder
+
+    path = Path(path)
+    if path.is_dir():
+        return model_in_folder(path)
+    if not path.exists() and path.with_name(path.name + ".zip").is_file():
+        return path.with_name(path.name + ".zip")
+    return path
+
+
 def load_model(path: str | Path, expected_sha256: str | None = None, *,
                expected_config_sha256: str | None = None,
                trust_pickle: bool = False, env_id: str | None = None,
@@ -94,11 +108,9 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
     whatever its pickles hold. ``expected_sha256`` (the zip) and ``expected_config_sha256``
     (the config) are checked on the bytes that are then loaded, before either is parsed.
     """
-    from quad_dob_training.rl.foreign_models import config_for_id, model_in_folder, zoo_env_id
+    from quad_dob_training.rl.foreign_models import config_for_id, zoo_env_id
 
-    path = Path(path)
-    if path.is_dir():
-        path = model_in_folder(path)
+    path = model_zip(path)
     if not path.is_file():
         raise ValueError(f"policy file {str(path)!r} does not exist")
     if env_id is None and not path.with_name(path.stem + ".yaml").is_file() \
