@@ -51,6 +51,7 @@ uses for a run's own checkpoints.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -137,8 +138,9 @@ class Policy:
         return options
 
 
-# the benchmark a scenario flies when none is named (``make_scenario``'s default)
-LIBRARY_BENCHMARK = "v1"
+# the benchmark a scenario flies when none is named (the Scenario record's default)
+LIBRARY_BENCHMARK: str = next(field.default for field in dataclasses.fields(Scenario)
+                              if field.name == "benchmark")
 
 
 def resolve_spec(spec: str, benchmark: str | None = None) -> str:

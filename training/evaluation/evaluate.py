@@ -44,6 +44,7 @@ from quad_dob_training.evaluation.results import (
 )
 from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
 from quad_dob_training.policies import (
+    LIBRARY_BENCHMARK,
     SHIPPED_TRAINED_IN,
     fly_policy,
     make_policy,
@@ -398,7 +399,7 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
     training config (by SB3 or rl-zoo3) were trained on."""
     others = [(path, read_document(path)) for path in merge]  # a bad file fails first
     baseline = DEFAULT_BASE_CONTROLLER if baseline is None else baseline
-    benchmark = str((scenario_options or {}).get("benchmark", "v1"))  # the library's
+    benchmark = str((scenario_options or {}).get("benchmark", LIBRARY_BENCHMARK))
     if suite:
         if benchmark not in SUITES:
             raise ValueError(f"--suite: no suite for benchmark {benchmark!r}; there are "
