@@ -60,7 +60,7 @@ def check_controller(controller: str | Any, vehicle: str = "paper",
     scenario = make_scenario(CHECK_SCENARIO, benchmark=benchmark, vehicle=params.name)
     # one controller at the control rate, compute's command held over the step
     single_rate = make_scenario(CHECK_SCENARIO, benchmark=benchmark, vehicle=params.name,
-                                inner_rate=0) if scenario.inner_rate else None
+                                inner_rate=0) if scenario.loop.inner_rate else None
     interface = _command_problems(build, spec, scenario)
     gains = _gain_problems(controller, spec, build, None if interface else make_scenario(
         GAIN_SCENARIO, benchmark=benchmark, vehicle=params.name))
@@ -235,11 +235,11 @@ def _flight_problems(build: Callable[[dict], Controller], spec: str, scenario: A
     _, errors, ended, reasons = flights[0]
     if ended.any():
         problems.append(f"{spec}: in a calm hover ({CHECK_SCENARIO}, benchmark "
-                        f"{scenario.benchmark}) {int(ended.sum())} of {len(ended)} flights "
+                        f"{scenario.loop.benchmark}) {int(ended.sum())} of {len(ended)} flights "
                         f"ended early ({', '.join(sorted(set(reasons)))})")
     elif errors.max() > HOVER_TOLERANCE:
         problems.append(f"{spec}: in a calm hover ({CHECK_SCENARIO}, benchmark "
-                        f"{scenario.benchmark}) a vehicle strayed {errors.max():.3f} m from "
+                        f"{scenario.loop.benchmark}) a vehicle strayed {errors.max():.3f} m from "
                         f"its reference (a working controller stays within "
                         f"{HOVER_TOLERANCE} m)")
     return problems

@@ -31,7 +31,7 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER,
     env_kwargs.setdefault("reward_effort_weight", 0.0)
     env = QuadrotorEnv(**env_kwargs)
     core = env.unwrapped.core
-    base = make_base(base_controller, core.vehicle, core.scenario.benchmark)
+    base = make_base(base_controller, core.vehicle, core.scenario.loop.benchmark)
     return ResidualActionWrapper(env, base, options, attitude_loop=AttitudeLoop.install)
 
 
@@ -52,7 +52,8 @@ class ResidualVectorEnv(QuadrotorVectorEnv):
                              "such as 'geometric-ndob:tuned', or a controller); for direct "
                              "control use a direct id or QuadrotorVectorEnv")
         flown = make_scenario(scenario, **scenario_options_for(scenario_options, benchmark))
-        base = make_base(base_controller, flown.vehicle, base_benchmark or flown.benchmark)
+        base = make_base(base_controller, flown.vehicle,
+                         base_benchmark or flown.loop.benchmark)
         super().__init__(num_envs, scenario, scenario_options, base_controller=base,
                          fused_pass=fused_pass_for(base) if compiled else None,
                          attitude_loop=AttitudeLoop.install, benchmark=benchmark, **kwargs)
@@ -74,7 +75,7 @@ def residual_command(core: QuadrotorBatch, base_controller: Any = DEFAULT_BASE_C
     options = split_residual_keys(residual_keys, residual_options)
     if residual_keys:
         raise ValueError(f"residual_command: unknown option {next(iter(residual_keys))!r}")
-    base = make_base(base_controller, core.vehicle, core.scenario.benchmark)
+    base = make_base(base_controller, core.vehicle, core.scenario.loop.benchmark)
     return ResidualCommand(core, base, options,
                            fused_pass=fused_pass_for(base) if compiled else None,
                            attitude_loop=AttitudeLoop.install)

@@ -37,7 +37,7 @@ class ReferencePolicy:
         if self.core.n != 1:
             raise ValueError(f"ReferencePolicy drives a single env, got {self.core.n} vehicles")
         self.controller = (make_controller(controller, self.core.vehicle,
-                                           self.core.scenario.benchmark)
+                                           self.core.scenario.loop.benchmark)
                            if isinstance(controller, str) else controller)
         # with an inner loop the env's steps fly the controller's attitude law at its rate
         AttitudeLoop.install(self.core, self.controller)

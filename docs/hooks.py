@@ -126,7 +126,7 @@ def env_page(env_id: str) -> str:
                     "num_envs=N, vectorization_mode=\"vector_entry_point\")`"),
         ("entry points", f"`{entry}`; vector: `{vector}`"),
         ("default scenario", f"`{scenario.name}`: {scenario.description}"),
-        ("loop", f"Benchmark {scenario.benchmark}: " + LOOPS[scenario.benchmark]),
+        ("loop", f"Benchmark {scenario.loop.benchmark}: " + LOOPS[scenario.loop.benchmark]),
         ("vehicle", f"`{scenario.vehicle.name}`, {scenario.vehicle.mass:g} kg"),
         ("action space", f"`{env.action_space}`"),
         ("observation space", f"`{env.observation_space}`"),

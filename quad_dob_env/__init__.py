@@ -10,7 +10,9 @@ entry), ``params`` (vehicle presets; their sources in ``vehicle_sources``),
 inputs that fly a reference), ``feasibility`` (a reference's needs against the actuators),
 ``variation`` (state noise, domain randomisation), ``sensing`` (sensors, delay lines and the
 state estimator every policy reads through, with the ``ideal``, ``mocap`` and ``gnss-imu``
-presets), ``scenario`` (the ``Scenario`` record, validated), ``wind_tunnel`` (Neural-Fly's
+presets), ``loop_options`` (``LoopOptions``, the vehicle loop a scenario flies, one record,
+resolved from its benchmark), ``scenario`` (the ``Scenario`` record, validated),
+``wind_tunnel`` (Neural-Fly's
 figure-8s and the tunnel's wind), ``scenarios`` (the named ones, the random-reference families
 included), ``residual`` (a base controller's command plus a policy's residual:
 ``ResidualOptions``, ``ResidualCommand``), ``envs``, ``wrappers`` (the residual wrapper).

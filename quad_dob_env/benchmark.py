@@ -1,4 +1,4 @@
-"""Benchmark v1, v2 or v3, as one scenario option (``Scenario.benchmark``).
+"""Benchmark v1, v2 or v3, as one option of the vehicle loop (``LoopOptions.benchmark``).
 
 ``"v1"`` is the loop v1 measured: ideal sensing, one controller at the control rate, a lag
 on the thrust, no rotor aerodynamics. ``"v2"`` is the loop a real vehicle flies, parts 1

@@ -2,13 +2,14 @@
 
 ``make_scenario("paper-II")`` builds a named one; options either go to its builder (such as
 ``torque_reading`` or ``vehicle``) or replace a ``Scenario`` field (``dt``, ``duration``,
-``substeps``, ...). ``gym.make``, the CLI, evaluation and the paper reproduction all go
-through here, so "paper-II" means one thing everywhere.
+``substeps``, ...) or one of the loop's options (``benchmark``, ``inner_rate``, ...: laid
+over the scenario's own loop, ``quad_dob_env.loop_options``). ``gym.make``, the CLI,
+evaluation and the paper reproduction all go through here, so "paper-II" means one thing
+everywhere.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import inspect
 from collections.abc import Callable
@@ -25,8 +26,9 @@ from quad_dob_env.disturbances import (
     Gust,
 )
 from quad_dob_env.feasibility import BENCHMARK_MARGIN, check_reference
+from quad_dob_env.loop_options import LoopOptions
 from quad_dob_env.params import VehicleParams, get_vehicle
-from quad_dob_env.scenario import Scenario
+from quad_dob_env.scenario import SCENARIO_KEYS, Scenario
 from quad_dob_env.trajectories import (
     Hover,
     PaperHelix,
@@ -60,6 +62,9 @@ WIND_PRESETS: dict[str, tuple[float, float]] = {
     "light": (3.0, DRYDEN_INTENSITIES["light"]),
     "moderate": (6.0, DRYDEN_INTENSITIES["moderate"]),
 }
+# the wind scenarios' own loop: drag on the air-relative velocity (the wind acts through
+# it) and the motors' lag, so v1 flies physical rotors in wind; the benchmarks add the rest
+PHYSICAL_ROTORS = LoopOptions(drag=True, motor_lag=True)
 HELIX_ALTITUDE = 2.0  # [m] centre of the wind helix: it flies 1.4-2.6 m above the floor
 # The landings end at LANDING_HEIGHT, 8 cm (trajectories.family, whose take-off and landing
 # references use it too): the ground-effect laws are clamped at R/2 = 6.35 cm below that.
@@ -149,7 +154,7 @@ def _dryden_helix(*, vehicle: str | VehicleParams = "paper", wind: str = "modera
     start = helix.evaluate(0.0)
     return Scenario(
         name="dryden-helix-gusts" if gusts else "dryden-helix", vehicle=get_vehicle(vehicle),
-        trajectory=helix, duration=10.0, disturbance=disturbance, drag=True, motor_lag=True,
+        trajectory=helix, duration=10.0, disturbance=disturbance, loop=PHYSICAL_ROTORS,
         floor_height=0.0, initial_position=tuple(start.position[0]),
         initial_velocity=tuple(start.velocity[0]),
         description=f"Paper helix x_d = [0.4t, 0.4 sin πt, {height:g} + 0.6 cos πt] over a "
@@ -181,8 +186,8 @@ def _helix_force_torque(*, vehicle: str | VehicleParams = "paper") -> Scenario:
     start = helix.evaluate(0.0)
     return Scenario(
         name="helix-force-torque", vehicle=params, trajectory=helix, duration=10.0,
-        disturbance=Constant(force=tuple(force), torque=tuple(torque)), drag=True,
-        motor_lag=True, floor_height=0.0, initial_position=tuple(start.position[0]),
+        disturbance=Constant(force=tuple(force), torque=tuple(torque)), loop=PHYSICAL_ROTORS,
+        floor_height=0.0, initial_position=tuple(start.position[0]),
         initial_velocity=tuple(start.velocity[0]),
         description="The wind helix's path (heading fixed), no wind; the paper's Scenario II "
                     f"force ({', '.join(f'{f:.2f}' for f in force)}) N and torque "
@@ -203,7 +208,7 @@ def _gusty_hover(*, vehicle: str | VehicleParams = "paper", wind: str = "light",
     return Scenario(
         name="gusty-hover", vehicle=get_vehicle(vehicle), trajectory=Hover((0.0, 0.0, height)),
         duration=10.0, disturbance=dryden + _gust_pair(), floor_height=0.0,
-        initial_position=(0.0, 0.0, height), drag=True, motor_lag=True,
+        initial_position=(0.0, 0.0, height), loop=PHYSICAL_ROTORS,
         description=f"Hover at {height:g} m in " + _wind_words(wind, dryden)
                     + "; two 1-cosine gusts, 4 m/s at 2 s, 4 m/s at 6 s; drag, motor lag, "
                       "physical rotors",
@@ -221,7 +226,7 @@ def _takeoff_landing_wind(*, vehicle: str | VehicleParams = "paper", wind: str =
         duration=10.0, disturbance=dryden + Gust(
             3.0, direction=(1.0, 1.0, 0.0), start=4.0, length=10.0, speed=10.0),
         ground_effect=GroundEffect("paper"), floor_height=0.0,
-        initial_position=(0.0, 0.0, LANDING_HEIGHT), drag=True, motor_lag=True,
+        initial_position=(0.0, 0.0, LANDING_HEIGHT), loop=PHYSICAL_ROTORS,
         description=f"Take off from {LANDING_HEIGHT} m, hover at 1 m, land to "
                     f"{LANDING_HEIGHT} m through ground effect in " + _wind_words(wind, dryden)
                     + "; a 3 m/s 1-cosine gust at 4 s; drag, motor lag, physical rotors",
@@ -268,7 +273,7 @@ def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRA
             "from a random direction, the two gusts")
     return Scenario(
         name=name, vehicle=vehicle, trajectory=family, duration=TRACK_DURATION,
-        disturbance=disturbance, drag=True, motor_lag=True, floor_height=0.0,
+        disturbance=disturbance, loop=PHYSICAL_ROTORS, floor_height=0.0,
         ground_effect=GroundEffect("paper"),
         initial_position=tuple(start.position[0]), initial_velocity=tuple(start.velocity[0]),
         randomization=Randomization(mass=(0.9, 1.1), inertia=(0.9, 1.1), drag=(0.8, 1.2)),
@@ -328,17 +333,17 @@ def list_scenarios() -> list[str]:
 
 
 def make_scenario(scenario: str | Scenario, **options: object) -> Scenario:
-    """The named scenario with ``options`` applied (builder options, then Scenario fields)."""
+    """The named scenario with ``options`` applied: its builder's options, then ``Scenario``
+    fields and the loop's options (flat, ``quad_dob_env.loop_options``)."""
     if isinstance(scenario, Scenario):
         return scenario.with_changes(**options) if options else scenario
     if scenario not in SCENARIOS:
         raise unknown_name_error("scenario", scenario, SCENARIOS)
     builder_options = {k: options.pop(k) for k in list(options)
                        if k in _BUILDER_OPTIONS[scenario]}
-    fields = [f.name for f in dataclasses.fields(Scenario)]
     for key in options:
-        if key not in fields:
+        if key not in SCENARIO_KEYS:
             raise unknown_name_error(f"option for scenario {scenario!r}", key,
-                                     [*_BUILDER_OPTIONS[scenario], *fields])
+                                     [*_BUILDER_OPTIONS[scenario], *SCENARIO_KEYS])
     built = SCENARIOS[scenario](**builder_options)
     return built.with_changes(**options) if options else built

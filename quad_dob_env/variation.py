@@ -13,7 +13,7 @@ from quad_dob_env.validation import as_finite
 
 @dataclass(frozen=True)
 class SensorNoise:
-    """What every policy reads, as ``Scenario.sensing`` (or ``sensors``): the true state
+    """What every policy reads, as ``LoopOptions.sensing`` (or ``sensors``): the true state
     with Gaussian noise of these standard deviations on the position (m), velocity (m/s),
     attitude (rad, a random rotation of that size per axis) and body rates (rad/s), taken
     each step and read ``delay_steps`` control steps late; no estimator. Reward,

@@ -8,6 +8,7 @@ import math
 
 from quad_dob_env.benchmark_v3 import REAL_LOOPS
 from quad_dob_env.disturbances import Constant, Disturbance, Dryden
+from quad_dob_env.loop_options import LoopOptions
 from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.scenario import Scenario
 from quad_dob_env.trajectories import Harmonic
@@ -63,12 +64,13 @@ def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fl
     start = figure8.evaluate(0.0)
     # the mean wind and the turbulence it carries past
     disturbance = tunnel_wind(speed, intensity, FIGURE8_HEIGHT, math.pi)
+    loop = (LoopOptions(benchmark=benchmark) if v3 else
+            LoopOptions(benchmark=benchmark, drag=True, motor_lag=True, sensing="mocap"))
     return Scenario(
         name=f"figure8-wind-{speed:g}", vehicle=params, trajectory=figure8,
-        duration=30.0, disturbance=disturbance, drag=None if v3 else True, motor_lag=not v3,
+        duration=30.0, disturbance=disturbance, loop=loop,
         floor_height=0.0, initial_position=tuple(start.position[0]),
-        initial_velocity=tuple(start.velocity[0]), sensing=None if v3 else "mocap",
-        settle_time=5.0, benchmark=benchmark,
+        initial_velocity=tuple(start.velocity[0]), settle_time=5.0,
         dt=1.0 / real.figure8_control_rate if real is not None else 0.01,
         description=f"Neural-Fly's wind-tunnel figure-8: x = 1.25 sin t, z = "
                     f"{FIGURE8_HEIGHT:g} + 0.75 sin 2t, heading fixed, {speed:g} m/s of wind "

@@ -17,7 +17,8 @@ ROTOR_SCENARIOS = [name for name in list_scenarios() if not name.startswith("pap
 @pytest.mark.parametrize("name", list_scenarios())
 def test_benchmark_v1_is_the_scenario_as_it_was(name):
     as_was, v1 = make_scenario(name), make_scenario(name, benchmark="v1")
-    for key in (*LOOP_FIELDS, "motor_lag", "actuation", "dt", "substeps", "duration"):
+    assert v1.loop == as_was.loop
+    for key in ("actuation", "dt", "substeps", "duration"):
         assert getattr(v1, key) == getattr(as_was, key), key
 
 
@@ -31,37 +32,37 @@ def test_benchmark_v1_flies_v1_bit_for_bit():
                                   "figure8-wind-8.5"])
 def test_benchmark_v2_sets_every_factor_of_parts_one_and_two(name):
     scenario = make_scenario(name, benchmark="v2")
-    assert scenario.sensing == SENSING_PRESETS["mocap"]
-    assert scenario.inner_rate == V2_INNER_RATE and scenario.inner_ticks == 2
-    assert scenario.speed_motors and scenario.thrust_uncertainty
-    assert scenario.rotor_aerodynamics and scenario.drag
+    assert scenario.loop.sensing == SENSING_PRESETS["mocap"]
+    assert scenario.loop.inner_rate == V2_INNER_RATE and scenario.inner_ticks == 2
+    assert scenario.loop.speed_motors and scenario.loop.thrust_uncertainty
+    assert scenario.loop.rotor_aerodynamics and scenario.loop.drag
 
 
 def test_a_factor_given_keeps_its_value_so_each_can_be_switched_off_in_turn():
     scenario = make_scenario("dryden-helix-gusts", benchmark="v2", speed_motors=False,
                              sensing="ideal", inner_rate=0)
-    assert not scenario.speed_motors and scenario.sensing is None
-    assert scenario.inner_rate is None and scenario.inner_ticks == 1
-    assert scenario.thrust_uncertainty and scenario.rotor_aerodynamics
+    assert not scenario.loop.speed_motors and scenario.loop.sensing is None
+    assert scenario.loop.inner_rate is None and scenario.inner_ticks == 1
+    assert scenario.loop.thrust_uncertainty and scenario.loop.rotor_aerodynamics
     # and a v1 scenario with one factor on is v1 but for it
     one = make_scenario("dryden-helix-gusts", rotor_aerodynamics=True)
-    assert one.rotor_aerodynamics and not one.speed_motors and one.sensing is None
+    assert one.loop.rotor_aerodynamics and not one.loop.speed_motors and one.loop.sensing is None
 
 
 def test_changing_the_benchmark_resets_the_loop_and_comes_back():
     calm = make_scenario("hover-calm")
     there = calm.with_changes(benchmark="v2")
-    assert there.speed_motors and there.drag and there.sensing is not None
+    assert there.loop.speed_motors and there.loop.drag and there.loop.sensing is not None
     back = there.with_changes(benchmark="v1")
-    assert all(getattr(back, key) == getattr(calm, key) for key in LOOP_FIELDS)
+    assert back.loop == calm.loop
     # a field the scenario's builder gave stays: the wind helix keeps its drag
     helix = make_scenario("dryden-helix-gusts", benchmark="v2").with_changes(benchmark="v1")
-    assert helix.drag and not helix.speed_motors
+    assert helix.loop.drag and not helix.loop.speed_motors
 
 
 def test_the_inner_rate_is_the_first_multiple_of_the_control_rate_at_200_hz():
     assert make_scenario("hover-calm", benchmark="v2", dt=0.02).inner_ticks == 4
-    assert make_scenario("hover-calm", benchmark="v2", dt=0.003).inner_rate == pytest.approx(
+    assert make_scenario("hover-calm", benchmark="v2", dt=0.003).loop.inner_rate == pytest.approx(
         1 / 0.003)
     assert make_scenario("hover-calm", benchmark="v2", dt=0.004).inner_ticks == 1
 
@@ -85,15 +86,16 @@ def test_the_v2_ids_fly_benchmark_v2_and_the_v1_ids_stay_v1():
         v1_id = v2_id.replace("-v2", "-v1")
         v2 = gym.make(v2_id).unwrapped.core.scenario
         v1 = gym.make(v1_id).unwrapped.core.scenario
-        assert v2.name == v1.name and v2.benchmark == "v2" and v1.benchmark == "v1"
-        assert v2.speed_motors and v2.inner_rate == V2_INNER_RATE and not v1.speed_motors
+        assert v2.name == v1.name and v2.loop.benchmark == "v2" and v1.loop.benchmark == "v1"
+        assert v2.loop.speed_motors and v2.loop.inner_rate == V2_INNER_RATE
+        assert not v1.loop.speed_motors
     # an option given with the id wins over the benchmark's, and the vector face agrees
     off = gym.make("QuadDOB/Hover-v2", scenario_options={"speed_motors": False})
-    assert off.unwrapped.core.scenario.benchmark == "v2"
-    assert not off.unwrapped.core.scenario.speed_motors
+    assert off.unwrapped.core.scenario.loop.benchmark == "v2"
+    assert not off.unwrapped.core.scenario.loop.speed_motors
     vector = gym.make_vec("QuadDOB/TrackResidual-v2", num_envs=2,
                           vectorization_mode="vector_entry_point")
-    assert vector.unwrapped.core.scenario.benchmark == "v2"
+    assert vector.unwrapped.core.scenario.loop.benchmark == "v2"
     vector.reset(seed=0)
     observation, *_ = vector.step(np.zeros((2, 4), np.float32))
     assert np.all(np.isfinite(observation))
@@ -111,19 +113,19 @@ def test_benchmark_v3_sets_every_factor_from_its_sourced_values(name, vehicle):
 
     scenario = make_scenario(name, benchmark="v3", vehicle=vehicle)
     real = REAL_LOOPS[vehicle]
-    assert scenario.sensing == SENSING_PRESETS["mocap"] and scenario.pose_latency_on_ticks
-    assert scenario.inner_rate == real.inner_rate and scenario.inner_ticks == 2
-    assert scenario.speed_motors and scenario.rotor_aerodynamics and scenario.drag
-    assert not scenario.thrust_uncertainty  # the throttle map replaces its draws
-    assert scenario.motor_time_constants == real.motor_time_constants
-    assert scenario.throttle_map == real.throttle_map
-    assert scenario.model_tolerance == real.model_tolerance
-    assert scenario.gyro_cutoff == real.gyro_cutoff
+    assert scenario.loop.sensing == SENSING_PRESETS["mocap"] and scenario.loop.pose_latency_on_ticks
+    assert scenario.loop.inner_rate == real.inner_rate and scenario.inner_ticks == 2
+    assert scenario.loop.speed_motors and scenario.loop.rotor_aerodynamics and scenario.loop.drag
+    assert not scenario.loop.thrust_uncertainty  # the throttle map replaces its draws
+    assert scenario.loop.motor_time_constants == real.motor_time_constants
+    assert scenario.loop.throttle_map == real.throttle_map
+    assert scenario.loop.model_tolerance == real.model_tolerance
+    assert scenario.loop.gyro_cutoff == real.gyro_cutoff
     # the accelerometer's vibration at the rotors' hover frequency, after the 30 Hz filter
     params = VEHICLES[vehicle]
     frequency = math.sqrt(params.hover_thrust / 4 / params.thrust_coefficient) / (2 * math.pi)
     left = real.accelerometer_vibration / math.sqrt(1 + (frequency / 30.0) ** 4)
-    assert scenario.imu_vibration == pytest.approx((0.0, left), rel=1e-12)
+    assert scenario.loop.imu_vibration == pytest.approx((0.0, left), rel=1e-12)
     assert 0.5 < left < 1.0  # 15 m/s² at 130-140 Hz, by 0.05
 
 
@@ -132,15 +134,15 @@ def test_each_v3_factor_switches_off_alone():
            "gyro_cutoff": 0, "imu_vibration": False, "pose_latency_on_ticks": False}
     for key, value in off.items():
         scenario = make_scenario("dryden-helix-gusts", benchmark="v3", **{key: value})
-        assert getattr(scenario, key) in (None, False), key
+        assert getattr(scenario.loop, key) in (None, False), key
         for other in off.keys() - {key}:
-            assert getattr(scenario, other) not in (None, False), (key, other)
+            assert getattr(scenario.loop, other) not in (None, False), (key, other)
     everything = make_scenario("dryden-helix-gusts", benchmark="v3", **off)
     v2 = make_scenario("dryden-helix-gusts", benchmark="v2", thrust_uncertainty=False)
-    assert all(getattr(everything, key) == getattr(v2, key) for key in LOOP_FIELDS)
+    assert all(getattr(everything.loop, key) == getattr(v2.loop, key) for key in LOOP_FIELDS)
     # v2's thrust draws asked for under v3 replace the throttle map
     drawn = make_scenario("dryden-helix-gusts", benchmark="v3", thrust_uncertainty=True)
-    assert drawn.thrust_uncertainty and drawn.throttle_map is None
+    assert drawn.loop.thrust_uncertainty and drawn.loop.throttle_map is None
 
 
 def test_v3_needs_a_vehicle_with_sourced_values():
@@ -154,7 +156,7 @@ def test_the_figure8s_fly_neural_flys_50_hz_and_v3s_turbulence_in_v3_only():
 
     for benchmark in ("v1", "v2"):
         scenario = make_scenario("figure8-wind-12.1", benchmark=benchmark)
-        assert scenario.dt == 0.01 and scenario.sensing == SENSING_PRESETS["mocap"]
+        assert scenario.dt == 0.01 and scenario.loop.sensing == SENSING_PRESETS["mocap"]
     v3 = make_scenario("figure8-wind-12.1", benchmark="v3")
     assert v3.dt == pytest.approx(1 / 50) and v3.inner_ticks == 4
     v2 = make_scenario("figure8-wind-12.1", benchmark="v2")
@@ -194,9 +196,9 @@ def test_a_loop_part_switched_off_takes_the_v3_factors_acting_through_it():
     refused with the reason."""
     bare = make_scenario("dryden-helix-gusts", benchmark="v3", sensing="ideal", inner_rate=0,
                          speed_motors=False)
-    assert bare.imu_vibration is None and bare.gyro_cutoff is None
-    assert bare.throttle_map is None and bare.model_tolerance is None
-    assert bare.motor_time_constants is None and not bare.pose_latency_on_ticks
+    assert bare.loop.imu_vibration is None and bare.loop.gyro_cutoff is None
+    assert bare.loop.throttle_map is None and bare.loop.model_tolerance is None
+    assert bare.loop.motor_time_constants is None and not bare.loop.pose_latency_on_ticks
     with pytest.raises(ValueError, match="shakes an IMU"):
         make_scenario("dryden-helix-gusts", benchmark="v3", sensing="ideal",
                       imu_vibration=(0.0, 0.5))

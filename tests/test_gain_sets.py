@@ -100,7 +100,7 @@ def test_a_residual_models_base_flies_the_gains_it_was_trained_with():
     assert shipped.base_benchmark == "v1"  # trained on TracksResidual-v1
     env = ResidualVectorEnv(2, "gusty-hover", benchmark="v2", **shipped.env_kwargs())
     assert env.residual.controller.gain_set.tuned_for is None  # v1's, in v2's loop
-    assert env.core.scenario.inner_rate == 200.0
+    assert env.core.scenario.loop.inner_rate == 200.0
     env.close()
 
 

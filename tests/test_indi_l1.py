@@ -173,7 +173,7 @@ def test_indi_cancels_a_step_of_force_within_a_few_filter_time_constants(benchma
     bandwidth = 40.0
     scenario = make_scenario("hover-step-force", initial_position_noise=0.0,
                              initial_attitude_noise=0.0, duration=5.9, benchmark=benchmark)
-    assert (scenario.sensing is None) == (benchmark == "v1")
+    assert (scenario.loop.sensing is None) == (benchmark == "v1")
     flight = fly(make_controller("indi", PAPER, "v1", filter_bandwidth=bandwidth), scenario)[0]
     step = 0.2 * PAPER.hover_thrust
     # the record's disturbance is the step's own; the estimate is formed at its start

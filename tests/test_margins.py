@@ -18,7 +18,7 @@ def _fly_losing_from(field: str, threshold: float, flown: list):
 
     def fly(policy, scenario, seeds):
         flown.append(scenario)
-        lost = getattr(scenario, field) >= threshold - 1e-12
+        lost = getattr(scenario.loop, field) >= threshold - 1e-12
         return [SimpleNamespace(termination_reason="crashed" if lost else "time_limit")
                 for _ in seeds]
 
@@ -35,16 +35,17 @@ def test_the_margin_is_the_last_grid_value_before_a_loss_on_its_path(monkeypatch
                                                                 field: 0.005},
                                   grid=(0.0, 0.01, 0.02, 0.03, 0.05), path=path)
     assert (result.margin, result.lost_at) == (0.02, 0.03)
-    assert [getattr(s, field) for s in flown] == pytest.approx([0.005, 0.015, 0.025, 0.035])
+    assert [getattr(s.loop, field) for s in flown] == pytest.approx(
+        [0.005, 0.015, 0.025, 0.035])
     other = "extra_latency" if field != "extra_latency" else "unmodelled_pose_latency"
-    assert all(getattr(s, other) == 0.0 for s in flown)  # the other path untouched
+    assert all(getattr(s.loop, other) == 0.0 for s in flown)  # the other path untouched
     assert result.describe() == "20 ms"
 
 
 def test_a_margin_never_rests_on_a_lucky_larger_value(monkeypatch):
     # lost at 10 ms, kept at 20 ms: the search stops at 10 ms, never reaching 20
     def fly(policy, scenario, seeds):
-        lost = abs(scenario.extra_latency - 0.01) < 1e-12
+        lost = abs(scenario.loop.extra_latency - 0.01) < 1e-12
         return [SimpleNamespace(termination_reason="crashed" if lost else "")]
 
     monkeypatch.setattr(policies, "fly_policy", fly)

@@ -38,7 +38,8 @@ def test_replay_flies_the_benchmark_it_is_told_with_that_benchmarks_policy(monke
         pass
 
     def capture(n, scenario, **kwargs):
-        seen.update(benchmark=scenario.benchmark, base_benchmark=kwargs.get("base_benchmark"))
+        seen.update(benchmark=scenario.loop.benchmark,
+                    base_benchmark=kwargs.get("base_benchmark"))
         raise BuiltError
 
     monkeypatch.setattr(replay, "make_vector_env", capture)

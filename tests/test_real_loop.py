@@ -503,7 +503,7 @@ def test_an_unmodelled_pose_latency_needs_a_pose_fix():
                                          r"sensor suite's pose fix, but scenario 'hover-calm' "
                                          r"senses None"):
         make_scenario("hover-calm", unmodelled_pose_latency=0.02)
-    with pytest.raises(ValueError, match=r"Scenario\.unmodelled_pose_latency"):
+    with pytest.raises(ValueError, match=r"LoopOptions\.unmodelled_pose_latency"):
         make_scenario("hover-calm", unmodelled_pose_latency=-0.01)
 
 
@@ -511,7 +511,7 @@ def test_the_model_tolerance_composes_with_v2s_thrust_draws():
     """v2's thrust uncertainty asked for under v3 replaces the throttle map, not the model
     tolerance: the true k_F is thrust uncertainty's draw over the told factor."""
     scenario = make_scenario("hover-calm", benchmark="v3", thrust_uncertainty=True)
-    assert scenario.throttle_map is None and scenario.model_tolerance is not None
+    assert scenario.loop.throttle_map is None and scenario.loop.model_tolerance is not None
     core = _core(scenario, seeds=[3])
     drawn = core.sampled[0]
     alone = _core(make_scenario("hover-calm", benchmark="v3", thrust_uncertainty=True,

@@ -176,7 +176,7 @@ def test_residual_ids_default_to_the_recommended_base_in_wind(env_id):
     env = gym.make(env_id)
     assert env.get_wrapper_attr("residual").controller.name == "geometric-ndob:tuned"
     scenario = env.unwrapped.core.scenario
-    assert scenario.drag and scenario.disturbance is not None
+    assert scenario.loop.drag and scenario.disturbance is not None
     assert "Dryden" in repr(scenario.disturbance)
 
 

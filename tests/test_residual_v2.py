@@ -118,7 +118,7 @@ def test_each_loop_group_flies_its_loop_and_its_vehicles_seeds():
                                        **options, "scenario_options": {"duration": 0.5,
                                                                        **loop}})
         flown = alone.vector_envs[0].scenario
-        assert flown.motor_time_constant_scale == loop["motor_time_constant_scale"]
+        assert flown.loop.motor_time_constant_scale == loop["motor_time_constant_scale"]
         assert flown.vehicle.name == loop["vehicle"] == venv.vector_envs[
             venv.groups.index(group)].scenario.vehicle.name
         mine = [alone.reset()]

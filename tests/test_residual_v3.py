@@ -58,9 +58,9 @@ def test_the_v3_recipes_groups_fly_what_was_drawn():
                              loop_randomization=V3_SPEC)
     for loop, venv in zip(env.loops, env.vector_envs, strict=True):
         flown = venv.scenario
-        assert flown.benchmark == "v3" and flown.vehicle.name == loop["vehicle"]
-        assert flown.throttle_map.thrust_model_factor == loop["thrust_model_factor"]
-        assert flown.unmodelled_pose_latency == loop["unmodelled_pose_latency"]
+        assert flown.loop.benchmark == "v3" and flown.vehicle.name == loop["vehicle"]
+        assert flown.loop.throttle_map.thrust_model_factor == loop["thrust_model_factor"]
+        assert flown.loop.unmodelled_pose_latency == loop["unmodelled_pose_latency"]
     env.reset()
     env.step_async(np.zeros((8, 4), np.float32))
     _, rewards, _, _ = env.step_wait()

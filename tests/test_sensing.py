@@ -51,7 +51,7 @@ V1_FLIGHTS = {
 @pytest.mark.parametrize(("scenario", "policy"), list(V1_FLIGHTS))
 def test_ideal_sensing_flies_v1s_flights(scenario, policy):
     flown = make_scenario(scenario, sensing="ideal")
-    assert flown.sensing is None  # the identity, the default
+    assert flown.loop.sensing is None  # the identity, the default
     flights = fly_policy(make_policy(policy), flown, [9001, 9002])
     for flight, (*position, length) in zip(flights, V1_FLIGHTS[scenario, policy], strict=True):
         assert len(flight.position) == length
@@ -182,7 +182,7 @@ def _observation_from(core, state) -> np.ndarray:
 
 def test_extra_latency_and_motor_scale_are_checked_and_resolved_on_the_grid():
     scenario = make_scenario("gusty-hover", extra_latency=0.025, motor_time_constant_scale=2)
-    assert delay_steps(scenario.extra_latency, scenario.dt) == 3
+    assert delay_steps(scenario.loop.extra_latency, scenario.dt) == 3
     core = QuadrotorBatch(scenario, 1)
     assert core.sensing.delays == (3, 3) and not core.sensing.identity
     with pytest.raises(ValueError, match="extra_latency must be >= 0"):
@@ -210,11 +210,12 @@ def test_a_slower_motor_follows_its_command_with_the_scaled_time_constant():
 
 
 def test_sensing_options_by_name_record_or_dict_with_clear_errors():
-    assert make_scenario("gusty-hover", sensing="mocap").sensing is SENSING_PRESETS["mocap"]
-    assert make_scenario("gusty-hover", sensing="ideal").sensing is None
+    assert make_scenario("gusty-hover", sensing="mocap").loop.sensing is SENSING_PRESETS["mocap"]
+    assert make_scenario("gusty-hover", sensing="ideal").loop.sensing is None
+    # ``sensors``, sensing's SensorNoise spelling, is a flat key for ``sensing``
     noisy = make_scenario("gusty-hover", sensors={"position_std": 0.01})
-    assert noisy.sensing == SensorNoise(position_std=0.01) == noisy.sensors
-    assert noisy.with_changes(sensing="mocap").sensors is None
+    assert noisy.loop.sensing == SensorNoise(position_std=0.01)
+    assert noisy.with_changes(sensing="mocap").loop.sensing is SENSING_PRESETS["mocap"]
     with pytest.raises(ValueError,
                        match=r"unknown sensing preset 'mocup'.*did you mean 'mocap'"):
         make_scenario("gusty-hover", sensing="mocup")
@@ -223,7 +224,7 @@ def test_sensing_options_by_name_record_or_dict_with_clear_errors():
     with pytest.raises(ValueError, match="unknown SensorSuite field 'imus'"):
         make_scenario("gusty-hover", sensing={"pose": {}, "imus": {}})
     suite = dataclasses.asdict(MOCAP)
-    assert make_scenario("gusty-hover", sensing=suite).sensing == MOCAP
+    assert make_scenario("gusty-hover", sensing=suite).loop.sensing == MOCAP
     with pytest.raises(ValueError, match=r"position_bandwidth = 200.0 rad/s times the pose "
                                          r"fix.*at most 100 rad/s"):
         SensorSuite(**{**suite, "estimator": {"position_bandwidth": 200.0,

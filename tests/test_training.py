@@ -273,7 +273,7 @@ def test_a_v2_id_trains_and_is_evaluated_during_training_in_v2s_loop(tmp_path):
                             hyperparams=conf)
     assert config["env_kwargs"]["benchmark"] == "v2"
     evaluation = BaselineEvaluation(config, tmp_path, 10**9)
-    assert evaluation._scenario.benchmark == "v2" and evaluation._scenario.inner_rate > 0
+    assert evaluation._scenario.loop.benchmark == "v2" and evaluation._scenario.loop.inner_rate > 0
     config["algo_kwargs"].update(n_steps=32, batch_size=64, n_epochs=1)
     run = tmp_path / "run"
     train(config, run, evaluate_every=10**9, progress_bar=False)

@@ -122,7 +122,7 @@ def test_rotor_speeds_follow_the_first_order_step_response(scale, inner_rate):
     reported thrust is k_F Σ mean ω², and the physics lifts the vehicle with it."""
     scenario = make_scenario("hover-calm", speed_motors=True, motor_time_constant_scale=scale,
                              inner_rate=inner_rate, **STILL)
-    assert not scenario.motor_lag  # off: speed_motors alone turns the lag on
+    assert not scenario.loop.motor_lag  # off: speed_motors alone turns the lag on
     core = _core(scenario, action_mode="rotor_thrusts")
     tau = TAU * scale
     omega0 = math.sqrt(HOVER_ROTOR / K_F)
@@ -332,7 +332,7 @@ def test_inner_loop_holds_a_rate_command_at_its_rate(inner_rate, per_step):
     (no motor lag), so ω moves linearly in a tick and the error shrinks by (1 - 20 h) per
     tick; pure roll keeps ω × Jω = 0."""
     scenario = make_scenario("hover-calm", inner_rate=inner_rate, **STILL)
-    assert not scenario.motor_lag and scenario.sensing is None
+    assert not scenario.loop.motor_lag and scenario.loop.sensing is None
     core = _core(scenario, action_mode="thrust_rates")
     actions = np.array([[0.0, 0.5 / 4.0, 0.0, 0.0]])
     error = 0.5

@@ -56,7 +56,7 @@ def test_the_figure_eight_is_neural_flys(wind):
     started on the reference; flyable (refused otherwise)."""
     scenario = make_scenario(f"figure8-wind-{wind}")
     assert scenario.vehicle is NF and scenario.duration == 30.0
-    assert scenario.sensing is not None and scenario.sensing.pose.kind == "mocap"
+    assert scenario.loop.sensing is not None and scenario.loop.sensing.pose.kind == "mocap"
     times = np.linspace(0.0, 30.0, 301)
     reference = scenario.trajectory.evaluate(times)
     expected = np.stack([1.25 * np.sin(times), np.zeros_like(times),

@@ -138,9 +138,10 @@ class Policy:
         return options
 
 
-# the benchmark a scenario flies when none is named (the Scenario record's default)
+# the benchmark a scenario flies when none is named (the default of the Scenario record's
+# loop)
 LIBRARY_BENCHMARK: str = next(field.default for field in dataclasses.fields(Scenario)
-                              if field.name == "benchmark")
+                              if field.name == "loop").benchmark
 
 
 def resolve_spec(spec: str, benchmark: str | None = None) -> str:

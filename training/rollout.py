@@ -176,9 +176,10 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
         return flights
     actuation = actuations[0]
     cores = [QuadrotorBatch(s, 1) for s in scenarios]
-    if len({s.inner_ticks if s.inner_rate is not None else None for s in scenarios}) > 1:
+    if len({s.inner_ticks if s.loop.inner_rate is not None else None for s in scenarios}) > 1:
         raise ValueError("fly() needs scenarios with one inner loop (or none); got "
-                         + ", ".join(f"{s.name} (inner_rate={s.inner_rate})" for s in scenarios))
+                         + ", ".join(f"{s.name} (inner_rate={s.loop.inner_rate})"
+                                     for s in scenarios))
     for i, core in enumerate(cores):
         core.reset(np.zeros(1, dtype=np.intp), [seeding.np_random(seed)[0]])
         # core i is row i of the controller's batch

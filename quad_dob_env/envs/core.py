@@ -113,10 +113,10 @@ class QuadrotorBatch:
         self.wind_velocity = np.zeros((n, 3))
         self._own = tuple(np.zeros((n, samples, 3)) for _ in range(3))  # force, torque, wind
         # per-vehicle physics (mass, inertia, inverse, drag), so vehicles can differ
-        self._nominal = physics_arrays(self.vehicle, 1, scenario.drag,
-                                       scenario.rotor_aerodynamics)
+        self._nominal = physics_arrays(self.vehicle, 1, scenario.loop.drag,
+                                       scenario.loop.rotor_aerodynamics)
         self.mass, self.inertia, self.inertia_inverse, self.drag = physics_arrays(
-            self.vehicle, n, scenario.drag, scenario.rotor_aerodynamics)
+            self.vehicle, n, scenario.loop.drag, scenario.loop.rotor_aerodynamics)
         self.sampled: list[dict[str, float]] = [{} for _ in range(n)]
         self.actuator_state = np.zeros((n, 4))
         self._actuation = self.actuator.kernel_arguments()
@@ -128,14 +128,14 @@ class QuadrotorBatch:
                         float(self.reward_weights.effort_weight))
         self._rotation_mode = 0 if rotation_representation == "matrix" else 1
         self.sensing = SensingStage(
-            scenario.sensing, scenario.extra_latency, self.state,
+            scenario.loop.sensing, scenario.loop.extra_latency, self.state,
             (self.applied.thrust, self.disturbance_force, self.mass, self.applied.rotor_thrusts),
             self.vehicle, scenario.dt,
             hover=(self.vehicle.hover_thrust,
                    self.actuator.to_rotors @ self.actuator.hover_output()),
-            vibration=scenario.imu_vibration or (0.0, 0.0),
-            ticks=scenario.inner_ticks if scenario.pose_latency_on_ticks else 1,
-            unmodelled_pose_latency=scenario.unmodelled_pose_latency)
+            vibration=scenario.loop.imu_vibration or (0.0, 0.0),
+            ticks=scenario.inner_ticks if scenario.loop.pose_latency_on_ticks else 1,
+            unmodelled_pose_latency=scenario.loop.unmodelled_pose_latency)
         # the kernels write the true state's observation here; a policy reads ``obs`` (the
         # same array for the identity, else rebuilt from the measurement)
         self._true_obs = self.obs if self.sensing.identity else np.zeros_like(self.obs)

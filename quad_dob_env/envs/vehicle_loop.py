@@ -35,11 +35,12 @@ class VehicleLoop:
                  pose: tuple[int, NDArray, NDArray, NDArray] | None = None) -> None:
         vehicle = scenario.vehicle
         up, down = scenario.rotor_time_constants
-        self.throttle = scenario.throttle_map
-        self.model = RotorModel.of(vehicle, scenario.speed_motors, scenario.thrust_uncertainty,
-                                   scenario.rotor_aerodynamics, 0.0 if down == up else down,
+        self.throttle = scenario.loop.throttle_map
+        self.model = RotorModel.of(vehicle, scenario.loop.speed_motors,
+                                   scenario.loop.thrust_uncertainty,
+                                   scenario.loop.rotor_aerodynamics, 0.0 if down == up else down,
                                    self.throttle)
-        self.uncertain = scenario.thrust_uncertainty
+        self.uncertain = scenario.loop.thrust_uncertainty
         self.thrust_scale = np.ones(n)
         self.sag_rate = np.zeros(n)
         # the throttle map's draws: true hover throttle at the start, its drift [1/s], and
@@ -49,18 +50,18 @@ class VehicleLoop:
         self.hover_estimate_factor = np.ones(n)
         # the model mismatch's draws: each told value over the truth (the truth's scale is
         # its inverse; the thrust coefficient's is ``thrust_scale``)
-        self.tolerance = scenario.model_tolerance
+        self.tolerance = scenario.loop.model_tolerance
         self.told_over_true = np.ones((n, 3))  # mass, inertia, thrust coefficient
         self.ticks = scenario.inner_ticks
-        self.active = scenario.inner_rate is not None
+        self.active = scenario.loop.inner_rate is not None
         # thrust_rates' rate loop is the inner loop, when there is one
         self.rates = self.active and action_mode == "thrust_rates"
         has_estimate, rotation, rate = estimate
         # the autopilot's gyro low-pass on the rates every inner law reads (v3), stepped
         # once a tick at its end; its state starts settled on the scenario's initial rates
-        cutoff = scenario.gyro_cutoff
+        cutoff = scenario.loop.gyro_cutoff
         self.gyro_filter = cutoff is not None and self.active
-        self._gyro_coefficients = (butterworth_coefficients(cutoff, scenario.inner_rate)
+        self._gyro_coefficients = (butterworth_coefficients(cutoff, scenario.loop.inner_rate)
                                    if self.gyro_filter else (0.0,) * 5)
         self._initial_rate = np.array(scenario.initial_angular_velocity, dtype=float)
         self.gyro_state, self.gyro_output = np.zeros((n, 3, 2)), np.zeros((n, 3))

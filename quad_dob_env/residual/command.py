@@ -189,7 +189,7 @@ class ResidualCommand:
         elif core.loop.active and getattr(self.controller, "has_inner_law", False):
             raise ValueError(
                 f"scenario {core.scenario.name!r} has an inner loop (inner_rate="
-                f"{core.scenario.inner_rate:g} Hz) and the base {self.controller.name!r} an "
+                f"{core.scenario.loop.inner_rate:g} Hz) and the base {self.controller.name!r} an "
                 "attitude law for it, but nothing was given to run it: build the env through "
                 "quad_dob_composition (ResidualVectorEnv, make_residual_env, "
                 "residual_command), which passes attitude_loop=AttitudeLoop.install")

@@ -3,7 +3,7 @@
 - ``models``: the records (``PoseSensor``, ``Imu``, ``RotorTelemetry``, ``EstimatorGains``,
   ``SensorSuite``), the presets ``ideal``, ``mocap`` and ``gnss-imu``
   (``SENSING_PRESETS``) with the source of every number (``SENSING_SOURCES``), and
-  ``resolve_sensing``, what ``Scenario.sensing`` accepts.
+  ``resolve_sensing``, what ``LoopOptions.sensing`` accepts.
 - ``measurement``: ``Measurement``, the one record controllers read: the estimate (a
   ``VehicleState``) with the raw gyroscope, accelerometer and rotor-speed readings.
 - ``sensing_pass``: the compiled readings and their delay lines, each sensor on its own

@@ -1,7 +1,7 @@
 """The sensing records: the sensors a vehicle carries and the estimator that fuses them,
 the named presets, and where every preset number comes from.
 
-``Scenario.sensing`` takes a preset name (``SENSING_PRESETS``), a ``SensorSuite``, a
+``LoopOptions.sensing`` takes a preset name (``SENSING_PRESETS``), a ``SensorSuite``, a
 ``SensorNoise`` (Gaussian noise on the state itself, no estimator: what ``sensors=``
 always was) or None (``ideal``: the controllers read the true state).
 """
@@ -256,7 +256,7 @@ SENSING_SOURCES: dict[str, dict[str, str]] = {
 
 
 def resolve_sensing(value: object) -> SensorSuite | SensorNoise | None:
-    """What ``Scenario.sensing`` holds for ``value``: a preset's suite by name (None for
+    """What ``LoopOptions.sensing`` holds for ``value``: a preset's suite by name (None for
     ``ideal``), a suite or ``SensorNoise`` as given, or one built from a dict of its fields
     (a dict with ``pose`` is a ``SensorSuite``, else a ``SensorNoise``)."""
     if value is None or isinstance(value, (SensorSuite, SensorNoise)):
@@ -274,8 +274,8 @@ def resolve_sensing(value: object) -> SensorSuite | SensorNoise | None:
         try:
             return kind(**value)
         except TypeError as error:  # a field missing, here or in a part's dict
-            raise ValueError(f"Scenario.sensing {kind.__name__}: {error}; its fields: "
+            raise ValueError(f"LoopOptions.sensing {kind.__name__}: {error}; its fields: "
                              + ", ".join(fields_)) from None
-    raise ValueError(f"Scenario.sensing must be a preset name ({', '.join(SENSING_PRESETS)}), "
+    raise ValueError(f"LoopOptions.sensing must be a preset name ({', '.join(SENSING_PRESETS)}), "
                      f"a SensorSuite, a SensorNoise, a dict of either's fields or None, got "
                      f"{value!r}")

@@ -251,7 +251,7 @@ def _actuation_and_drag(scenario: str) -> tuple[str, bool, str] | None:
         built = scenario_registry.make_scenario(scenario)
     except (ValueError, TypeError):
         return None
-    return built.actuation, built.drag, built.vehicle.name
+    return built.actuation, built.loop.drag, built.vehicle.name
 
 
 def _scenario_options(d: _Draw, scenario: str) -> dict[str, Any]:

@@ -146,7 +146,8 @@ class Flight:
         for name in ("dt", "duration", "substeps", "reference_start_spread", "drag",
                      "motor_lag", "actuation"):
             if name in options and name not in self.config["invalid"]:
-                got = getattr(scenario, name, None)
+                got = getattr(scenario.loop if name in ("drag", "motor_lag") else scenario,
+                              name, None)
                 want = options[name]
                 same = (math.isclose(float(got), float(want), rel_tol=1e-12)
                         if isinstance(want, float) else got == want)

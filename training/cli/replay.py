@@ -28,7 +28,7 @@ def fly_frames(spec: str, scenario_name: str, seed: int, every: int, size: tuple
     ``model_files.load_model``)."""
     scenario = make_scenario(scenario_name, benchmark=benchmark)
     # bare residual: the shipped policy of the benchmark the scenario flies
-    policy = make_policy(spec, trust_pickle=trust_pickle, benchmark=scenario.benchmark)
+    policy = make_policy(spec, trust_pickle=trust_pickle, benchmark=scenario.loop.benchmark)
     env = make_vector_env(1, scenario, **policy.env_kwargs())
     check_spaces(policy, env)
     renderer = FlightRenderer(env.core, *size)

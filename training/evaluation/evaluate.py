@@ -155,7 +155,7 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
     built_as: dict[str, object] = {}
     for scenario in made.values():
         for spec in flown:
-            resolved = resolve_spec(spec, scenario.benchmark)
+            resolved = resolve_spec(spec, scenario.loop.benchmark)
             if resolved not in built_as:
                 built_as[resolved] = make_policy(resolved, trust_pickle=trust_pickle,
                                                  env_id=env_id)
@@ -163,7 +163,7 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
     for scenario_name, scenario in made.items():
         # each spec as this scenario's benchmark resolves it: two specs naming the same
         # policy here (``residual`` and ``residual:v1`` in v1) fly once and make one row
-        resolved_of = {spec: resolve_spec(spec, scenario.benchmark) for spec in flown}
+        resolved_of = {spec: resolve_spec(spec, scenario.loop.benchmark) for spec in flown}
         listed = list(dict.fromkeys(resolved_of[spec] for spec in specs))
         metrics, distinct, flights_of = {}, {}, {}
         for resolved in dict.fromkeys(resolved_of.values()):
@@ -185,15 +185,15 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
             row["gains"] = _gains_used(policy, scenario)
             row.update(policy_spec=spec,
                        policy_fingerprint=policy.fingerprint or "",
-                       benchmark=scenario.benchmark,
+                       benchmark=scenario.loop.benchmark,
                        vehicle=scenario.vehicle.name,
-                       sensing=getattr(scenario.sensing, "name", None) or "ideal",
+                       sensing=getattr(scenario.loop.sensing, "name", None) or "ideal",
                        env_entry_point=("quad_dob_composition:ResidualVectorEnv"
                                         if policy.base is not None else
                                         "quad_dob_env.envs:QuadrotorVectorEnv"),
                        env_id=(policy.config or {}).get("env_id", ""))
             if delay_grid is not None:
-                path = delay_path or benchmark_delay_path(scenario.benchmark)
+                path = delay_path or benchmark_delay_path(scenario.loop.benchmark)
                 margin = delay_margin(policy, scenario_name, seeds, scenario_options,
                                       check_grid(delay_grid), flown=flights_of[spec],
                                       path=path)
@@ -209,7 +209,7 @@ def _gains_used(policy, scenario) -> str:
     modules' own, v1's), or "" (no controller, or one given as an object)."""
     if not isinstance(policy.base, str):
         return ""
-    chosen = gain_set(policy.base, policy.base_benchmark or scenario.benchmark,
+    chosen = gain_set(policy.base, policy.base_benchmark or scenario.loop.benchmark,
                       scenario.vehicle)
     if chosen.tuned_for is None:
         return "defaults"

@@ -5,8 +5,8 @@ and every smaller value of the grid, keeps every flight of the seeds (none crash
 its bounds or lost its attitude). The grid is searched upwards and stops at the first value
 that loses a flight, so a margin never rests on a lucky larger value. Where the latency
 goes (``DELAY_PATHS``) is each benchmark's margin's place (``benchmark_delay_path``): v1's
-and v2's on every reading (``Scenario.extra_latency``: pose, IMU and rotors alike), v3's on
-the pose fix alone, unknown to the estimator (``Scenario.unmodelled_pose_latency``, where
+and v2's on every reading (``LoopOptions.extra_latency``: pose, IMU and rotors alike), v3's on
+the pose fix alone, unknown to the estimator (``LoopOptions.unmodelled_pose_latency``, where
 ``benchmark_v3.TUNING_MARGIN`` puts its 20 ms: a real vehicle's mocap and link latency do
 not reach its autopilot's IMU).
 """

@@ -142,7 +142,7 @@ def _evaluate_task(task: dict[str, Any]) -> dict[str, Any]:
     options = {} if params.get("wind_scale") is None else {"wind_scale": params["wind_scale"]}
     scenario = make_scenario(params["scenario"], **options)
     # bare residual: the shipped policy of the benchmark the scenario flies
-    policy = make_policy(params["policy"], benchmark=scenario.benchmark)
+    policy = make_policy(params["policy"], benchmark=scenario.loop.benchmark)
     rate = params.get("observer_rate")
     if rate is not None:
         policy = Policy(f"{policy.name}@{rate}", _observer_controller(params["policy"], rate,

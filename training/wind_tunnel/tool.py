@@ -54,7 +54,7 @@ def fly_logs(spec: str, scenario: Any, seeds: list[int], wind_speed: float | Non
     from quad_dob_training.policies import make_policy
     from quad_dob_training.wind_tunnel.flight_logs import InfoRecorder
 
-    policy = make_policy(spec, benchmark=scenario.benchmark)
+    policy = make_policy(spec, benchmark=scenario.loop.benchmark)
     if policy.model is not None:
         raise ValueError(f"{spec!r} is a trained model; the wind tunnel flies controllers "
                          f"by name: {', '.join(COUNTERPARTS)}")
