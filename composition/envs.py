@@ -54,9 +54,11 @@ class ResidualVectorEnv(QuadrotorVectorEnv):
         flown = make_scenario(scenario, **scenario_options_for(scenario_options, benchmark))
         base = make_base(base_controller, flown.vehicle,
                          base_benchmark or flown.loop.benchmark)
-        super().__init__(num_envs, scenario, scenario_options, base_controller=base,
+        # the scenario built here, not its name and options again: every build checks the
+        # reference's feasibility
+        super().__init__(num_envs, flown, base_controller=base,
                          fused_pass=fused_pass_for(base) if compiled else None,
-                         attitude_loop=AttitudeLoop.install, benchmark=benchmark, **kwargs)
+                         attitude_loop=AttitudeLoop.install, **kwargs)
 
 
 def make_vector_env(num_envs: int, scenario: Any = "paper-none",

@@ -3,9 +3,9 @@
 ``make_scenario("paper-II")`` builds a named one; options either go to its builder (such as
 ``torque_reading`` or ``vehicle``) or replace a ``Scenario`` field (``dt``, ``duration``,
 ``substeps``, ...) or one of the loop's options (``benchmark``, ``inner_rate``, ...: laid
-over the scenario's own loop, ``quad_dob_env.loop_options``). ``gym.make``, the CLI,
-evaluation and the paper reproduction all go through here, so "paper-II" means one thing
-everywhere.
+over the scenario's own loop, ``quad_dob_env.loop_options``). Each builder takes those
+fields and builds its scenario once. ``gym.make``, the CLI, evaluation and the paper
+reproduction all go through here, so "paper-II" means one thing everywhere.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import inspect
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -71,7 +72,7 @@ HELIX_ALTITUDE = 2.0  # [m] centre of the wind helix: it flies 1.4-2.6 m above t
 
 
 def _paper(kind: str, *, vehicle: str | VehicleParams = "paper",
-           torque_reading: str = "0.6*dx") -> Scenario:
+           torque_reading: str = "0.6*dx", **fields: Any) -> Scenario:
     if torque_reading not in TORQUE_READINGS:
         raise unknown_name_error("torque_reading", torque_reading, TORQUE_READINGS)
     force = np.array(PAPER_FORCE)
@@ -84,17 +85,17 @@ def _paper(kind: str, *, vehicle: str | VehicleParams = "paper",
     }[kind]
     what = {"none": "no disturbance", "I": "d_x = [1.3, 2.0, 2.6] atan(t/2)",
             "II": "constant d_x = [1.3, 2.0, 2.6] N", "IIA": "II's constants for 5 <= t < 7 s"}
-    return Scenario(
+    return Scenario(**dict(
         name=f"paper-{kind}", vehicle=get_vehicle(vehicle), trajectory=PaperHelix(),
         duration=10.0, disturbance=disturbance, dt=0.01, actuation="wrench",
         description=f"Paper helix, {what[kind]}, d_Ω = {torque_reading} "
                     "(moments applied directly, as in the paper's model)",
-    )
+    ) | fields)
 
 
 def _ground_effect_landing(*, vehicle: str | VehicleParams = "paper",
-                           model: str = "paper") -> Scenario:
-    return Scenario(
+                           model: str = "paper", **fields: Any) -> Scenario:
+    return Scenario(**dict(
         name="ground-effect-landing", vehicle=get_vehicle(vehicle),
         trajectory=TakeoffHoverLanding(start_height=0.15, hover_height=0.15,
                                        end_height=LANDING_HEIGHT, climb_time=0.0,
@@ -103,24 +104,24 @@ def _ground_effect_landing(*, vehicle: str | VehicleParams = "paper",
         initial_position=(0.0, 0.0, 0.15),
         description=f"Hover at 0.15 m, descend to {LANDING_HEIGHT} m in ground effect "
                     f"({model} law; it holds down to R/2 = 0.064 m)",
-    )
+    ) | fields)
 
 
 def _hover(*, vehicle: str | VehicleParams = "paper", height: float = 1.0,
-           step_force: float = 0.0) -> Scenario:
+           step_force: float = 0.0, **fields: Any) -> Scenario:
     params = get_vehicle(vehicle)
     disturbance = None
     if step_force:
         # a fraction of the vehicle's weight, so the scenario means the same for any vehicle
         disturbance = Constant(force=(step_force * params.hover_thrust, 0.0, 0.0)).during(3.0, 6.0)
-    return Scenario(
+    return Scenario(**dict(
         name="hover-step-force" if step_force else "hover-calm", vehicle=params,
         trajectory=Hover((0.0, 0.0, height)), duration=10.0, disturbance=disturbance,
         floor_height=0.0, initial_position=(0.0, 0.0, height), initial_position_noise=0.1,
         initial_attitude_noise=0.1,
         description="Hold a hover point from a perturbed start"
         + (f"; +x force of {step_force:g} weights for 3 <= t < 6 s" if step_force else ""),
-    )
+    ) | fields)
 
 
 def _wind(preset: str, altitude: float, wind_scale: float) -> Dryden:
@@ -144,7 +145,7 @@ def _wind_words(preset: str, dryden: Dryden) -> str:
 
 def _dryden_helix(*, vehicle: str | VehicleParams = "paper", wind: str = "moderate",
                   gusts: bool = False, wind_scale: float = 1.0,
-                  altitude: float = HELIX_ALTITUDE) -> Scenario:
+                  altitude: float = HELIX_ALTITUDE, **fields: Any) -> Scenario:
     height = as_finite(altitude, "altitude", PaperHelix().terms[1][1], strictly=True)
     dryden = _wind(wind, height, wind_scale)
     disturbance: Disturbance = dryden + _gust_pair() if gusts else dryden
@@ -152,7 +153,7 @@ def _dryden_helix(*, vehicle: str | VehicleParams = "paper", wind: str = "modera
     # turning at π rad/s needs more yaw moment than rotor drag gives (quad-dob list)
     helix = PaperHelix(yaw_rate=0.0, altitude=height)
     start = helix.evaluate(0.0)
-    return Scenario(
+    return Scenario(**dict(
         name="dryden-helix-gusts" if gusts else "dryden-helix", vehicle=get_vehicle(vehicle),
         trajectory=helix, duration=10.0, disturbance=disturbance, loop=PHYSICAL_ROTORS,
         floor_height=0.0, initial_position=tuple(start.position[0]),
@@ -162,7 +163,7 @@ def _dryden_helix(*, vehicle: str | VehicleParams = "paper", wind: str = "modera
                     + _wind_words(wind, dryden)
                     + ("; two 1-cosine gusts, 4 m/s at 2 s, 4 m/s at 6 s" if gusts else "")
                     + "; drag, motor lag, physical rotors",
-    )
+    ) | fields)
 
 
 # The rotor-actuated counterpart of the paper's Scenario II: its constant force and its
@@ -174,7 +175,8 @@ def _dryden_helix(*, vehicle: str | VehicleParams = "paper", wind: str = "modera
 YAW_TORQUE_SHARE = 0.5
 
 
-def _helix_force_torque(*, vehicle: str | VehicleParams = "paper") -> Scenario:
+def _helix_force_torque(*, vehicle: str | VehicleParams = "paper",
+                        **fields: Any) -> Scenario:
     params, paper = get_vehicle(vehicle), get_vehicle("paper")
     force = np.array(PAPER_FORCE) * params.mass / paper.mass
     torque = (TORQUE_READINGS["0.6*dx"] * np.array(PAPER_FORCE)
@@ -184,7 +186,7 @@ def _helix_force_torque(*, vehicle: str | VehicleParams = "paper") -> Scenario:
     torque[2] = min(torque[2], YAW_TORQUE_SHARE * yaw_authority)
     helix = PaperHelix(yaw_rate=0.0, altitude=HELIX_ALTITUDE)
     start = helix.evaluate(0.0)
-    return Scenario(
+    return Scenario(**dict(
         name="helix-force-torque", vehicle=params, trajectory=helix, duration=10.0,
         disturbance=Constant(force=tuple(force), torque=tuple(torque)), loop=PHYSICAL_ROTORS,
         floor_height=0.0, initial_position=tuple(start.position[0]),
@@ -194,7 +196,7 @@ def _helix_force_torque(*, vehicle: str | VehicleParams = "paper") -> Scenario:
                     f"({', '.join(f'{t:.2f}' for t in torque)}) N m (on the paper vehicle's "
                     f"accelerations; yaw held to {YAW_TORQUE_SHARE:g} of the hover yaw "
                     "authority); rotor actuation: paper-II's counterpart in Benchmark v2",
-    )
+    ) | fields)
 
 
 def _gust_pair() -> Disturbance:
@@ -203,22 +205,22 @@ def _gust_pair() -> Disturbance:
 
 
 def _gusty_hover(*, vehicle: str | VehicleParams = "paper", wind: str = "light",
-                 wind_scale: float = 1.0, height: float = 1.0) -> Scenario:
+                 wind_scale: float = 1.0, height: float = 1.0, **fields: Any) -> Scenario:
     dryden = _wind(wind, as_finite(height, "height", 0.0, strictly=True), wind_scale)
-    return Scenario(
+    return Scenario(**dict(
         name="gusty-hover", vehicle=get_vehicle(vehicle), trajectory=Hover((0.0, 0.0, height)),
         duration=10.0, disturbance=dryden + _gust_pair(), floor_height=0.0,
         initial_position=(0.0, 0.0, height), loop=PHYSICAL_ROTORS,
         description=f"Hover at {height:g} m in " + _wind_words(wind, dryden)
                     + "; two 1-cosine gusts, 4 m/s at 2 s, 4 m/s at 6 s; drag, motor lag, "
                       "physical rotors",
-    )
+    ) | fields)
 
 
 def _takeoff_landing_wind(*, vehicle: str | VehicleParams = "paper", wind: str = "light",
-                          wind_scale: float = 1.0) -> Scenario:
+                          wind_scale: float = 1.0, **fields: Any) -> Scenario:
     dryden = _wind(wind, 1.0, wind_scale)
-    return Scenario(
+    return Scenario(**dict(
         name="takeoff-landing-wind", vehicle=get_vehicle(vehicle),
         trajectory=TakeoffHoverLanding(start_height=LANDING_HEIGHT, hover_height=1.0,
                                        end_height=LANDING_HEIGHT, climb_time=3.0,
@@ -230,7 +232,7 @@ def _takeoff_landing_wind(*, vehicle: str | VehicleParams = "paper", wind: str =
         description=f"Take off from {LANDING_HEIGHT} m, hover at 1 m, land to "
                     f"{LANDING_HEIGHT} m through ground effect in " + _wind_words(wind, dryden)
                     + "; a 3 m/s 1-cosine gust at 4 s; drag, motor lag, physical rotors",
-    )
+    ) | fields)
 
 
 TRACK_DURATION = 10.0  # [s] an episode of the reference families
@@ -258,7 +260,7 @@ def _feasible_pool(vehicle: VehicleParams, kinds: tuple[str, ...], pool_seed: in
 
 def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRAINING_KINDS,
                    pool_seed: int = 0, count: int = 240, wind_scale: float = 1.0,
-                   name: str = "random-tracks") -> Scenario:
+                   family_name: str = "random-tracks", **fields: Any) -> Scenario:
     """Each vehicle flies a reference of the pool, drawn at reset, in wind drawn per vehicle
     from none to the moderate preset (direction uniform), the two gusts, mass, inertia and
     drag randomised: the task distribution generalists train on."""
@@ -271,8 +273,8 @@ def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRA
                          ) + _gust_pair()
     wind = ("wind from none to the moderate preset (6 m/s mean, W20 30 kt) per vehicle "
             "from a random direction, the two gusts")
-    return Scenario(
-        name=name, vehicle=vehicle, trajectory=family, duration=TRACK_DURATION,
+    return Scenario(**dict(
+        name=family_name, vehicle=vehicle, trajectory=family, duration=TRACK_DURATION,
         disturbance=disturbance, loop=PHYSICAL_ROTORS, floor_height=0.0,
         ground_effect=GroundEffect("paper"),
         initial_position=tuple(start.position[0]), initial_velocity=tuple(start.velocity[0]),
@@ -281,7 +283,7 @@ def _random_tracks(*, vehicle: str | VehicleParams = "paper", kinds: tuple = TRA
                     "1.5-2.5 m" + (" (take-offs and landings from and to the floor)"
                                    if "landing" in kinds else "") + ", one drawn per "
                     f"vehicle at reset and started on; {wind}; mass and inertia x0.9-1.1, "
-                    "drag x0.8-1.2; ground effect, drag, motor lag, physical rotors")
+                    "drag x0.8-1.2; ground effect, drag, motor lag, physical rotors") | fields)
 
 
 SCENARIOS: dict[str, Callable[..., Scenario]] = {
@@ -300,25 +302,34 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
     "random-tracks": _random_tracks,
     # held out of training: another kind, another pool
     "random-lemniscates": lambda **kw: _random_tracks(
-        kinds=("lemniscate",), pool_seed=1, count=32, name="random-lemniscates", **kw),
+        kinds=("lemniscate",), pool_seed=1, count=32, family_name="random-lemniscates", **kw),
     "heldout-tracks": lambda **kw: _random_tracks(
-        pool_seed=HELD_OUT_POOL_SEED, count=HELD_OUT_POOL_COUNT, name="heldout-tracks", **kw),
+        pool_seed=HELD_OUT_POOL_SEED, count=HELD_OUT_POOL_COUNT, family_name="heldout-tracks",
+        **kw),
     "heldout-hops": lambda **kw: _random_tracks(
         kinds=("hops",), pool_seed=HELD_OUT_POOL_SEED, count=HELD_OUT_POOL_COUNT,
-        name="heldout-hops", **kw),
+        family_name="heldout-hops", **kw),
     **{f"figure8-wind-{speed:g}": functools.partial(figure8_wind, wind_speed=speed)
        for speed in FIGURE8_WINDS},
 }
+
+
+def _keywords(builder: Callable[..., Scenario]) -> tuple[str, ...]:
+    """A builder's own options (its ``**fields`` are the scenario's)."""
+    return tuple(name for name, parameter in inspect.signature(builder).parameters.items()
+                 if parameter.kind is parameter.KEYWORD_ONLY)
+
+
 _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "paper-none": ("vehicle", "torque_reading"), "paper-I": ("vehicle", "torque_reading"),
     "paper-II": ("vehicle", "torque_reading"), "paper-IIA": ("vehicle", "torque_reading"),
-    "ground-effect-landing": tuple(inspect.signature(_ground_effect_landing).parameters),
-    "hover-calm": tuple(inspect.signature(_hover).parameters),
+    "ground-effect-landing": _keywords(_ground_effect_landing),
+    "hover-calm": _keywords(_hover),
     "hover-step-force": ("vehicle", "height"),
     "dryden-helix": ("vehicle", "wind", "wind_scale", "altitude"),
     "dryden-helix-gusts": ("vehicle", "wind", "wind_scale", "altitude"),
-    "gusty-hover": tuple(inspect.signature(_gusty_hover).parameters),
-    "takeoff-landing-wind": tuple(inspect.signature(_takeoff_landing_wind).parameters),
+    "gusty-hover": _keywords(_gusty_hover),
+    "takeoff-landing-wind": _keywords(_takeoff_landing_wind),
     "helix-force-torque": ("vehicle",),
     "random-tracks": ("vehicle", "wind_scale"),
     "random-lemniscates": ("vehicle", "wind_scale"),
@@ -333,17 +344,16 @@ def list_scenarios() -> list[str]:
 
 
 def make_scenario(scenario: str | Scenario, **options: object) -> Scenario:
-    """The named scenario with ``options`` applied: its builder's options, then ``Scenario``
-    fields and the loop's options (flat, ``quad_dob_env.loop_options``)."""
+    """The named scenario with ``options`` applied: its builder's options, ``Scenario``
+    fields and the loop's options (flat, ``quad_dob_env.loop_options``), built once (every
+    build checks the reference's feasibility)."""
     if isinstance(scenario, Scenario):
         return scenario.with_changes(**options) if options else scenario
     if scenario not in SCENARIOS:
         raise unknown_name_error("scenario", scenario, SCENARIOS)
-    builder_options = {k: options.pop(k) for k in list(options)
-                       if k in _BUILDER_OPTIONS[scenario]}
     for key in options:
-        if key not in SCENARIO_KEYS:
+        if key not in _BUILDER_OPTIONS[scenario] and key not in SCENARIO_KEYS:
             raise unknown_name_error(f"option for scenario {scenario!r}", key,
                                      [*_BUILDER_OPTIONS[scenario], *SCENARIO_KEYS])
-    built = SCENARIOS[scenario](**builder_options)
-    return built.with_changes(**options) if options else built
+    # the builder's options and the fields it lays the rest over, in one call
+    return SCENARIOS[scenario](**options)

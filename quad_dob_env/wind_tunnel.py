@@ -5,6 +5,7 @@ never ``scenarios``."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from quad_dob_env.benchmark_v3 import REAL_LOOPS
 from quad_dob_env.disturbances import Constant, Disturbance, Dryden
@@ -46,11 +47,13 @@ def tunnel_wind(speed: float, intensity: float, height: float, direction: float)
 
 
 def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fly",
-                 turbulence_intensity: float | None = None, benchmark: str = "v1") -> Scenario:
+                 turbulence_intensity: float | None = None, benchmark: str = "v1",
+                 **fields: Any) -> Scenario:
     """The figure-8 at ``wind_speed``. Under ``benchmark="v3"`` it flies Neural-Fly's 50 Hz
     outer loop and the tunnel turbulence v3 sources (``benchmark_v3``), its sensing and drag
     as v3 sets them; v1 and v2 fly 100 Hz, ``FIGURE8_TURBULENCE_INTENSITY`` and mocap
-    sensing, drag and a motor lag pinned, as they always have."""
+    sensing, drag and a motor lag pinned, as they always have. ``fields`` are the
+    scenario's (``make_scenario``'s options), laid over these."""
     params = get_vehicle(vehicle)
     v3 = benchmark == "v3"
     real = REAL_LOOPS.get(params.name) if v3 else None
@@ -66,7 +69,7 @@ def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fl
     disturbance = tunnel_wind(speed, intensity, FIGURE8_HEIGHT, math.pi)
     loop = (LoopOptions(benchmark=benchmark) if v3 else
             LoopOptions(benchmark=benchmark, drag=True, motor_lag=True, sensing="mocap"))
-    return Scenario(
+    return Scenario(**dict(
         name=f"figure8-wind-{speed:g}", vehicle=params, trajectory=figure8,
         duration=30.0, disturbance=disturbance, loop=loop,
         floor_height=0.0, initial_position=tuple(start.position[0]),
@@ -75,4 +78,4 @@ def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fl
         description=f"Neural-Fly's wind-tunnel figure-8: x = 1.25 sin t, z = "
                     f"{FIGURE8_HEIGHT:g} + 0.75 sin 2t, heading fixed, {speed:g} m/s of wind "
                     f"along -x with {100 * intensity:g} % turbulence; mocap sensing; scored "
-                    "after 5 s, as Neural-Fly; drag, motor lag, physical rotors")
+                    "after 5 s, as Neural-Fly; drag, motor lag, physical rotors") | fields)

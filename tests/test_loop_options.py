@@ -12,6 +12,7 @@ from pathlib import Path
 import gymnasium as gym
 import pytest
 
+import quad_dob_env
 from quad_dob_env.benchmark import LOOP_FIELDS, V2_INNER_RATE
 from quad_dob_env.benchmark_v3 import REAL_LOOPS
 from quad_dob_env.loop_options import (
@@ -224,3 +225,46 @@ def test_reading_a_moved_field_off_the_scenario_warns_and_names_its_place():
     for name in MOVED:
         with pytest.warns(DeprecationWarning, match=f"Scenario.{name} is deprecated"):
             getattr(scenario, name)
+
+
+# one id of each kind: v1 direct, v3 direct, v3 residual
+COUNTED_IDS = ("QuadDOB/Hover-v1", "QuadDOB/Hover-v3", "QuadDOB/HoverResidual-v3")
+
+
+def _counting_builds(monkeypatch) -> list[str]:
+    """Patch ``Scenario.__post_init__`` (the checks, feasibility's the slow one) to record
+    each scenario built."""
+    built: list[str] = []
+    checks = Scenario.__post_init__
+
+    def counted(self: Scenario) -> None:
+        built.append(self.name)
+        checks(self)
+
+    monkeypatch.setattr(Scenario, "__post_init__", counted)
+    return built
+
+
+@pytest.mark.parametrize("env_id", COUNTED_IDS)
+def test_each_env_builds_its_scenario_once(monkeypatch, env_id):
+    from quad_dob_training.rl import make_sb3_vec_env
+
+    built = _counting_builds(monkeypatch)
+    for make in (lambda: gym.make(env_id),
+                 lambda: gym.make_vec(env_id, num_envs=2,
+                                      vectorization_mode="vector_entry_point"),
+                 lambda: make_sb3_vec_env(env_id, 2)):
+        built.clear()
+        make().close()
+        assert built == [quad_dob_env.ALL_ENV_IDS[env_id]], env_id
+
+
+def test_a_randomised_training_loop_builds_once_per_group_and_once_for_its_clock(monkeypatch):
+    # the groups fly loops of their own (a scenario each); the latencies are drawn on the
+    # control step, which one more build of the env's scenario gives
+    from quad_dob_training.rl import make_sb3_vec_env
+
+    built = _counting_builds(monkeypatch)
+    make_sb3_vec_env("QuadDOB/Hover-v3", 4, loop_randomization={
+        "groups": 2, "extra_latency": [0.0, 0.02]}).close()
+    assert built == ["hover-calm"] * 3
