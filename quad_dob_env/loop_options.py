@@ -102,8 +102,11 @@ def _record(value: object, name: str) -> object:
 class LoopOptions:
     """The vehicle loop's options (table in the module docstring); validated when made.
 
-    Made by hand or from flat keys (``split_loop_keys``) it is *given*: its None options
-    are the benchmark's. ``Scenario`` holds it ``resolved`` for its vehicle and clock.
+    ``benchmark`` and the twelve options it sets (``LOOP_FIELDS``), v1's ``motor_lag`` and
+    the margin's knobs (a lag, a slower motor, a late reading: parts of the loop too);
+    ``sensors`` is no option but a flat key for ``sensing``. Made by hand or from flat keys
+    (``split_loop_keys``) it is *given*: its None options are the benchmark's. ``Scenario``
+    holds it ``resolved`` for its vehicle and clock.
     """
 
     benchmark: str = "v1"
