@@ -91,40 +91,6 @@ def test_no_module_leans_on_compiler_internals():
     assert not offences, offences
 
 
-def _parameters(kernel) -> list[str]:
-    import inspect
-
-    return [name for name, parameter in inspect.signature(kernel.py_func).parameters.items()
-            if parameter.kind is not parameter.VAR_POSITIONAL]
-
-
-def test_kernels_take_their_records_fields_in_order():
-    # the records are built by keyword and spread into the kernels: a kernel whose
-    # parameters drifted from its record's fields would take one array for another
-    from quad_dob_composition.fused import (
-        PlanArguments,
-        UpdateArguments,
-        plan_kernel,
-        remember_state,
-        reward_and_observer_update,
-    )
-    from quad_dob_env.envs.step_kernels import (
-        StartArguments,
-        StepArguments,
-        start_kernel,
-        step_kernel,
-    )
-
-    assert _parameters(step_kernel) == ["start", "stop", "actions", *StepArguments._fields]
-    assert _parameters(start_kernel) == ["indices", "offsets", "rotations", "scales",
-                                         *StartArguments._fields]
-    assert _parameters(plan_kernel) == ["indices", *PlanArguments._fields]
-    both = [*UpdateArguments._fields, *PlanArguments._fields]
-    for kernel in (remember_state, reward_and_observer_update):
-        names = _parameters(kernel)[2:]
-        assert names == both[:len(names)], kernel.__name__
-
-
 PACKAGE_FOLDERS = ("quad_dob_env", "baselines", "composition", "training")
 
 
