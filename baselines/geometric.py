@@ -69,6 +69,13 @@ class GeometricController(Controller):
         if indices is None:
             self._kx = self.gains["kx_per_mass"] * vehicle.mass
             self._kv = self.gains["kv_per_mass"] * vehicle.mass
+            # the law's constants in the kernel's form, once per vehicle model
+            self._geometric_law = GeometricLaw(
+                mass=vehicle.mass, gravity=vehicle.gravity,
+                inertia=tuple(vehicle.inertia_matrix.ravel().tolist()),
+                kx=tuple(self._kx.tolist()), kv=tuple(self._kv.tolist()),
+                k_attitude=tuple(self.gains["kR"].tolist()),
+                k_rate=tuple(self.gains["kOmega"].tolist()))
         if self.observer is not None:
             self.observer.reset(num_vehicles, vehicle, dt, indices)
 
@@ -84,7 +91,6 @@ class GeometricController(Controller):
                 acceleration_correction: NDArray | None = None) -> tuple[NDArray, NDArray]:
         """One compiled call for the batch (``geometric_law`` per vehicle);
         ``acceleration_correction`` (N, 3) [m/s²], an outer loop's Δa added to ẍd in F."""
-        vehicle = self.vehicle
         n = len(state.position)
         correction = (np.zeros((n, 3)) if acceleration_correction is None
                       else np.ascontiguousarray(acceleration_correction, dtype=float))
@@ -102,11 +108,6 @@ class GeometricController(Controller):
         }
         references = ReferenceVectors(**{name: np.asarray(getattr(reference, name), dtype=float)
                                          for name in ReferenceVectors._fields})
-        law = GeometricLaw(mass=vehicle.mass, gravity=vehicle.gravity,
-                           inertia=tuple(vehicle.inertia_matrix.ravel().tolist()),
-                           kx=tuple(self._kx.tolist()), kv=tuple(self._kv.tolist()),
-                           k_attitude=tuple(self.gains["kR"].tolist()),
-                           k_rate=tuple(self.gains["kOmega"].tolist()))
         d = self.diagnostics
         outputs = GeometricOutputs(
             thrust=thrust, moment=moment, desired_force=d["desired_force"],
@@ -115,7 +116,8 @@ class GeometricController(Controller):
             attitude_error=d["attitude_error"], rate_error=d["rate_error"])
         # plain tuples across the boundary: numba types a named tuple on a slower path
         run_over_batch(geometric_batch, n, state.position, state.velocity, state.rotation,
-                       state.angular_velocity, tuple(references), tuple(law), force_estimate,
+                       state.angular_velocity, tuple(references), tuple(self._geometric_law),
+                       force_estimate,
                        torque_estimate, correction, tuple(outputs),
                        min_batch=4 * PARALLEL_MIN_BATCH)  # ~1/4 of a physics step's work
         return thrust, moment

@@ -203,7 +203,7 @@ class L1AdaptiveController(EstimatingGeometricController):
             n, a = int(num_vehicles), self.adaptive
             filters = [first_order_lowpass(a[key], self.dt, f"L1AdaptiveController.{key}")
                        for key in ("force_cutoff", "torque_cutoff", "torque_second_cutoff")]
-            self._law = L1Law(
+            law = L1Law(
                 mass=vehicle.mass, gravity=vehicle.gravity,
                 inertia=tuple(vehicle.inertia_matrix.ravel().tolist()),
                 inertia_inverse=tuple(vehicle.inertia_inverse.ravel().tolist()), dt=self.dt,
@@ -215,16 +215,17 @@ class L1AdaptiveController(EstimatingGeometricController):
             self.predicted_velocity, self.predicted_rate = np.zeros((n, 3)), np.zeros((n, 3))
             self.sigma_force, self.sigma_torque = np.zeros((n, 3)), np.zeros((n, 3))
             self._previous, self._filtered = np.zeros((n, 9)), np.zeros((n, 9))
+            # built once: the arrays are written in place until the next full reset; passed
+            # as plain tuples (numba types a named tuple on a slower path every call)
+            self._l1_arguments = (tuple(law), tuple(L1State(
+                predicted_velocity=self.predicted_velocity, predicted_rate=self.predicted_rate,
+                sigma_force=self.sigma_force, sigma_torque=self.sigma_torque,
+                previous=self._previous, filtered=self._filtered, fresh=self._fresh,
+                force_estimate=self._force, torque_estimate=self._torque)))
 
     def _advance(self, state: VehicleState, rows: NDArray[np.bool_]) -> None:
-        kept = L1State(predicted_velocity=self.predicted_velocity,
-                       predicted_rate=self.predicted_rate, sigma_force=self.sigma_force,
-                       sigma_torque=self.sigma_torque, previous=self._previous,
-                       filtered=self._filtered, fresh=self._fresh, force_estimate=self._force,
-                       torque_estimate=self._torque)
-        # plain tuples across the boundary: numba types a named tuple on a slower path
         l1_adapt(rows, state.velocity, state.rotation, state.angular_velocity, self._wrench,
-                 tuple(self._law), tuple(kept))
+                 *self._l1_arguments)
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), **self.adaptive}

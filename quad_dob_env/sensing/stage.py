@@ -171,6 +171,24 @@ class SensingStage:
             self.measurement = Measurement(*(np.zeros_like(getattr(truth, name)) for name in (
                 "position", "velocity", "rotation", "angular_velocity")))
             self.measurement.rotation[:] = np.eye(3)
+        # the readings kernel's records, built once: their arrays are the batch's own for its
+        # life; passed as plain tuples (numba types a named tuple on a slower path each call)
+        thrust, force, mass, rotor_thrusts = physics
+        self._truth = tuple(TrueState(
+            position=truth.position, velocity=truth.velocity, rotation=truth.rotation,
+            angular_velocity=truth.angular_velocity, thrust=thrust, force=force, mass=mass,
+            rotor_thrusts=rotor_thrusts, hover_thrust=self._hover[0],
+            hover_rotor_thrusts=self._hover[1]))
+        # the pose fix reads the state now at a reset, else where the step passed its latency
+        self._pose_now = tuple(PoseState(position=truth.position, velocity=truth.velocity,
+                                         rotation=truth.rotation))
+        position, velocity, rotation = self.pose_state
+        self._pose_seen = tuple(PoseState(position=position, velocity=velocity,
+                                          rotation=rotation))
+        self._settings = (tuple(self._pose), tuple(self._imu), tuple(self._rotors),
+                          tuple(self._state_noise))
+        self._lines = tuple(ReadingLines(keys=self.keys, true_bias=self.true_bias,
+                                         ring=self.ring))
 
     def start(self, index: int, stream: np.random.Generator | None) -> None:
         """A new episode's sensor keys for vehicle ``index``, from ``stream``, the first
@@ -188,19 +206,10 @@ class SensingStage:
         self._fresh = False  # the identity's IMU readings are for the state before
         if self.identity:
             return
-        thrust, force, mass, rotor_thrusts = self.physics
         truth, m = self.truth, self.measurement
-        seen = (truth.position, truth.velocity, truth.rotation) if reset else self.pose_state
-        pose_at = PoseState(position=seen[0], velocity=seen[1], rotation=seen[2])
-        true_state = TrueState(position=truth.position, velocity=truth.velocity,
-                               rotation=truth.rotation, angular_velocity=truth.angular_velocity,
-                               thrust=thrust, force=force, mass=mass, rotor_thrusts=rotor_thrusts,
-                               hover_thrust=self._hover[0], hover_rotor_thrusts=self._hover[1])
-        lines = ReadingLines(keys=self.keys, true_bias=self.true_bias, ring=self.ring)
-        # plain tuples across the boundary: numba types a named tuple on a slower path
-        run_over_batch(take_readings_kernel, len(indices), indices, step_count, tuple(pose_at),
-                       tuple(true_state), tuple(self._pose), tuple(self._imu),
-                       tuple(self._rotors), tuple(self._state_noise), tuple(lines), reset)
+        run_over_batch(take_readings_kernel, len(indices), indices, step_count,
+                       self._pose_now if reset else self._pose_seen, self._truth,
+                       *self._settings, self._lines, reset)
         if self.estimating:
             if reset:
                 start_estimates_kernel(indices, truth.position, truth.velocity,
