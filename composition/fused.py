@@ -26,7 +26,8 @@ from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_baselines.geometric_kernels import (
-    as_vector,
+    GeometricOutputs,
+    geometric_law_of,
     geometric_vehicle,
     matrix_at,
     observer_advance_vehicle,
@@ -110,12 +111,11 @@ def plan_kernel(indices, plan):
     plain tuple)."""
     plan = PlanArguments(*plan)
     rotor_mode, centre, scale_up, scale_down, mixer = plan.inverse
-    # 9-tuples, as the equations take them
-    inertia_entries = matrix_entries(plan.inertia)
-    km = matrix_entries(plan.observer_rotational_gain)
-    gains = plan.gains
-    law_gains = (as_vector(gains[0]), as_vector(gains[1]), as_vector(gains[2]),
-                 as_vector(gains[3]))
+    law = geometric_law_of(plan.mass, plan.gravity, plan.inertia, plan.gains)
+    outputs = GeometricOutputs(plan.thrust, plan.moment, plan.desired_force,
+                               plan.desired_rotation, plan.desired_rate,
+                               plan.desired_acceleration, plan.attitude_error, plan.rate_error)
+    km = matrix_entries(plan.observer_rotational_gain)  # a 9-tuple, as the equations take it
     position, velocity = plan.position, plan.velocity
     rotation, angular_velocity = plan.rotation, plan.angular_velocity
     force_estimate, torque_estimate = plan.force_estimate, plan.torque_estimate
@@ -130,11 +130,8 @@ def plan_kernel(indices, plan):
         row = plan.reference_row[i]
         geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i),
                           matrix_at(rotation, i), vector_at(angular_velocity, i),
-                          reference_at(plan.reference, row), plan.mass, plan.gravity,
-                          inertia_entries, law_gains, force_estimate, torque_estimate,
-                          (0.0, 0.0, 0.0), plan.thrust, plan.moment, plan.desired_force,
-                          plan.desired_rotation, plan.desired_rate, plan.desired_acceleration,
-                          plan.attitude_error, plan.rate_error)
+                          reference_at(plan.reference, row), law, force_estimate,
+                          torque_estimate, (0.0, 0.0, 0.0), outputs)
         residual_observation_vehicle(i, plan.thrust, plan.moment, force_estimate,
                                      torque_estimate, plan.estimate_scale, position, velocity,
                                      rotation, plan.reference, row, rotor_mode, centre,

@@ -91,6 +91,51 @@ def test_no_module_leans_on_compiler_internals():
     assert not offences, offences
 
 
+# Brax's one state record, in spirit: a compiled function takes records read by field name
+# (named tuples), not long positional lists (issue 52)
+MAX_KERNEL_PARAMETERS = 20
+KERNEL_FOLDERS = ("quad_dob_env", "baselines", "composition")
+
+
+def _compiled_functions(tree: ast.AST) -> list[ast.FunctionDef]:
+    """The functions decorated ``@njit`` (bare, called, or as ``numba.njit``)."""
+    def is_njit(decorator: ast.expr) -> bool:
+        target = decorator.func if isinstance(decorator, ast.Call) else decorator
+        return ast.unparse(target).split(".")[-1] == "njit"
+
+    return [node for node in ast.walk(tree) if isinstance(node, ast.FunctionDef)
+            and any(is_njit(decorator) for decorator in node.decorator_list)]
+
+
+def _parameter_count(function: ast.FunctionDef) -> int:
+    """Its parameters, a ``*rest`` counting one."""
+    arguments = function.args
+    return (len(arguments.posonlyargs) + len(arguments.args) + len(arguments.kwonlyargs)
+            + (arguments.vararg is not None) + (arguments.kwarg is not None))
+
+
+def _long_kernels(paths: list[Path]) -> list[str]:
+    return [f"{path.relative_to(ROOT)}:{function.lineno} {function.name} "
+            f"({_parameter_count(function)} parameters)"
+            for path in paths for function in _compiled_functions(ast.parse(path.read_text()))
+            if _parameter_count(function) > MAX_KERNEL_PARAMETERS]
+
+
+def test_no_compiled_function_takes_more_than_20_parameters():
+    offences = _long_kernels([path for folder in KERNEL_FOLDERS for path in _modules(folder)])
+    assert not offences, "\n".join(offences)
+
+
+def test_the_parameter_scan_counts_what_numba_compiles():
+    names = ", ".join(f"a{k}" for k in range(20))
+    tree = ast.parse(f"@njit(cache=True)\ndef wide({names}, extra): pass\n"
+                     f"@numba.njit\ndef wider({names}, *rest): pass\n"
+                     f"@njit\ndef fits({names}): pass\n"
+                     f"def plain({names}, extra): pass\n")
+    assert {function.name: _parameter_count(function)
+            for function in _compiled_functions(tree)} == {"wide": 21, "wider": 21, "fits": 20}
+
+
 PACKAGE_FOLDERS = ("quad_dob_env", "baselines", "composition", "training")
 
 
