@@ -59,7 +59,7 @@ def _train(args: argparse.Namespace) -> int:
                          "--resume's run folder")
     elif args.resume is None or args.resume.suffix == ".zip":
         _writable_folder(Path(f"runs/{args.algo}"), "the default --out")
-    from quad_dob_training.rl.train import main as train_main  # torch: seconds to import
+    from quad_dob_training.learning.train import main as train_main  # torch: seconds to import
 
     return train_main(args.algo, args.mode, args.env, args.scenario, args.timesteps,
                       args.n_envs, args.seed, args.out, args.resume, args.base,
@@ -151,7 +151,7 @@ def _replay(args: argparse.Namespace) -> int:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from quad_dob_training.rl.sweep import run_sweep
+    from quad_dob_training.learning.sweep import run_sweep
 
     if not args.config.is_file():
         raise ValueError(f"sweep config {str(args.config)!r} is not a file: give a sweep's "
