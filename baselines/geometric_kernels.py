@@ -180,7 +180,7 @@ def attitude_law(R, w, rd, rate_d, acceleration_d, inertia, kR, kOmega, torque_e
 
 @njit(cache=True, inline="always")
 def geometric_vehicle(i, x, v, R, w, reference, law, force_estimate, torque_estimate,
-                  acceleration_correction, outputs):
+                      acceleration_correction, outputs):
     """``geometric_law`` for vehicle i (``reference`` a ``ReferenceVectors`` of 3-tuples,
     ``law`` a ``GeometricLaw``, ``acceleration_correction`` its 3-tuple; ``force_estimate``
     and ``torque_estimate`` (N, 3)), its outputs written to row i of ``outputs``, a

@@ -41,13 +41,13 @@ class AttitudeLaw(NamedTuple):
 
 
 @njit(cache=True, inline="always")
-def attitude_command(i, actions, rotation, rate, body, tick_dt, law, loop):
+def attitude_command(i, actions, rotation, rate, body, tick_dt, law, inner, actuator):
     """The controller's attitude law at the tick, plus the residual's part, within the
     limits a command in the action space has; the law's own request is kept for its
     update."""
     own_thrust, own_moment = inner_command(i, rotation, rate, law.inner, tick_dt)
-    addition, limit = law.addition, loop.inner.moment_limit
-    thrust = min(max(own_thrust + addition[i, 0], 0.0), loop.actuator.max_total_thrust)
+    addition, limit = law.addition, inner.moment_limit
+    thrust = min(max(own_thrust + addition[i, 0], 0.0), actuator.max_total_thrust)
     moment = (min(max(own_moment[0] + addition[i, 1], -limit[0]), limit[0]),
               min(max(own_moment[1] + addition[i, 2], -limit[1]), limit[1]),
               min(max(own_moment[2] + addition[i, 3], -limit[2]), limit[2]))
@@ -55,10 +55,9 @@ def attitude_command(i, actions, rotation, rate, body, tick_dt, law, loop):
 
 
 @njit(cache=True, inline="always")
-def attitude_after_tick(i, rate_before, rate_after, request, mean, law, loop):
+def attitude_after_tick(i, rate_before, rate_after, request, mean, law, actuator):
     """The law's own update after a tick: what the mixer makes of its request (the PID's
     anti-windup), what the motors gave (the rotational observer)."""
-    actuator = loop.actuator
     own_thrust, own_moment = request[0], (request[1], request[2], request[3])
     mixed_moment = own_moment
     if law.inner.code == PID:

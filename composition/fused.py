@@ -116,37 +116,46 @@ def plan_kernel(indices, plan):
                                plan.desired_rotation, plan.desired_rate,
                                plan.desired_acceleration, plan.attitude_error, plan.rate_error)
     km = matrix_entries(plan.observer_rotational_gain)  # a 9-tuple, as the equations take it
+    # every field taken out once, before the vehicles: taking an array out of a record
+    # takes a reference to it, a cost per vehicle inside the loop
     position, velocity = plan.position, plan.velocity
     rotation, angular_velocity = plan.rotation, plan.angular_velocity
     force_estimate, torque_estimate = plan.force_estimate, plan.torque_estimate
+    has_observer, observer_gain = plan.has_observer, plan.observer_gain
+    z_force, z_torque, fresh = plan.z_force, plan.z_torque, plan.fresh
+    reference, reference_row = plan.reference, plan.reference_row
+    thrust, moment, estimate_scale = plan.thrust, plan.moment, plan.estimate_scale
+    base_action, body_errors, extra = plan.base_action, plan.body_errors, plan.extra
     for i in indices:
-        if plan.has_observer:
-            observer_estimate_vehicle(i, velocity, angular_velocity, plan.observer_gain, km,
-                                      plan.z_force, plan.z_torque, plan.fresh, force_estimate,
+        if has_observer:
+            observer_estimate_vehicle(i, velocity, angular_velocity, observer_gain, km,
+                                      z_force, z_torque, fresh, force_estimate,
                                       torque_estimate)
         else:
             store_vector(force_estimate, i, (0.0, 0.0, 0.0))
             store_vector(torque_estimate, i, (0.0, 0.0, 0.0))
-        row = plan.reference_row[i]
+        row = reference_row[i]
         geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i),
                           matrix_at(rotation, i), vector_at(angular_velocity, i),
-                          reference_at(plan.reference, row), law, force_estimate,
+                          reference_at(reference, row), law, force_estimate,
                           torque_estimate, (0.0, 0.0, 0.0), outputs)
-        residual_observation_vehicle(i, plan.thrust, plan.moment, force_estimate,
-                                     torque_estimate, plan.estimate_scale, position, velocity,
-                                     rotation, plan.reference, row, rotor_mode, centre,
-                                     scale_up, scale_down, mixer, plan.base_action,
-                                     plan.body_errors, plan.extra)
+        residual_observation_vehicle(i, thrust, moment, force_estimate, torque_estimate,
+                                     estimate_scale, position, velocity, rotation, reference,
+                                     row, rotor_mode, centre, scale_up, scale_down, mixer,
+                                     base_action, body_errors, extra)
 
 
 @njit(cache=True, inline="always")
 def remember_state(start, stop, update, plan):
     """The state before the step, which the observer's update needs."""
+    velocity_before, body_z_before = update.velocity_before, update.body_z_before
+    rate_before = update.rate_before
+    velocity, rotation, angular_velocity = plan.velocity, plan.rotation, plan.angular_velocity
     for i in range(start, stop):
         for k in range(3):
-            update.velocity_before[i, k] = plan.velocity[i, k]
-            update.body_z_before[i, k] = plan.rotation[i, k, 2]
-            update.rate_before[i, k] = plan.angular_velocity[i, k]
+            velocity_before[i, k] = velocity[i, k]
+            body_z_before[i, k] = rotation[i, k, 2]
+            rate_before[i, k] = angular_velocity[i, k]
 
 
 @njit(cache=True, inline="always")
@@ -160,13 +169,19 @@ def reward_and_observer_update(start, stop, update, plan):
         inertia_entries = matrix_entries(plan.inertia)
         km = matrix_entries(plan.observer_rotational_gain)
         alpha_entries = matrix_entries(update.rotational_alpha)
+        velocity_before, body_z_before = update.velocity_before, update.body_z_before
+        rate_before = update.rate_before
+        applied_thrust, applied_moment = update.applied_thrust, update.applied_moment
+        rotation, angular_velocity = plan.rotation, plan.angular_velocity
+        mass, gravity, observer_gain, alpha = (plan.mass, plan.gravity, plan.observer_gain,
+                                               update.alpha)
+        z_force, z_torque = plan.z_force, plan.z_torque
         for i in range(start, stop):
-            observer_advance_vehicle(i, update.velocity_before, update.body_z_before,
-                                     update.rate_before, update.applied_thrust,
-                                     update.applied_moment, plan.rotation,
-                                     plan.angular_velocity, plan.mass, plan.gravity,
-                                     inertia_entries, plan.observer_gain, update.alpha, km,
-                                     alpha_entries, plan.z_force, plan.z_torque, True)
+            observer_advance_vehicle(i, velocity_before, body_z_before, rate_before,
+                                     applied_thrust, applied_moment, rotation,
+                                     angular_velocity, mass, gravity, inertia_entries,
+                                     observer_gain, alpha, km, alpha_entries, z_force,
+                                     z_torque, True)
 
 
 @njit(cache=True, nogil=True)

@@ -161,15 +161,15 @@ def rate_law(actions, i, thrust, R, w, inertia, inner):
 
 @njit(cache=True, inline="always")
 def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first_sample,
-             mean_factor, end_factor, loop):
+             mean_factor, end_factor, actuator, rotors, draws, forcing, episode):
     """One inner tick (a whole control step without an inner loop) of vehicle i from
     ``state`` (x, v, R, Ω) and actuator output ``start``: the command (thrust, moment)
-    through the mixer's limits and the battery, the motors and the physics (``loop``: the
-    step's ``StepArguments``; ``body``: the vehicle's ``RigidBody``). Returns the new state,
-    the actuator output at its end, the tick's mean output as rotor thrusts or the wrench
-    (what the nominal model says was applied), whether a limit was hit and what the mixer
-    made of the command."""
-    actuator, rotors, draws = loop.actuator, loop.rotors, loop.draws
+    through the mixer's limits and the battery, the motors and the physics (the step's
+    records, ``StepArguments``' fields; ``body``: the vehicle's ``RigidBody``). Returns the
+    new state, the actuator output at its end, the tick's mean output as rotor thrusts or
+    the wrench (what the nominal model says was applied), whether a limit was hit and what
+    the mixer made of the command. The records come one by one, taken out of the step's
+    record once a call: each taking of a record takes a reference to every array in it."""
     time_constant = actuator.time_constant
     command, saturated = actuate_vehicle(thrust, moment, actuator.code, actuator.mixer,
                                          actuator.max_rotor_thrust, actuator.max_total_thrust,
@@ -199,9 +199,8 @@ def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first
                                                            spin_down, tick_dt))
     else:
         end = lagged_output(start, target, end_factor)
-    episode = loop.episode
     xn, vn, Rn, wn = advance_vehicle(i, state, start, target, time_constant,
-                                     actuator.to_wrench, loop.forcing, row, body, tick_dt,
+                                     actuator.to_wrench, forcing, row, body, tick_dt,
                                      episode.substeps, episode.thrust_law, rotors,
                                      draws.thrust_scale[i], first_sample)
     return xn, vn, Rn, wn, end, mean, saturated, command
