@@ -1,8 +1,9 @@
 """Reference controllers, all batched, behind one interface (docs/design.md principle 2).
 
 The folder ``baselines/`` installs as ``quad_dob_baselines``. It may import the simulator's
-low layers (``quad_dob_env.params``, ``so3``, ``flatness``, ``dynamics``, the reference
-type), never ``quad_dob_training``.
+layers below its envs (``quad_dob_env.params``, ``so3``, ``flatness``, ``dynamics``,
+``benchmark``, the reference type, ...; the order: docs/design.md, "Layers"), never its
+envs, residual or wrappers, nor ``quad_dob_composition`` or ``quad_dob_training``.
 
 - ``base``: the ``Controller`` template (reset / compute / applied).
 - ``geometric_kernels``: the geometric controller's and the observer's equations, once per vehicle,

@@ -21,7 +21,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_baselines.base import Controller
-from quad_dob_baselines.geometric_kernels import geometric_batch
+from quad_dob_baselines.geometric_kernels import (
+    GeometricLaw,
+    GeometricOutputs,
+    ReferenceVectors,
+    geometric_batch,
+)
 from quad_dob_baselines.inner import LEE, InnerLaw, held_torque_estimate, inner_law
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_env.dynamics import VehicleState
@@ -32,10 +37,6 @@ from quad_dob_env.validation import as_finite
 
 # The paper's (and Lee 2010's) gains; kx and kv scale with the vehicle's mass.
 PAPER_GAINS = {"kx_per_mass": 16.0, "kv_per_mass": 5.6, "kR": 8.81, "kOmega": 2.54}
-_REFERENCE_ORDER = ("position", "velocity", "acceleration", "jerk", "snap", "heading",
-                    "heading_rate", "heading_acceleration")
-_DIAGNOSTICS = ("desired_force", "desired_rotation", "desired_angular_velocity",
-                "desired_angular_acceleration", "attitude_error", "rate_error")
 
 
 class GeometricController(Controller):
@@ -68,6 +69,13 @@ class GeometricController(Controller):
         if indices is None:
             self._kx = self.gains["kx_per_mass"] * vehicle.mass
             self._kv = self.gains["kv_per_mass"] * vehicle.mass
+            # the law's constants in the kernel's form, once per vehicle model
+            self._geometric_law = GeometricLaw(
+                mass=vehicle.mass, gravity=vehicle.gravity,
+                inertia=tuple(vehicle.inertia_matrix.ravel().tolist()),
+                kx=tuple(self._kx.tolist()), kv=tuple(self._kv.tolist()),
+                k_attitude=tuple(self.gains["kR"].tolist()),
+                k_rate=tuple(self.gains["kOmega"].tolist()))
         if self.observer is not None:
             self.observer.reset(num_vehicles, vehicle, dt, indices)
 
@@ -83,7 +91,6 @@ class GeometricController(Controller):
                 acceleration_correction: NDArray | None = None) -> tuple[NDArray, NDArray]:
         """One compiled call for the batch (``geometric_law`` per vehicle);
         ``acceleration_correction`` (N, 3) [m/s²], an outer loop's Δa added to ẍd in F."""
-        vehicle = self.vehicle
         n = len(state.position)
         correction = (np.zeros((n, 3)) if acceleration_correction is None
                       else np.ascontiguousarray(acceleration_correction, dtype=float))
@@ -99,14 +106,19 @@ class GeometricController(Controller):
             "force_estimate": force_estimate,
             "torque_estimate": torque_estimate,
         }
-        reference_arrays = tuple(np.asarray(getattr(reference, name), dtype=float)
-                                 for name in _REFERENCE_ORDER)
+        references = ReferenceVectors(**{name: np.asarray(getattr(reference, name), dtype=float)
+                                         for name in ReferenceVectors._fields})
+        d = self.diagnostics
+        outputs = GeometricOutputs(
+            thrust=thrust, moment=moment, desired_force=d["desired_force"],
+            desired_rotation=d["desired_rotation"], desired_rate=d["desired_angular_velocity"],
+            desired_acceleration=d["desired_angular_acceleration"],
+            attitude_error=d["attitude_error"], rate_error=d["rate_error"])
+        # plain tuples across the boundary: numba types a named tuple on a slower path
         run_over_batch(geometric_batch, n, state.position, state.velocity, state.rotation,
-                       state.angular_velocity, reference_arrays, vehicle.mass, vehicle.gravity,
-                       vehicle.inertia_matrix, self._kx, self._kv, self.gains["kR"],
-                       self.gains["kOmega"], force_estimate, torque_estimate, correction,
-                       thrust, moment,
-                       *(self.diagnostics[key] for key in _DIAGNOSTICS),
+                       state.angular_velocity, tuple(references), tuple(self._geometric_law),
+                       force_estimate,
+                       torque_estimate, correction, tuple(outputs),
                        min_batch=4 * PARALLEL_MIN_BATCH)  # ~1/4 of a physics step's work
         return thrust, moment
 

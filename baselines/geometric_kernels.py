@@ -8,12 +8,20 @@ oracle written from docs/design.md's equations. Compiled because the numpy versi
 small array operations per step and held a 4096-vehicle vector env with the base in the
 loop to 430,000 env-steps/s.
 
-Vectors are 3-tuples and matrices row-major 9-tuples, as in ``quad_dob_env.so3``.
+Vectors are 3-tuples and matrices row-major 9-tuples, as in ``quad_dob_env.so3``. The
+kernels read their records by name: ``ReferenceVectors`` (the reference's eight vectors),
+``GeometricLaw`` (the law's constants) and ``GeometricOutputs`` (the arrays it writes). From
+Python they are passed as plain tuples (``tuple(record)``: numba types a named tuple on a
+slower path every call) and rebuilt in the kernel's first line; between compiled functions
+the named tuple itself is passed.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 from numba import njit
+from numpy.typing import NDArray
 
 from quad_dob_env.flatness import add, combine, desired_attitude, dot
 from quad_dob_env.so3 import (
@@ -23,6 +31,46 @@ from quad_dob_env.so3 import (
     matrix_entries,
     transpose_tuple,
 )
+
+
+class ReferenceVectors(NamedTuple):
+    """The reference's eight vectors (``quad_dob_env.trajectories.Reference``'s order): for
+    one vehicle 3-tuples, for a batch (N, 3) arrays."""
+
+    position: tuple
+    velocity: tuple
+    acceleration: tuple
+    jerk: tuple
+    snap: tuple
+    heading: tuple  # b1d
+    heading_rate: tuple
+    heading_acceleration: tuple
+
+
+class GeometricLaw(NamedTuple):
+    """Lee's law's constants, in the form the per-vehicle equations take: scalars, J a
+    row-major 9-tuple, each gain a 3-tuple (per axis)."""
+
+    mass: float
+    gravity: float
+    inertia: tuple  # J, row-major 9-tuple
+    kx: tuple  # [N/m]
+    kv: tuple  # [N s/m]
+    k_attitude: tuple  # kR, on eR
+    k_rate: tuple  # kΩ, on eΩ
+
+
+class GeometricOutputs(NamedTuple):
+    """What ``geometric_vehicle`` writes into row i: the command and the diagnostics."""
+
+    thrust: NDArray  # (N,) f
+    moment: NDArray  # (N, 3) M
+    desired_force: NDArray  # (N, 3) F
+    desired_rotation: NDArray  # (N, 3, 3) Rd
+    desired_rate: NDArray  # (N, 3) Ωd
+    desired_acceleration: NDArray  # (N, 3) Ω̇d
+    attitude_error: NDArray  # (N, 3) eR
+    rate_error: NDArray  # (N, 3) eΩ
 
 
 @njit(cache=True, inline="always")
@@ -63,14 +111,16 @@ def attitude_errors(rotation, angular_velocity, desired_rotation, desired_rate):
 
 
 @njit(cache=True)
-def geometric_law(x, v, R, w, reference, mass, gravity, inertia, kx, kv, kR, kOmega,
-                  force_estimate, torque_estimate, acceleration_correction):
-    """Lee 2010 with NDOB compensation for one vehicle; ``reference`` is (xd, ẋd, ẍd, x⃛d,
-    x⃜d, b1d, ḃ1d, b̈1d), ``acceleration_correction`` Δa an outer loop's (a residual
-    policy's) addition to ẍd in F, held constant in Ḟ and F̈ as d̂x is (so a constant Δa
-    moves the equilibrium by kx ex = m Δa and asks for no rotation). Returns thrust,
-    moment, F, Rd, Ωd, Ω̇d, eR, eΩ."""
-    position, velocity, acceleration, jerk, snap, heading, heading_rate, heading_accel = reference
+def geometric_law(x, v, R, w, reference, law, force_estimate, torque_estimate,
+                  acceleration_correction):
+    """Lee 2010 with NDOB compensation for one vehicle; ``reference`` a ``ReferenceVectors``
+    of 3-tuples (xd, ẋd, ẍd, x⃛d, x⃜d, b1d, ḃ1d, b̈1d), ``law`` a ``GeometricLaw``,
+    ``acceleration_correction`` Δa an outer loop's (a residual policy's) addition to ẍd in
+    F, held constant in Ḟ and F̈ as d̂x is (so a constant Δa moves the equilibrium by
+    kx ex = m Δa and asks for no rotation). Returns thrust, moment, F, Rd, Ωd, Ω̇d, eR, eΩ."""
+    mass, gravity, kx, kv = law.mass, law.gravity, law.kx, law.kv
+    position, velocity = reference.position, reference.velocity
+    acceleration, jerk, snap = reference.acceleration, reference.jerk, reference.snap
     position_error = combine(1.0, x, -1.0, position)
     velocity_error = combine(1.0, v, -1.0, velocity)
     # F = -kx ex - kv ev + m g e3 + m (ẍd + Δa) - d̂x
@@ -96,10 +146,12 @@ def geometric_law(x, v, R, w, reference, mass, gravity, inertia, kx, kv, kR, kOm
     force_ddot = (-kx[0] * acceleration_error[0] - kv[0] * jerk_error[0] + mass * snap[0],
                   -kx[1] * acceleration_error[1] - kv[1] * jerk_error[1] + mass * snap[1],
                   -kx[2] * acceleration_error[2] - kv[2] * jerk_error[2] + mass * snap[2])
-    rd, rate_d, acceleration_d = desired_attitude(force, force_dot, force_ddot, heading,
-                                                  heading_rate, heading_accel)
-    moment, attitude_error, rate_error = attitude_law(R, w, rd, rate_d, acceleration_d, inertia,
-                                                      kR, kOmega, torque_estimate)
+    rd, rate_d, acceleration_d = desired_attitude(force, force_dot, force_ddot,
+                                                  reference.heading, reference.heading_rate,
+                                                  reference.heading_acceleration)
+    moment, attitude_error, rate_error = attitude_law(R, w, rd, rate_d, acceleration_d,
+                                                      law.inertia, law.k_attitude, law.k_rate,
+                                                      torque_estimate)
     return thrust, moment, force, rd, rate_d, acceleration_d, attitude_error, rate_error
 
 
@@ -127,57 +179,70 @@ def attitude_law(R, w, rd, rate_d, acceleration_d, inertia, kR, kOmega, torque_e
 # --- batch loops (one call per control step for the whole batch) ---------------------------
 
 @njit(cache=True, inline="always")
-def geometric_vehicle(i, x, v, R, w, reference, mass, gravity, inertia, gains, force_estimate,
-                      torque_estimate, acceleration_correction, thrust, moment, desired_force,
-                      desired_rotation, desired_rate, desired_acceleration, attitude_error,
-                      rate_error):
-    """``geometric_law`` for vehicle i (``acceleration_correction`` its 3-tuple), its
-    outputs written to row i."""
+def geometric_vehicle(i, x, v, R, w, reference, law, force_estimate, torque_estimate,
+                      acceleration_correction, outputs):
+    """``geometric_law`` for vehicle i (``reference`` a ``ReferenceVectors`` of 3-tuples,
+    ``law`` a ``GeometricLaw``, ``acceleration_correction`` its 3-tuple; ``force_estimate``
+    and ``torque_estimate`` (N, 3)), its outputs written to row i of ``outputs``, a
+    ``GeometricOutputs``."""
     f, m, force, rd, rate_d, acceleration_d, e_r, e_w = geometric_law(
-        x, v, R, w, reference, mass, gravity, inertia, gains[0], gains[1], gains[2], gains[3],
-        vector_at(force_estimate, i), vector_at(torque_estimate, i), acceleration_correction)
-    thrust[i] = f
-    store_vector(moment, i, m)
-    store_vector(desired_force, i, force)
+        x, v, R, w, reference, law, vector_at(force_estimate, i), vector_at(torque_estimate, i),
+        acceleration_correction)
+    outputs.thrust[i] = f
+    store_vector(outputs.moment, i, m)
+    store_vector(outputs.desired_force, i, force)
     for k in range(9):
-        desired_rotation[i, k // 3, k % 3] = rd[k]
-    store_vector(desired_rate, i, rate_d)
-    store_vector(desired_acceleration, i, acceleration_d)
-    store_vector(attitude_error, i, e_r)
-    store_vector(rate_error, i, e_w)
+        outputs.desired_rotation[i, k // 3, k % 3] = rd[k]
+    store_vector(outputs.desired_rate, i, rate_d)
+    store_vector(outputs.desired_acceleration, i, acceleration_d)
+    store_vector(outputs.attitude_error, i, e_r)
+    store_vector(outputs.rate_error, i, e_w)
+
+
+@njit(cache=True, inline="always")
+def geometric_law_of(mass, gravity, inertia, gains):
+    """A ``GeometricLaw`` from J (3, 3) and the gains (4, 3): kx, kv, kR, kΩ by row."""
+    return GeometricLaw(mass, gravity, matrix_entries(inertia), as_vector(gains[0]),
+                        as_vector(gains[1]), as_vector(gains[2]), as_vector(gains[3]))
+
+
+@njit(cache=True, inline="always")
+def reference_vectors_at(reference, i):
+    """Vehicle i's ``ReferenceVectors`` (3-tuples) from a batch's (of (N, 3) arrays)."""
+    return ReferenceVectors(vector_at(reference.position, i), vector_at(reference.velocity, i),
+                            vector_at(reference.acceleration, i), vector_at(reference.jerk, i),
+                            vector_at(reference.snap, i), vector_at(reference.heading, i),
+                            vector_at(reference.heading_rate, i),
+                            vector_at(reference.heading_acceleration, i))
 
 
 @njit(cache=True, nogil=True)
 def geometric_batch(start, stop, position, velocity, rotation, angular_velocity, reference,
-                    mass, gravity, inertia, kx, kv, kR, kOmega, force_estimate,
-                    torque_estimate, acceleration_correction, thrust, moment, desired_force,
-                    desired_rotation, desired_rate, desired_acceleration, attitude_error,
-                    rate_error):
-    inertia_tuple = matrix_entries(inertia)
-    gains = (as_vector(kx), as_vector(kv), as_vector(kR), as_vector(kOmega))
+                    law, force_estimate, torque_estimate, acceleration_correction, outputs):
+    """``geometric_vehicle`` for vehicles ``start..stop-1``: ``reference`` a ``ReferenceVectors``
+    of (N, 3) arrays, ``law`` a ``GeometricLaw``, ``outputs`` a ``GeometricOutputs``, each
+    passed as a plain tuple."""
+    reference, law = ReferenceVectors(*reference), GeometricLaw(*law)
+    outputs = GeometricOutputs(*outputs)
     for i in range(start, stop):
-        ref = (vector_at(reference[0], i), vector_at(reference[1], i), vector_at(reference[2], i),
-               vector_at(reference[3], i), vector_at(reference[4], i), vector_at(reference[5], i),
-               vector_at(reference[6], i), vector_at(reference[7], i))
         geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i), matrix_at(rotation, i),
-                          vector_at(angular_velocity, i), ref, mass, gravity, inertia_tuple, gains,
-                          force_estimate, torque_estimate,
-                          vector_at(acceleration_correction, i), thrust, moment, desired_force,
-                          desired_rotation, desired_rate, desired_acceleration, attitude_error,
-                          rate_error)
+                      vector_at(angular_velocity, i), reference_vectors_at(reference, i), law,
+                      force_estimate, torque_estimate, vector_at(acceleration_correction, i),
+                      outputs)
 
 
 @njit(cache=True, inline="always")
 def reference_at(table, r):
-    """Row ``r`` of a reference table (rows, 8, 3) as eight 3-tuples (``Reference`` order)."""
-    return ((table[r, 0, 0], table[r, 0, 1], table[r, 0, 2]),
-            (table[r, 1, 0], table[r, 1, 1], table[r, 1, 2]),
-            (table[r, 2, 0], table[r, 2, 1], table[r, 2, 2]),
-            (table[r, 3, 0], table[r, 3, 1], table[r, 3, 2]),
-            (table[r, 4, 0], table[r, 4, 1], table[r, 4, 2]),
-            (table[r, 5, 0], table[r, 5, 1], table[r, 5, 2]),
-            (table[r, 6, 0], table[r, 6, 1], table[r, 6, 2]),
-            (table[r, 7, 0], table[r, 7, 1], table[r, 7, 2]))
+    """Row ``r`` of a reference table (rows, 8, 3) as ``ReferenceVectors`` of 3-tuples."""
+    return ReferenceVectors(
+        (table[r, 0, 0], table[r, 0, 1], table[r, 0, 2]),
+        (table[r, 1, 0], table[r, 1, 1], table[r, 1, 2]),
+        (table[r, 2, 0], table[r, 2, 1], table[r, 2, 2]),
+        (table[r, 3, 0], table[r, 3, 1], table[r, 3, 2]),
+        (table[r, 4, 0], table[r, 4, 1], table[r, 4, 2]),
+        (table[r, 5, 0], table[r, 5, 1], table[r, 5, 2]),
+        (table[r, 6, 0], table[r, 6, 1], table[r, 6, 2]),
+        (table[r, 7, 0], table[r, 7, 1], table[r, 7, 2]))
 
 
 @njit(cache=True)

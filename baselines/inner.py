@@ -38,9 +38,11 @@ from quad_dob_baselines.geometric_kernels import (
     vector_at,
 )
 from quad_dob_env.flatness import combine
-from quad_dob_env.so3 import cross_tuple, mat_vec_tuple
+from quad_dob_env.so3 import cross_tuple, mat_vec_tuple, matrix_entries
 
 NO_LAW, LEE, PID, SMC = 0, 1, 2, 3
+# the matrices of ``InnerLaw.observer_gains``: Km', and I - e^{-Km J⁻¹ T}
+OBSERVER_GAIN, OBSERVER_ALPHA = 0, 1
 
 
 class InnerLaw(NamedTuple):
@@ -98,22 +100,22 @@ def _row(table, k):
 @njit(cache=True)
 def inner_command(i, R, w, law, tick):
     """Vehicle i's thrust and moment at an inner tick of ``tick`` s, from the inner-rate
-    estimate (R row-major 9-tuple, Ω) and ``law`` (an ``InnerLaw`` as a plain tuple)."""
-    (code, gains, inertia, desired_force, desired_rotation, desired_rate,
-     desired_acceleration, has_observer, observer_gains, torque_state, integral,
-     previous_error, fresh, excess) = law
-    force = vector_at(desired_force, i)
+    estimate (R row-major 9-tuple, Ω) and ``law``, an ``InnerLaw`` (or the plain tuple of
+    its fields: rebuilt here, at no cost)."""
+    law = InnerLaw(*law)
+    gains = law.gains
+    force = vector_at(law.desired_force, i)
     thrust = force[0] * R[2] + force[1] * R[5] + force[2] * R[8]  # f = F · R e3
-    rd = matrix_at(desired_rotation, i)
-    rate_d, acceleration_d = vector_at(desired_rate, i), vector_at(desired_acceleration, i)
-    J = (inertia[0, 0], inertia[0, 1], inertia[0, 2], inertia[1, 0], inertia[1, 1],
-         inertia[1, 2], inertia[2, 0], inertia[2, 1], inertia[2, 2])
+    rd = matrix_at(law.desired_rotation, i)
+    rate_d = vector_at(law.desired_rate, i)
+    acceleration_d = vector_at(law.desired_acceleration, i)
+    J = matrix_entries(law.inertia)
     gyroscopic = cross_tuple(w, mat_vec_tuple(J, w))
-    if code == LEE:
+    if law.code == LEE:
         torque_estimate = (0.0, 0.0, 0.0)
-        if has_observer:  # d̂Ω = zΩ + Km' Ω
-            km_w = mat_vec_tuple(_matrix(observer_gains, 0), w)
-            z = vector_at(torque_state, i)
+        if law.has_observer:  # d̂Ω = zΩ + Km' Ω
+            km_w = mat_vec_tuple(_matrix(law.observer_gains, OBSERVER_GAIN), w)
+            z = vector_at(law.torque_state, i)
             torque_estimate = (z[0] + km_w[0], z[1] + km_w[1], z[2] + km_w[2])
         moment, _, _ = attitude_law(R, w, rd, rate_d, acceleration_d, J, _row(gains, 0),
                                     _row(gains, 1), torque_estimate)
@@ -121,14 +123,15 @@ def inner_command(i, R, w, law, tick):
     attitude_error, rate_error, r_t_rd = attitude_errors(R, w, rd, rate_d)
     rate_body = mat_vec_tuple(r_t_rd, rate_d)
     acceleration_body = mat_vec_tuple(r_t_rd, acceleration_d)
-    if code == PID:
+    if law.code == PID:
         kp_attitude, kp, ki, kd, limit = (_row(gains, 0), _row(gains, 1), _row(gains, 2),
                                           _row(gains, 3), _row(gains, 4))
+        integral, excess = law.integral, law.excess
         # ω_cmd = RᵀRd Ωd - K_att eR, e_ω = Ω - ω_cmd
         command = combine(1.0, rate_body, -kp_attitude[0], attitude_error)
         error = combine(1.0, w, -1.0, command)
         pushed = mat_vec_tuple(J, error)
-        last = vector_at(previous_error, i) if not fresh[i] else error
+        last = vector_at(law.previous_error, i) if not law.fresh[i] else error
         acceleration = (
             _pid_axis(i, 0, error, pushed, last, acceleration_body, kp, ki, kd, limit,
                       integral, excess, tick),
@@ -136,8 +139,8 @@ def inner_command(i, R, w, law, tick):
                       integral, excess, tick),
             _pid_axis(i, 2, error, pushed, last, acceleration_body, kp, ki, kd, limit,
                       integral, excess, tick))
-        store_vector(previous_error, i, error)
-        fresh[i] = False
+        store_vector(law.previous_error, i, error)
+        law.fresh[i] = False
         torque = mat_vec_tuple(J, acceleration)
         return thrust, (gyroscopic[0] + torque[0], gyroscopic[1] + torque[1],
                         gyroscopic[2] + torque[2])
@@ -177,8 +180,7 @@ def _smc_axis(k, spin, acceleration_body, rate_error, attitude_error, lam, eta, 
 
 @njit(cache=True, inline="always")
 def _matrix(stack, k):
-    m = stack[k]
-    return (m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2])
+    return matrix_entries(stack[k])
 
 
 @njit(cache=True)
@@ -186,15 +188,13 @@ def inner_applied(i, rate_before, rate_after, requested, mixed, applied, law):
     """After a tick: the rotational observer advanced with the ``applied`` moment between
     the estimated rates ``rate_before`` and ``rate_after``; the PID's excess of its own
     ``requested`` moment over what the mixer makes of that request (``mixed``)."""
-    code, inertia, has_observer, observer_gains = law[0], law[2], law[7], law[8]
-    torque_state, excess = law[9], law[13]
-    if code == LEE and has_observer:
-        J = (inertia[0, 0], inertia[0, 1], inertia[0, 2], inertia[1, 0], inertia[1, 1],
-             inertia[1, 2], inertia[2, 0], inertia[2, 1], inertia[2, 2])
-        store_vector(torque_state, i, torque_observer_step(
-            vector_at(torque_state, i), rate_before, rate_after, applied, J,
-            _matrix(observer_gains, 0), _matrix(observer_gains, 1)))
-    elif code == PID:
+    law = InnerLaw(*law)
+    if law.code == LEE and law.has_observer:
+        store_vector(law.torque_state, i, torque_observer_step(
+            vector_at(law.torque_state, i), rate_before, rate_after, applied,
+            matrix_entries(law.inertia), _matrix(law.observer_gains, OBSERVER_GAIN),
+            _matrix(law.observer_gains, OBSERVER_ALPHA)))
+    elif law.code == PID:
         for k in range(3):
             difference = requested[k] - mixed[k]
-            excess[i, k] = difference if abs(difference) >= 1e-9 else 0.0
+            law.excess[i, k] = difference if abs(difference) >= 1e-9 else 0.0

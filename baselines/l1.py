@@ -41,7 +41,7 @@ rates and the fixed point against the equations written out.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -53,7 +53,7 @@ from quad_dob_baselines.geometric_kernels import store_vector, vector_at
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.flatness import combine
 from quad_dob_env.params import VehicleParams
-from quad_dob_env.so3 import cross_tuple, mat_vec_tuple, matrix_entries
+from quad_dob_env.so3 import cross_tuple, mat_vec_tuple
 from quad_dob_env.validation import as_finite
 
 # sigma-pi/L1Quad's defaults for its real vehicle (ArduCopter config.h): A_s = -5 I on the
@@ -70,19 +70,50 @@ def adaptation_gain(predictor_rate: float, dt: float) -> float:
     return a * math.exp(a * dt) / math.expm1(a * dt)
 
 
+class L1Law(NamedTuple):
+    """The L1 augmentation's constants (module docstring), as ``l1_adapt`` reads them."""
+
+    mass: float
+    gravity: float
+    inertia: tuple  # J, row-major 9-tuple
+    inertia_inverse: tuple  # J⁻¹, row-major 9-tuple
+    dt: float  # T_s [s]
+    velocity_pole: float  # a_x = -predictor_rate [1/s], negative
+    rate_pole: float  # a_Ω = -rotational_predictor_rate [1/s], negative
+    velocity_gain: float  # ρ_x [1/s] (``adaptation_gain``)
+    rate_gain: float  # ρ_Ω [1/s]
+    force_filter: float  # e^{-ω dt} of the force stage
+    torque_filter: float  # e^{-ω dt} of the first torque stage
+    torque_second_filter: float  # e^{-ω dt} of the second torque stage
+
+
+class L1State(NamedTuple):
+    """What ``l1_adapt`` keeps per vehicle and writes: (N, 3) unless said."""
+
+    predicted_velocity: NDArray  # v̂
+    predicted_rate: NDArray  # Ω̂
+    sigma_force: NDArray  # σ̂x
+    sigma_torque: NDArray  # σ̂Ω
+    previous: NDArray  # (N, 9) the last step's v, R e3, Ω
+    filtered: NDArray  # (N, 9) the force stage's and the two torque stages' outputs
+    fresh: NDArray  # (N,) bool: start the predictor at the state
+    force_estimate: NDArray  # d̂x
+    torque_estimate: NDArray  # d̂Ω
+
+
 @njit(cache=True)
-def l1_adapt(rows, velocity, rotation, angular_velocity, wrench, mass, gravity, inertia,
-             inertia_inverse, dt, rates, gains, poles, predicted_velocity, predicted_rate,
-             sigma_force, sigma_torque, previous, filtered, fresh, force_estimate,
-             torque_estimate):
-    """One step of the predictor, the adaptation law and the filters for every vehicle
-    (module docstring). ``rates``: (a_x, a_Ω), the predictor's poles (negative);
-    ``gains``: (ρ_x, ρ_Ω); ``poles``: e^{-ω dt} of the force stage and the two torque
-    stages; ``previous`` (N, 9): the last step's v, R e3, Ω; ``filtered`` (N, 9): the
-    force stage's and the two torque stages' outputs; ``wrench`` (N, 4) the last step's
-    applied thrust and moment. A ``fresh`` vehicle starts with v̂ = v, Ω̂ = Ω and zero
-    estimates."""
-    J, J_inv = matrix_entries(inertia), matrix_entries(inertia_inverse)
+def l1_adapt(rows, velocity, rotation, angular_velocity, wrench, law, state):
+    """One step of the predictor, the adaptation law and the filters for the vehicles
+    ``rows`` marks (module docstring): ``law`` an ``L1Law``, ``state`` an ``L1State``, each
+    passed as a plain tuple; ``wrench`` (N, 4) the last step's applied thrust and moment.
+    A ``fresh`` vehicle starts with v̂ = v, Ω̂ = Ω and zero estimates."""
+    law, state = L1Law(*law), L1State(*state)
+    mass, gravity, dt = law.mass, law.gravity, law.dt
+    predicted_velocity, predicted_rate = state.predicted_velocity, state.predicted_rate
+    sigma_force, sigma_torque = state.sigma_force, state.sigma_torque
+    previous, filtered, fresh = state.previous, state.filtered, state.fresh
+    force_estimate, torque_estimate = state.force_estimate, state.torque_estimate
+    J, J_inv = law.inertia, law.inertia_inverse
     for i in range(velocity.shape[0]):
         if not rows[i]:
             continue
@@ -114,26 +145,27 @@ def l1_adapt(rows, velocity, rotation, angular_velocity, wrench, mass, gravity, 
             for k in range(3):
                 # v̂̇ = -g e3 + (f R e3 + σ̂x)/m + a_x (v̂ - v)
                 acceleration = ((thrust * body_z[k] + sigma_force[i, k]) / mass
-                                + rates[0] * (predicted_velocity[i, k] - v0[k]))
+                                + law.velocity_pole * (predicted_velocity[i, k] - v0[k]))
                 if k == 2:
                     acceleration -= gravity
                 predicted_velocity[i, k] += dt * acceleration
                 # Ω̂̇ = J⁻¹(M + σ̂Ω - Ω × JΩ) + a_Ω (Ω̂ - Ω)
-                predicted_rate[i, k] += dt * (angular[k] + rates[1]
+                predicted_rate[i, k] += dt * (angular[k] + law.rate_pole
                                               * (predicted_rate[i, k] - w0[k]))
             rate_error = (predicted_rate[i, 0] - w[0], predicted_rate[i, 1] - w[1],
                           predicted_rate[i, 2] - w[2])
             torque_sigma = mat_vec_tuple(J, rate_error)
             for k in range(3):
                 # σ̂ = -B⁻¹ Φ⁻¹ e^{A_s T_s} z̃
-                sigma_force[i, k] = -mass * gains[0] * (predicted_velocity[i, k] - v[k])
-                sigma_torque[i, k] = -gains[1] * torque_sigma[k]
+                sigma_force[i, k] = -mass * law.velocity_gain * (predicted_velocity[i, k] - v[k])
+                sigma_torque[i, k] = -law.rate_gain * torque_sigma[k]
                 # C(s): y_k = e^{-ω dt} y_{k-1} + (1 - e^{-ω dt}) x_k, per stage
-                filtered[i, k] = poles[0] * filtered[i, k] + (1 - poles[0]) * sigma_force[i, k]
-                filtered[i, 3 + k] = (poles[1] * filtered[i, 3 + k]
-                                      + (1 - poles[1]) * sigma_torque[i, k])
-                filtered[i, 6 + k] = (poles[2] * filtered[i, 6 + k]
-                                      + (1 - poles[2]) * filtered[i, 3 + k])
+                filtered[i, k] = (law.force_filter * filtered[i, k]
+                                  + (1 - law.force_filter) * sigma_force[i, k])
+                filtered[i, 3 + k] = (law.torque_filter * filtered[i, 3 + k]
+                                      + (1 - law.torque_filter) * sigma_torque[i, k])
+                filtered[i, 6 + k] = (law.torque_second_filter * filtered[i, 6 + k]
+                                      + (1 - law.torque_second_filter) * filtered[i, 3 + k])
                 force_estimate[i, k] = filtered[i, k]
                 torque_estimate[i, k] = filtered[i, 6 + k]
         for k in range(3):
@@ -169,24 +201,31 @@ class L1AdaptiveController(EstimatingGeometricController):
         super().reset(num_vehicles, vehicle, dt, indices, actuation)
         if indices is None:
             n, a = int(num_vehicles), self.adaptive
-            self._rates = np.array([-a["predictor_rate"], -a["rotational_predictor_rate"]])
-            self._gains = np.array([adaptation_gain(a["predictor_rate"], self.dt),
-                                    adaptation_gain(a["rotational_predictor_rate"], self.dt)])
-            self._poles = np.array([first_order_lowpass(a[key], self.dt,
-                                                        f"L1AdaptiveController.{key}")
-                                    for key in ("force_cutoff", "torque_cutoff",
-                                                "torque_second_cutoff")])
+            filters = [first_order_lowpass(a[key], self.dt, f"L1AdaptiveController.{key}")
+                       for key in ("force_cutoff", "torque_cutoff", "torque_second_cutoff")]
+            law = L1Law(
+                mass=vehicle.mass, gravity=vehicle.gravity,
+                inertia=tuple(vehicle.inertia_matrix.ravel().tolist()),
+                inertia_inverse=tuple(vehicle.inertia_inverse.ravel().tolist()), dt=self.dt,
+                velocity_pole=-a["predictor_rate"], rate_pole=-a["rotational_predictor_rate"],
+                velocity_gain=adaptation_gain(a["predictor_rate"], self.dt),
+                rate_gain=adaptation_gain(a["rotational_predictor_rate"], self.dt),
+                force_filter=filters[0], torque_filter=filters[1],
+                torque_second_filter=filters[2])
             self.predicted_velocity, self.predicted_rate = np.zeros((n, 3)), np.zeros((n, 3))
             self.sigma_force, self.sigma_torque = np.zeros((n, 3)), np.zeros((n, 3))
             self._previous, self._filtered = np.zeros((n, 9)), np.zeros((n, 9))
+            # built once: the arrays are written in place until the next full reset; passed
+            # as plain tuples (numba types a named tuple on a slower path every call)
+            self._l1_arguments = (tuple(law), tuple(L1State(
+                predicted_velocity=self.predicted_velocity, predicted_rate=self.predicted_rate,
+                sigma_force=self.sigma_force, sigma_torque=self.sigma_torque,
+                previous=self._previous, filtered=self._filtered, fresh=self._fresh,
+                force_estimate=self._force, torque_estimate=self._torque)))
 
     def _advance(self, state: VehicleState, rows: NDArray[np.bool_]) -> None:
-        vehicle = self.vehicle
         l1_adapt(rows, state.velocity, state.rotation, state.angular_velocity, self._wrench,
-                 vehicle.mass, vehicle.gravity, vehicle.inertia_matrix, vehicle.inertia_inverse,
-                 self.dt, self._rates, self._gains, self._poles, self.predicted_velocity,
-                 self.predicted_rate, self.sigma_force, self.sigma_torque, self._previous,
-                 self._filtered, self._fresh, self._force, self._torque)
+                 *self._l1_arguments)
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), **self.adaptive}

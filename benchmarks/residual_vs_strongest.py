@@ -29,8 +29,8 @@ import numpy as np
 from quad_dob_training.cli.checks import key_values
 from quad_dob_training.evaluation.evaluate import SUITES, evaluate, parse_seeds
 from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
+from quad_dob_training.learning.baseline_evaluation import CLASSICAL_BASELINES
 from quad_dob_training.policies import make_policy
-from quad_dob_training.rl.baseline_evaluation import CLASSICAL_BASELINES
 from quad_dob_training.rl.vec_env import loop_scenario_options
 
 

@@ -22,8 +22,8 @@ from pathlib import Path
 import torch
 from stable_baselines3.common.callbacks import BaseCallback
 
+from quad_dob_training.learning.train import make_model, make_vec_env
 from quad_dob_training.rl.run_config import resolve_config
-from quad_dob_training.rl.train import make_model, make_vec_env
 
 
 class Stopwatch(BaseCallback):

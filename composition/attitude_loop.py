@@ -5,118 +5,83 @@ With a scenario's ``inner_rate`` the core flies each control step as ``ticks`` i
 ``AttitudeLoop`` is what a flight installs on the core (``QuadrotorBatch.attitude_loop``)
 to fly a controller there: the controller's ``compute`` (its outer part: position, the
 translational observer, a residual policy) runs once per control step on the estimate;
-then for every tick, per vehicle, one compiled pass runs
+then for every tick, per vehicle, the env's one tick loop
+(``quad_dob_env.envs.step_kernels.fly_vehicles``) runs
 
     inner-rate estimate -> the controller's attitude law (``quad_dob_baselines.inner``)
     + the residual's addition -> mixer -> motors -> physics -> the law's own update
     (rotational observer, PID integrator)
 
-through the same per-vehicle pieces the core's own step uses
-(``quad_dob_env.envs.step_kernels``: ``inner_estimate``, ``fly_tick``, ``finish_vehicle_step``),
-so there is one source for every equation. Vehicle ``i`` of the core is row
-``rows.start + i`` of the controller's batch (``training.rollout`` flies several N = 1
-cores as one batch).
+with the law given here (``attitude_command``, ``attitude_after_tick``), so there is one
+loop over ticks and one source for every equation; this module holds none. Vehicle ``i``
+of the core is row ``rows.start + i`` of the controller's batch (``training.rollout``
+flies several N = 1 cores as one batch).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_baselines.inner import PID, InnerLaw, inner_applied, inner_command
-from quad_dob_env.dynamics import (
-    actuate_vehicle,
-    actuator_wrench,
-    all_finite,
-    load_vehicle,
-    vehicle_physics,
-)
-from quad_dob_env.envs.step_kernels import finish_vehicle_step
-from quad_dob_env.envs.ticks import (
-    filtered_rate,
-    fly_tick,
-    held_rate,
-    inner_estimate,
-    keep_pose,
-    thrust_path_at,
-    tick_factors,
-)
+from quad_dob_env.dynamics import actuate_vehicle, actuator_wrench
+from quad_dob_env.envs.step_kernels import fly_vehicles, kernel_tuples, named_step
 from quad_dob_env.threads import run_over_batch
 
 
+class AttitudeLaw(NamedTuple):
+    """The law ``fly_vehicles`` flies at every tick here: a controller's ``InnerLaw`` and
+    the residual's thrust and moment added to its command."""
+
+    inner: InnerLaw
+    addition: NDArray  # (N, 4)
+
+
+@njit(cache=True, inline="always")
+def attitude_command(i, actions, rotation, rate, body, tick_dt, law, inner, actuator):
+    """The controller's attitude law at the tick, plus the residual's part, within the
+    limits a command in the action space has; the law's own request is kept for its
+    update."""
+    own_thrust, own_moment = inner_command(i, rotation, rate, law.inner, tick_dt)
+    addition, limit = law.addition, inner.moment_limit
+    thrust = min(max(own_thrust + addition[i, 0], 0.0), actuator.max_total_thrust)
+    moment = (min(max(own_moment[0] + addition[i, 1], -limit[0]), limit[0]),
+              min(max(own_moment[1] + addition[i, 2], -limit[1]), limit[1]),
+              min(max(own_moment[2] + addition[i, 3], -limit[2]), limit[2]))
+    return thrust, moment, (own_thrust, own_moment[0], own_moment[1], own_moment[2])
+
+
+@njit(cache=True, inline="always")
+def attitude_after_tick(i, rate_before, rate_after, request, mean, law, actuator):
+    """The law's own update after a tick: what the mixer makes of its request (the PID's
+    anti-windup), what the motors gave (the rotational observer)."""
+    own_thrust, own_moment = request[0], (request[1], request[2], request[3])
+    mixed_moment = own_moment
+    if law.inner.code == PID:
+        mixed, _ = actuate_vehicle(own_thrust, own_moment, actuator.code, actuator.mixer,
+                                   actuator.max_rotor_thrust, actuator.max_total_thrust,
+                                   actuator.moment_limit)
+        mixed_moment = actuator_wrench(mixed, mixed, 0.0, actuator.to_wrench)[1]
+    inner_applied(i, rate_before, rate_after, own_moment, mixed_moment,
+                  actuator_wrench(mean, mean, 0.0, actuator.to_wrench)[1], law.inner)
+
+
 @njit(cache=True, nogil=True)
-def attitude_loop_kernel(start, stop, addition, law, actions, action_map, actuation, actuator,
-                         rotors, rotor_state, inner, position, velocity, rotation,
-                         angular_velocity, step_count, reference_row, tables, own, reference,
-                         physics, dt, substeps, law_table, limits, reward_weights,
-                         rotation_mode, obs, reward, code, applied_thrust, applied_moment,
-                         rotor_thrusts, saturated, disturbance_force, disturbance_torque,
-                         wind_velocity):
+def attitude_loop_kernel(start, stop, actions, addition, inner_law, action_map, state, body,
+                         actuator, rotors, draws, inner, forcing, episode, outputs):
     """One control step of vehicles ``start..stop-1`` with the controller's attitude law
-    (``law``, an ``InnerLaw`` as a plain tuple) at every tick, plus ``addition`` (N, 4),
-    a residual's thrust and moment. Called as ``step_kernel`` is, with
-    ``*StepArguments`` after ``actions`` (its ``law`` field, the ground effect's, arrives as
-    ``law_table``); ``actions`` only enter the reward's effort term."""
-    to_wrench, _, time_constant, actuator_state = actuator
-    mass, gravity, inertia, inertia_inverse, drag = physics
-    ticks, limit = inner[0], inner[4]
-    mixer_code, mixer, max_rotor, max_total, mixer_limit = actuation
-    tick_dt = dt / ticks
-    mean_factor, end_factor = tick_factors(time_constant, tick_dt)
-    for i in range(start, stop):
-        row = step_count[i]
-        vehicle = vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag)
-        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        battery = thrust_path_at(i, row, dt, rotors, rotor_state, vehicle)
-        r0, w0 = R, w
-        end = (actuator_state[i, 0], actuator_state[i, 1], actuator_state[i, 2],
-               actuator_state[i, 3])
-        total = (0.0, 0.0, 0.0, 0.0)
-        any_saturated, diverged = False, False
-        seen_rotation, seen_rate = inner_estimate(i, R, w, inner, r0, w0)
-        seen_rate = held_rate(i, seen_rate, inner)  # the gyro low-pass's, when on
-        for tick in range(ticks):
-            own_thrust, own_moment = inner_command(i, seen_rotation, seen_rate, law, tick_dt)
-            # the residual's part, and the limits a command in the action space has
-            thrust = min(max(own_thrust + addition[i, 0], 0.0), max_total)
-            moment = (min(max(own_moment[0] + addition[i, 1], -limit[0]), limit[0]),
-                      min(max(own_moment[1] + addition[i, 2], -limit[1]), limit[1]),
-                      min(max(own_moment[2] + addition[i, 3], -limit[2]), limit[2]))
-            xn, vn, Rn, wn, next_end, mean, hit, _ = fly_tick(
-                i, x, v, R, w, end, thrust, moment, actuation, actuator, rotors, rotor_state,
-                battery, tables, own, row, vehicle, tick_dt, substeps, law_table,
-                2 * substeps * tick, mean_factor, end_factor)
-            end = next_end
-            total = (total[0] + mean[0], total[1] + mean[1], total[2] + mean[2],
-                     total[3] + mean[3])
-            any_saturated = any_saturated or hit
-            if not all_finite(xn, vn, Rn, wn):
-                diverged = True
-                break
-            x, v, R, w = xn, vn, Rn, wn
-            keep_pose(i, tick + 1, x, v, R, inner)
-            rotation_after, rate_after = inner_estimate(i, R, w, inner, r0, w0)
-            rate_after = filtered_rate(i, rate_after, inner)
-            # the law's own request, what the mixer makes of it (the PID's anti-windup),
-            # what the motors gave (the observer)
-            mixed_moment = own_moment
-            if law[0] == PID:
-                mixed, _ = actuate_vehicle(own_thrust, own_moment, mixer_code, mixer,
-                                           max_rotor, max_total, mixer_limit)
-                mixed_moment = actuator_wrench(mixed, mixed, 0.0, to_wrench)[1]
-            inner_applied(i, seen_rate, rate_after, own_moment, mixed_moment,
-                          actuator_wrench(mean, mean, 0.0, to_wrench)[1], law)
-            seen_rotation, seen_rate = rotation_after, rate_after
-        finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated, actions,
-                            actuator, rotors, rotor_state, position, velocity, rotation,
-                            angular_velocity, step_count, reference_row, tables, own,
-                            reference, vehicle, law_table, limits, reward_weights,
-                            rotation_mode, obs, reward, code, applied_thrust, applied_moment,
-                            rotor_thrusts, saturated, disturbance_force, disturbance_torque,
-                            wind_velocity)
+    (``inner_law``, an ``InnerLaw`` as a plain tuple) at every tick, plus ``addition``
+    (N, 4), a residual's thrust and moment: the env's one tick loop
+    (``quad_dob_env.envs.step_kernels.fly_vehicles``) with this law. Called as
+    ``step_kernel`` is, with the core's ``StepArguments`` after ``inner_law``; ``actions``
+    only enter the reward's effort term."""
+    loop = named_step(action_map, state, body, actuator, rotors, draws, inner, forcing,
+                      episode, outputs)
+    fly_vehicles(start, stop, actions, loop, attitude_command, attitude_after_tick,
+                 AttitudeLaw(InnerLaw(*inner_law), addition), True)
 
 
 class AttitudeLoop:
@@ -159,7 +124,7 @@ class AttitudeLoop:
                 "torque_state", "integral", "previous_error", "fresh", "excess")})
         core = self.core
         if core.reference_table is not self._tables:  # built once per table, as the core does
-            self._arguments = tuple(core.step_arguments())
+            self._arguments = kernel_tuples(core.step_arguments())
             self._tables = core.reference_table
-        run_over_batch(attitude_loop_kernel, core.n, self.addition, tuple(law), actions,
+        run_over_batch(attitude_loop_kernel, core.n, actions, self.addition, tuple(law),
                        *self._arguments)

@@ -13,6 +13,7 @@ from quad_dob_env.residual import (
     DEFAULT_BASE_CONTROLLER,
     ResidualCommand,
     ResidualOptions,
+    ResidualQuadrotorVectorEnv,
     split_residual_keys,
 )
 from quad_dob_env.scenarios import make_scenario
@@ -35,19 +36,20 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER,
     return ResidualActionWrapper(env, base, options, attitude_loop=AttitudeLoop.install)
 
 
-class ResidualVectorEnv(QuadrotorVectorEnv):
-    """``QuadrotorVectorEnv`` in residual mode with ``base_controller`` by name (or object);
-    the geometric base runs in one compiled pass per step unless ``compiled=False``. A named
+class ResidualVectorEnv(ResidualQuadrotorVectorEnv):
+    """``ResidualQuadrotorVectorEnv`` with ``base_controller`` by name (or object); the
+    geometric base runs in one compiled pass per step unless ``compiled=False``. A named
     base flies the gains its name means in the scenario's benchmark, or in
     ``base_benchmark`` where given (a residual model's training benchmark)."""
 
-    @checked_keywords(QuadrotorVectorEnv.__init__, ResidualOptions)
+    @checked_keywords(ResidualQuadrotorVectorEnv.__init__, QuadrotorVectorEnv.__init__,
+                      ResidualOptions)
     def __init__(self, num_envs: int, scenario: Any = "paper-none",
                  scenario_options: dict[str, Any] | None = None,
                  base_controller: Any = DEFAULT_BASE_CONTROLLER, compiled: bool = True,
                  benchmark: str | None = None, base_benchmark: str | None = None,
                  **kwargs: Any) -> None:
-        if base_controller is None:  # the plain vector env would read None as "direct"
+        if base_controller is None:  # say what a residual env needs, not make_base's error
             raise ValueError("ResidualVectorEnv needs a base_controller (a controller name "
                              "such as 'geometric-ndob:tuned', or a controller); for direct "
                              "control use a direct id or QuadrotorVectorEnv")

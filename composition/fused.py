@@ -26,7 +26,8 @@ from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_baselines.geometric_kernels import (
-    as_vector,
+    GeometricOutputs,
+    geometric_law_of,
     geometric_vehicle,
     matrix_at,
     observer_advance_vehicle,
@@ -35,7 +36,7 @@ from quad_dob_baselines.geometric_kernels import (
     store_vector,
     vector_at,
 )
-from quad_dob_env.envs.step_kernels import step_kernel
+from quad_dob_env.envs.step_kernels import kernel_tuples, step_kernel
 from quad_dob_env.residual.residual_kernels import (
     residual_command_kernel,
     residual_observation_vehicle,
@@ -49,8 +50,8 @@ if TYPE_CHECKING:
     from quad_dob_env.residual import ResidualCommand
 
 class PlanArguments(NamedTuple):
-    """What ``plan_kernel`` reads and writes for the whole batch: built by keyword, and the
-    kernel's parameters have its names, so a misplaced array cannot pass for another."""
+    """What ``plan_kernel`` reads and writes for the whole batch: built by keyword and read
+    by field, so a misplaced array cannot pass for another."""
 
     position: NDArray  # the state now, (N, 3) and (N, 3, 3)
     velocity: NDArray
@@ -104,21 +105,27 @@ class UpdateArguments(NamedTuple):
 
 
 @njit(cache=True)
-def plan_kernel(indices, position, velocity, rotation, angular_velocity, reference,
-                reference_row, mass, gravity, inertia, gains, has_observer, observer_gain,
-                observer_rotational_gain, z_force, z_torque, fresh, force_estimate,
-                torque_estimate, thrust, moment, desired_force, desired_rotation,
-                desired_rate, desired_acceleration, attitude_error, rate_error, estimate_scale,
-                inverse, base_action, body_errors, extra):
+def plan_kernel(indices, plan):
     """Each vehicle of ``indices``: its observer estimate, base command and extra
-    observation for the coming step, from its state now. Called with ``*PlanArguments``:
-    the parameters after ``indices`` are its fields (a test holds them equal)."""
-    rotor_mode, centre, scale_up, scale_down, mixer = inverse
-    # 9-tuples, as the equations take them
-    inertia_entries = matrix_entries(inertia)
-    km = matrix_entries(observer_rotational_gain)
-    law_gains = (as_vector(gains[0]), as_vector(gains[1]), as_vector(gains[2]),
-                 as_vector(gains[3]))
+    observation for the coming step, from its state now (``plan``: a ``PlanArguments`` as a
+    plain tuple)."""
+    plan = PlanArguments(*plan)
+    rotor_mode, centre, scale_up, scale_down, mixer = plan.inverse
+    law = geometric_law_of(plan.mass, plan.gravity, plan.inertia, plan.gains)
+    outputs = GeometricOutputs(plan.thrust, plan.moment, plan.desired_force,
+                               plan.desired_rotation, plan.desired_rate,
+                               plan.desired_acceleration, plan.attitude_error, plan.rate_error)
+    km = matrix_entries(plan.observer_rotational_gain)  # a 9-tuple, as the equations take it
+    # every field taken out once, before the vehicles: taking an array out of a record
+    # takes a reference to it, a cost per vehicle inside the loop
+    position, velocity = plan.position, plan.velocity
+    rotation, angular_velocity = plan.rotation, plan.angular_velocity
+    force_estimate, torque_estimate = plan.force_estimate, plan.torque_estimate
+    has_observer, observer_gain = plan.has_observer, plan.observer_gain
+    z_force, z_torque, fresh = plan.z_force, plan.z_torque, plan.fresh
+    reference, reference_row = plan.reference, plan.reference_row
+    thrust, moment, estimate_scale = plan.thrust, plan.moment, plan.estimate_scale
+    base_action, body_errors, extra = plan.base_action, plan.body_errors, plan.extra
     for i in indices:
         if has_observer:
             observer_estimate_vehicle(i, velocity, angular_velocity, observer_gain, km,
@@ -130,25 +137,20 @@ def plan_kernel(indices, position, velocity, rotation, angular_velocity, referen
         row = reference_row[i]
         geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i),
                           matrix_at(rotation, i), vector_at(angular_velocity, i),
-                          reference_at(reference, row), mass, gravity, inertia_entries,
-                          law_gains, force_estimate, torque_estimate, (0.0, 0.0, 0.0),
-                          thrust, moment,
-                          desired_force, desired_rotation, desired_rate, desired_acceleration,
-                          attitude_error, rate_error)
+                          reference_at(reference, row), law, force_estimate,
+                          torque_estimate, (0.0, 0.0, 0.0), outputs)
         residual_observation_vehicle(i, thrust, moment, force_estimate, torque_estimate,
                                      estimate_scale, position, velocity, rotation, reference,
                                      row, rotor_mode, centre, scale_up, scale_down, mixer,
                                      base_action, body_errors, extra)
 
 
-@njit(cache=True, nogil=True)
-def remember_state(start, stop, velocity_before, body_z_before, rate_before, alpha,
-                   rotational_alpha, clipped, core_rewards, effort_weight, rate_weight,
-                   previous, rewards,
-                   applied_thrust, applied_moment, position, velocity, rotation,
-                   angular_velocity, *rest):
-    """The state before the step, which the observer's update needs. Called with
-    ``*(UpdateArguments + PlanArguments)``: its parameters are their fields."""
+@njit(cache=True, inline="always")
+def remember_state(start, stop, update, plan):
+    """The state before the step, which the observer's update needs."""
+    velocity_before, body_z_before = update.velocity_before, update.body_z_before
+    rate_before = update.rate_before
+    velocity, rotation, angular_velocity = plan.velocity, plan.rotation, plan.angular_velocity
     for i in range(start, stop):
         for k in range(3):
             velocity_before[i, k] = velocity[i, k]
@@ -156,22 +158,24 @@ def remember_state(start, stop, velocity_before, body_z_before, rate_before, alp
             rate_before[i, k] = angular_velocity[i, k]
 
 
-@njit(cache=True, nogil=True)
-def reward_and_observer_update(start, stop, velocity_before, body_z_before, rate_before, alpha,
-                               rotational_alpha, clipped, core_rewards, effort_weight,
-                               rate_weight, previous, rewards, applied_thrust,
-                               applied_moment, position, velocity, rotation, angular_velocity,
-                               reference, reference_row, mass, gravity, inertia, gains,
-                               has_observer, observer_gain, observer_rotational_gain, z_force,
-                               z_torque, *rest):
+@njit(cache=True, inline="always")
+def reward_and_observer_update(start, stop, update, plan):
     """After the physics step: the residual's reward, and each observer advanced with what
-    was applied. Called with ``*(UpdateArguments + PlanArguments)``."""
-    residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rate_weight,
-                           previous, rewards)
-    if has_observer:
-        inertia_entries = matrix_entries(inertia)
-        km = matrix_entries(observer_rotational_gain)
-        alpha_entries = matrix_entries(rotational_alpha)
+    was applied."""
+    residual_reward_kernel(start, stop, update.clipped, update.core_rewards,
+                           update.effort_weight, update.rate_weight, update.previous,
+                           update.rewards)
+    if plan.has_observer:
+        inertia_entries = matrix_entries(plan.inertia)
+        km = matrix_entries(plan.observer_rotational_gain)
+        alpha_entries = matrix_entries(update.rotational_alpha)
+        velocity_before, body_z_before = update.velocity_before, update.body_z_before
+        rate_before = update.rate_before
+        applied_thrust, applied_moment = update.applied_thrust, update.applied_moment
+        rotation, angular_velocity = plan.rotation, plan.angular_velocity
+        mass, gravity, observer_gain, alpha = (plan.mass, plan.gravity, plan.observer_gain,
+                                               update.alpha)
+        z_force, z_torque = plan.z_force, plan.z_torque
         for i in range(start, stop):
             observer_advance_vehicle(i, velocity_before, body_z_before, rate_before,
                                      applied_thrust, applied_moment, rotation,
@@ -184,14 +188,15 @@ def reward_and_observer_update(start, stop, velocity_before, body_z_before, rate
 def fused_residual_kernel(start, stop, command, actions, vehicles, update, plan):
     """One residual step of vehicles ``start..stop-1`` (``quad_dob_env.threads`` splits the
     batch across cores): ``command`` is what ``residual_command_kernel`` takes, ``vehicles``
-    ``QuadrotorBatch.step_arguments()``, ``update`` an ``UpdateArguments`` and ``plan`` a
-    ``PlanArguments``, each passed as a plain tuple (a named one would cost numba's slow
-    typing path every call) and spread into functions whose parameters carry the names."""
+    the core's ``StepArguments``, ``update`` an ``UpdateArguments`` and ``plan`` a
+    ``PlanArguments``, each passed as plain tuples (a named one costs numba's slow typing
+    path every call) and named again here."""
     residual_command_kernel(start, stop, *command)
-    remember_state(start, stop, *(update + plan))
+    update_record, plan_record = UpdateArguments(*update), PlanArguments(*plan)
+    remember_state(start, stop, update_record, plan_record)
     step_kernel(start, stop, actions, *vehicles)
-    reward_and_observer_update(start, stop, *(update + plan))
-    plan_kernel(np.arange(start, stop), *plan)
+    reward_and_observer_update(start, stop, update_record, plan_record)
+    plan_kernel(np.arange(start, stop), plan)
 
 
 class FusedResidualStep:
@@ -226,7 +231,7 @@ class FusedResidualStep:
             self._gather_constants()  # a full reset may have new gains and observer arrays
             self._new_outputs()
             self._arguments = ()
-        plan_kernel(np.asarray(indices, dtype=np.intp), *self._plan_arguments())
+        plan_kernel(np.asarray(indices, dtype=np.intp), tuple(self._plan_arguments()))
 
     def step(self, residual: NDArray[np.float64]) -> None:
         """One step of every vehicle with ``residual`` (N, 4), and the plan for the next."""
@@ -254,8 +259,8 @@ class FusedResidualStep:
             rate_weight=float(command.rate_weight), previous=command.previous_residual,
             rewards=command.rewards,
             applied_thrust=core.applied.thrust, applied_moment=core.applied.moment)
-        self._arguments = (flown, self._actions, tuple(core.step_arguments()), tuple(update),
-                           tuple(self._plan_arguments()))
+        self._arguments = (flown, self._actions, kernel_tuples(core.step_arguments()),
+                           tuple(update), tuple(self._plan_arguments()))
         self._tables = core.reference_table
 
     def _gather_constants(self) -> None:

@@ -227,7 +227,7 @@ def observation_section(env, residual: bool) -> list[str]:
                      "entries (`ResidualOptions` adds none).")
     else:
         lines.append(f"- a base controller (the `...Residual` ids, or `base_controller=` on "
-                     f"`QuadrotorVectorEnv`) appends the residual's {extra} columns: "
+                     f"`ResidualQuadrotorVectorEnv`) appends the residual's {extra} columns: "
                      + ", ".join(f"`{e.name}`" for e in RESIDUAL_ENTRIES) + ".")
     return [*lines, ""]
 

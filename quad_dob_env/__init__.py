@@ -1,10 +1,10 @@
 """quad_dob_env: quadrotor environments for disturbance-rejection research.
 
-Layers, each importing only from those above it (docs/design.md): ``validation``, ``memory``,
-``linalg``, ``rng``, ``threads``, ``observation_entry`` (shared utilities: input checks, the
-memory budget large requests are sized against, small matrix functions, counter-based
-per-vehicle noise, compiled loops split across cores, the record naming an observation
-entry), ``params`` (vehicle presets; their sources in ``vehicle_sources``),
+What lives here (the order they import each other in: docs/design.md, "Layers"):
+shared utilities (``validation``: input checks, ``memory``: the budget large requests are
+sized against, ``linalg``: small matrix functions, ``rng``: counter-based per-vehicle noise,
+``threads``: compiled loops split across cores, ``observation_entry``: the record naming an
+observation entry); ``params`` (vehicle presets; their sources in ``vehicle_sources``),
 ``so3`` (rotations), ``dynamics`` (state, actuation, integrator, rotors), ``disturbances``
 (forces, torques, wind, ground effect), ``trajectories``, ``flatness`` (the attitude, rates and
 inputs that fly a reference), ``feasibility`` (a reference's needs against the actuators),
@@ -14,12 +14,13 @@ presets), ``loop_options`` (``LoopOptions``, the vehicle loop a scenario flies, 
 resolved from its benchmark), ``scenario`` (the ``Scenario`` record, validated),
 ``wind_tunnel`` (Neural-Fly's
 figure-8s and the tunnel's wind), ``scenarios`` (the named ones, the random-reference families
-included), ``residual`` (a base controller's command plus a policy's residual:
-``ResidualOptions``, ``ResidualCommand``), ``envs``, ``wrappers`` (the residual wrapper).
-None of them imports
-``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``, not even at run time
-(``tests/test_layering.py``): the residual ids name their composition-layer entry points as
-strings.
+included), ``envs`` (the batched core, ``QuadrotorEnv``, ``QuadrotorVectorEnv``),
+``residual`` (a base controller's command plus a policy's residual, above the envs:
+``ResidualOptions``, ``ResidualCommand``, ``ResidualQuadrotorVectorEnv``) and ``wrappers``
+(the residual's single-env wrapper). The package may import none of
+``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``, not even at run
+time (``tests/test_layering.py``): the residual ids name their composition-layer entry
+points as strings.
 
 Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v1`` and
 ``QuadDOB/Track-v1`` (direct control), and ``QuadDOB/HoverResidual-v1`` and
@@ -29,8 +30,7 @@ on ``random-tracks``, the task distribution generalists train on); the ``-v2`` a
 ids fly the same scenarios (but the paper's wrench-actuated helix) in Benchmark v2's and
 v3's loops (``benchmark``; v3's sourced values in ``benchmark_v3``);
 ``gym.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")`` gives the native
-``QuadrotorVectorEnv`` for each.
-``wrappers`` sits below ``envs``. The envs' version history is in ``QuadrotorEnv``'s
+``QuadrotorVectorEnv`` for each. The envs' version history is in ``QuadrotorEnv``'s
 docstring.
 """
 

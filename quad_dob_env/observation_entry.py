@@ -1,9 +1,15 @@
 """One named entry of an observation vector: the record ``envs.observation`` and
-``residual.observation`` tabulate. Imports nothing of the package."""
+``residual.observation`` tabulate, and ``UNBOUNDED``, the range of an entry nothing bounds.
+Imports nothing of the package."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+
+# the range of an entry whose values nothing bounds by construction (still clamped to
+# float32's range when observed)
+UNBOUNDED = (-math.inf, math.inf)
 
 
 @dataclass(frozen=True)

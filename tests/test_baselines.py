@@ -191,3 +191,20 @@ def test_unknown_controller_and_bad_gains_are_named():
         NonlinearDisturbanceObserver(0.02, (0.1, -0.2, 0.1))
     with pytest.raises(ValueError, match="valid: paper, tuned"):
         make_controller("geometric-ndob", gains="fast")
+
+
+def test_the_geometric_law_record_from_arrays_is_the_one_built_by_keyword():
+    # what a compiled caller holding J (3, 3) and a (4, 3) gains table hands geometric_vehicle
+    from quad_dob_baselines.geometric_kernels import GeometricLaw, geometric_law_of
+
+    controller = GeometricController(kR=[8.0, 8.5, 9.0])
+    controller.reset(1, PAPER, 0.01)
+    kx, kv = controller.position_gains
+    table = np.stack([kx, kv, controller.gains["kR"], controller.gains["kOmega"]])
+    built = geometric_law_of(PAPER.mass, PAPER.gravity, PAPER.inertia_matrix, table)
+    expected = GeometricLaw(mass=PAPER.mass, gravity=PAPER.gravity,
+                            inertia=tuple(PAPER.inertia_matrix.ravel()), kx=tuple(kx),
+                            kv=tuple(kv), k_attitude=(8.0, 8.5, 9.0),
+                            k_rate=tuple(controller.gains["kOmega"]))
+    assert isinstance(built, GeometricLaw)
+    assert built == expected

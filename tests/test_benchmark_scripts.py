@@ -52,7 +52,7 @@ def test_each_script_builds_bare_residual_for_the_benchmark_it_flies(monkeypatch
 
 def test_a_sweeps_evaluation_builds_bare_residual_for_the_scenarios_benchmark(monkeypatch):
     import quad_dob_env.scenarios as scenarios
-    from quad_dob_training.rl import sweep
+    from quad_dob_training.learning import sweep
 
     real = scenarios.make_scenario
     monkeypatch.setattr(scenarios, "make_scenario",

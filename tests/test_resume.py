@@ -14,10 +14,10 @@ import torch
 import yaml
 
 from quad_dob_training import cli
+from quad_dob_training.learning.train import train
 from quad_dob_training.rl.checkpoints import latest_checkpoint, load_state
 from quad_dob_training.rl.model_files import load_model
 from quad_dob_training.rl.run_config import resolve_config
-from quad_dob_training.rl.train import train
 
 ENV = "QuadDOB/HoverResidual-v1"
 TINY = {

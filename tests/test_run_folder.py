@@ -14,6 +14,7 @@ import pytest
 import torch
 import yaml
 
+from quad_dob_training.learning.train import setup_process, train
 from quad_dob_training.rl.checkpoints import (
     STATE_MAGIC,
     latest_checkpoint,
@@ -24,7 +25,6 @@ from quad_dob_training.rl.checkpoints import (
 from quad_dob_training.rl.model_files import load_model
 from quad_dob_training.rl.run_config import environment_versions, resolve_config
 from quad_dob_training.rl.run_folder import RUN_MEMBER, RunLock, zip_run_id
-from quad_dob_training.rl.train import setup_process, train
 
 ENV = "QuadDOB/HoverResidual-v1"
 QUIET = {"evaluate_every": 10**9, "progress_bar": False}
@@ -257,7 +257,7 @@ def test_buffers_past_the_memory_budget_are_refused_before_sb3_allocates_them():
 
     import gymnasium as gym
 
-    from quad_dob_training.rl.train import check_buffer_memory
+    from quad_dob_training.learning.train import check_buffer_memory
 
     venv = SimpleNamespace(observation_space=gym.spaces.Box(-1, 1, (40,)),
                            action_space=gym.spaces.Box(-1, 1, (4,)))

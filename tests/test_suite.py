@@ -35,9 +35,9 @@ def test_the_suite_flies_every_family_and_writes_a_leaderboard_with_intervals(tm
 def test_a_generalist_trained_a_few_thousand_steps_round_trips_through_the_suite(tmp_path):
     # the generalist's own recipe (acceleration residual, normalised observations), cut to
     # 4096 timesteps: saved, loaded by path, flown over every family, normalisation applied
+    from quad_dob_training.learning.train import train
     from quad_dob_training.rl.model_files import load_model
     from quad_dob_training.rl.run_config import resolve_config
-    from quad_dob_training.rl.train import train
 
     config = resolve_config("ppo", "residual", "QuadDOB/TracksResidual-v1", None, 4096, 32,
                             seed=5)

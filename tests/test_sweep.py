@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from quad_dob_training.rl.sweep import finished, load_config, run_sweep, tasks
+from quad_dob_training.learning.sweep import finished, load_config, run_sweep, tasks
 
 SMALL = """kind: evaluate
 name: small
@@ -95,7 +95,7 @@ def test_a_training_sweep_trains_and_scores_each_combination(tmp_path):
 
 
 def test_a_shipped_sweep_is_found_from_any_directory(tmp_path, monkeypatch):
-    from quad_dob_training.rl.sweep import find_config
+    from quad_dob_training.learning.sweep import find_config
 
     monkeypatch.chdir(tmp_path)  # not the clone's root
     path = find_config("training/sweeps/observer_rate_vs_wind.yaml")

@@ -7,10 +7,10 @@ from quad_dob_composition import make_vector_env
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_training import cli
 from quad_dob_training.evaluation.evaluate import evaluate, parse_seeds
+from quad_dob_training.learning.train import train
 from quad_dob_training.policies import check_spaces, make_policy
 from quad_dob_training.rl.model_files import load_model, sha256
 from quad_dob_training.rl.run_config import resolve_config
-from quad_dob_training.rl.train import train
 
 
 def _tiny(mode: str, env_id: str, **options):
@@ -216,8 +216,8 @@ def test_evaluation_rows_score_the_weights_of_their_own_timesteps_and_never_repe
 
     from quad_dob_env import make_scenario
     from quad_dob_training.evaluation.metrics import flight_metrics
+    from quad_dob_training.learning.baseline_evaluation import EVAL_SEEDS
     from quad_dob_training.policies import fly_policy
-    from quad_dob_training.rl.baseline_evaluation import EVAL_SEEDS
 
     config = resolve_config("ppo", "direct", "QuadDOB/Hover-v1", "hover-calm", 768, 8, seed=3)
     config["algo_kwargs"].update(n_steps=32, batch_size=64, n_epochs=1)  # rollouts of 256
@@ -261,7 +261,7 @@ def test_a_v2_id_trains_and_is_evaluated_during_training_in_v2s_loop(tmp_path):
     fly Benchmark v2's loop (sensing, inner loop, motors), the base at v2's gains."""
     import yaml
 
-    from quad_dob_training.rl.baseline_evaluation import BaselineEvaluation
+    from quad_dob_training.learning.baseline_evaluation import BaselineEvaluation
     from quad_dob_training.rl.run_config import HYPERPARAMS
 
     # a v2 entry as a user's --conf-file gives it: the v1 id's hyperparameters

@@ -205,3 +205,31 @@ def test_same_step_autoreset_in_a_residual_env_and_a_bad_mode_named():
     with pytest.raises(ValueError, match="autoreset_mode 'Disabled' is not supported; valid: "
                                          "NextStep, SameStep"):
         QuadrotorVectorEnv(2, autoreset_mode=AutoresetMode.DISABLED)
+
+
+def test_a_base_controller_on_the_plain_vector_env_builds_the_residual_face_with_a_warning():
+    # the residual mode moved to the residual's layer, above the envs (docs/design.md); the
+    # old call still flies the same vehicles, and says what to call instead
+    from quad_dob_composition import make_base
+    from quad_dob_env.residual import ResidualQuadrotorVectorEnv
+    from quad_dob_env.scenarios import make_scenario
+
+    vehicle = make_scenario("gusty-hover").vehicle
+    with pytest.warns(DeprecationWarning, match="ResidualQuadrotorVectorEnv"):
+        old = QuadrotorVectorEnv(2, "gusty-hover", SHORT, base_controller=make_base(
+            "geometric-ndob", vehicle), thrust_scale=0.2)
+    new = ResidualQuadrotorVectorEnv(2, "gusty-hover", SHORT, thrust_scale=0.2,
+                                     base_controller=make_base("geometric-ndob", vehicle))
+    assert type(old) is ResidualQuadrotorVectorEnv
+    flown = []
+    for env in (old, new):
+        obs, info = env.reset(seed=3)
+        for _ in range(40):  # past the episodes' end: the autoreset plans a base command
+            obs, rewards, *_ = env.step(np.full((2, 4), 0.3))
+        flown.append((obs, rewards, info["base_controller"]["name"]))
+    np.testing.assert_array_equal(flown[0][0], flown[1][0])
+    np.testing.assert_array_equal(flown[0][1], flown[1][1])
+    assert flown[0][2].tolist() == flown[1][2].tolist() == ["geometric-ndob"] * 2
+    with pytest.raises(ValueError, match="unknown keyword argument of QuadrotorVectorEnv "
+                                         "'thrust_scale'"):
+        QuadrotorVectorEnv(2, "gusty-hover", thrust_scale=0.2)

@@ -94,7 +94,7 @@ def _oracle_wrench(speeds, v, R, omega, wind, scale=1.0):
 
 
 def _call_wrench(speeds, v, R, omega, wind, scale=1.0):
-    rotors = RotorModel.of(PAPER, False, False, True).kernel_arguments()
+    rotors = RotorModel.of(PAPER, False, False, True)
     force, moment = rotor_wrench(tuple(float(s) for s in speeds), tuple(map(float, v)),
                                  tuple(float(r) for r in np.asarray(R).reshape(9)),
                                  tuple(map(float, omega)), tuple(map(float, wind)), float(scale),
@@ -275,7 +275,7 @@ def test_neural_fly_in_the_tunnels_strongest_wind_keeps_nine_tenths_of_its_thrus
     axial, inplane = 12.1 * math.sin(lean), 12.1 * math.cos(lean)
     ratio = _gill_ratio(axial, inplane, tip)
     assert ratio == pytest.approx(0.891, abs=0.005)  # an outside evaluation's 0.891
-    rotors = RotorModel.of(nf, False, False, True).kernel_arguments()
+    rotors = RotorModel.of(nf, False, False, True)
     rotation = np.array([[math.cos(lean), 0.0, math.sin(lean)], [0.0, 1.0, 0.0],
                          [-math.sin(lean), 0.0, math.cos(lean)]])  # tilted toward +x
     force, _ = rotor_wrench((w,) * 4, (0.0, 0.0, 0.0), tuple(rotation.reshape(9)),

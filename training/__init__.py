@@ -1,32 +1,33 @@
 """Training, evaluation, tuning, the paper reproduction and the ``quad-dob`` command line.
 
 The folder ``training/`` installs as ``quad_dob_training``; it sits on top and may import
-``quad_dob_env``, ``quad_dob_baselines`` and ``quad_dob_composition``.
+``quad_dob_env``, ``quad_dob_baselines`` and ``quad_dob_composition``. Inside it, each
+folder and top module imports only those below it (the order: docs/design.md, "Layers").
 
-Top modules, which every subpackage may import (``policies`` itself loads models through
-``rl.model_files``):
+Top modules:
 
 - ``rollout``: ``Flight`` records and ``fly`` (controllers through scenarios, batched: a
   whole flight; "fly" means nothing else in the project).
 - ``policies``: policies by name (controllers, ``py:`` ones, ``ALGO:PATH``, ``residual``)
-  and flying them over many seeds.
+  and flying them over many seeds; models load through ``rl.model_files``.
 - ``paper``: the paper reproduction (``quad-dob paper``).
 
 Subpackages, by concern (each docstring says what lives there and what it may import):
 
 - ``cli``: the ``quad-dob`` command line; imports the rest, imported by nothing.
 - ``evaluation``: evaluate, metrics, statistics, margins, results, report, plots.
-- ``rl``: train, run_config, vec_env, model_files, baseline_evaluation, checkpoints,
-  run_folder, sweep.
+- ``rl``: run_config, vec_env, sb3_adapter, loop_randomization, foreign_models,
+  model_files, checkpoints, run_folder.
+- ``learning``: train, baseline_evaluation, sweep.
 - ``tuning``: tune, the baselines' gain search.
 - ``wind_tunnel``: published, tool, flight_logs, flight_statistics, plots.
 
 Data folders: ``hyperparams/`` (rl-zoo3's schema), ``pretrained/`` (the shipped residual
 policies), ``sweeps/``, ``schemas/`` (``evaluation.json``'s JSON Schema).
 
-Before 2026-12-05 the modules sat side by side here; their old names
-(``quad_dob_training.vec_env``, ``.evaluate``, ...) still import, with a
-``DeprecationWarning`` naming the new one (``MOVED``).
+Before 2026-12-05 the modules sat side by side here, and before 2026-12-06 the runs sat in
+``rl``; their old names (``quad_dob_training.vec_env``, ``.evaluate``, ``.rl.train``, ...)
+still import, with a ``DeprecationWarning`` naming the new one (``MOVED``).
 """
 
 from __future__ import annotations
@@ -44,13 +45,16 @@ MOVED = {
     "evaluate": "evaluation.evaluate", "metrics": "evaluation.metrics",
     "statistics": "evaluation.statistics", "results": "evaluation.results",
     "report": "evaluation.report", "plots": "evaluation.plots",
-    "margins": "evaluation.margins", "train": "rl.train", "vec_env": "rl.vec_env",
+    "margins": "evaluation.margins", "train": "learning.train", "vec_env": "rl.vec_env",
     "checkpoints": "rl.checkpoints", "run_folder": "rl.run_folder",
     "run_config": "rl.run_config", "model_files": "rl.model_files",
-    "baseline_evaluation": "rl.baseline_evaluation", "sweep": "rl.sweep",
+    "baseline_evaluation": "learning.baseline_evaluation", "sweep": "learning.sweep",
     "tune": "tuning.tune", "wind_tunnel_plots": "wind_tunnel.plots",
     "wind_tunnel_tool": "wind_tunnel.tool", "flight_logs": "wind_tunnel.flight_logs",
     "flight_statistics": "wind_tunnel.flight_statistics",
+    # before 2026-12-06 the runs sat in rl, which the policies they fly now sit above
+    "rl.train": "learning.train", "rl.sweep": "learning.sweep",
+    "rl.baseline_evaluation": "learning.baseline_evaluation",
 }
 
 
@@ -60,13 +64,13 @@ class _MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
     def find_spec(self, fullname: str, path: object = None,
                   target: object = None) -> importlib.machinery.ModuleSpec | None:
-        package, _, name = fullname.rpartition(".")
-        if package != __name__ or name not in MOVED:
+        package, _, old = fullname.partition(".")
+        if package != __name__ or old not in MOVED:
             return None
         return importlib.machinery.ModuleSpec(fullname, self)
 
     def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
-        new = f"{__name__}.{MOVED[spec.name.rpartition('.')[2]]}"
+        new = f"{__name__}.{MOVED[spec.name.partition('.')[2]]}"
         warnings.warn(f"{spec.name} moved to {new}; import it from there",
                       DeprecationWarning, stacklevel=2)
         return importlib.import_module(new)

@@ -30,7 +30,7 @@ def time_or_range(value: float | tuple[float, float], name: str) -> tuple[float,
     return low, high
 
 
-class _Profile(Disturbance):
+class ProfileDisturbance(Disturbance):
     """A force, a torque and a wind vector scaled by one scalar profile of time."""
 
     def __init__(self, force: ArrayLike = ZERO, torque: ArrayLike = ZERO,
@@ -52,14 +52,14 @@ class _Profile(Disturbance):
                 f"torque={self.torque.tolist()}, wind={self.wind.tolist()})")
 
 
-class Constant(_Profile):
+class Constant(ProfileDisturbance):
     """``d = value`` at all times (the paper's Scenario II)."""
 
     def profile(self, times: NDArray) -> NDArray:
         return np.ones_like(times)
 
 
-class AtanRamp(_Profile):
+class AtanRamp(ProfileDisturbance):
     """``d = value * atan(t / time_scale)``: bounded with a finite slope (paper's Scenario I)."""
 
     def __init__(self, force: ArrayLike = ZERO, torque: ArrayLike = ZERO,
@@ -71,7 +71,7 @@ class AtanRamp(_Profile):
         return np.arctan(times / self.time_scale)
 
 
-class Sinusoid(_Profile):
+class Sinusoid(ProfileDisturbance):
     """``d = value * sin(2 pi frequency t + phase)``."""
 
     def __init__(self, force: ArrayLike = ZERO, torque: ArrayLike = ZERO,

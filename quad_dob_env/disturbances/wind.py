@@ -15,7 +15,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from quad_dob_env.disturbances.base import Disturbance
-from quad_dob_env.disturbances.forces import ZERO, _Profile, time_or_range
+from quad_dob_env.disturbances.forces import ZERO, ProfileDisturbance, time_or_range
 from quad_dob_env.linalg import discretize_noise, stationary_covariance
 from quad_dob_env.rng import gaussian_pair
 from quad_dob_env.threads import run_over_batch
@@ -27,7 +27,7 @@ FOOT = 0.3048  # m
 DRYDEN_INTENSITIES = {"light": 15 * KNOT, "moderate": 30 * KNOT, "severe": 45 * KNOT}
 
 
-class Gust(_Profile):
+class Gust(ProfileDisturbance):
     """A discrete gust of ``amplitude`` m/s along ``direction``: the MIL-F-8785C 1-cosine
     rise over ``length`` metres (crossed at ``speed`` m/s, so it lasts ``length/speed`` s)
     from ``start``, held for ``hold`` s, then the mirrored 1-cosine fall.

@@ -17,12 +17,16 @@ May import ``params``, ``so3``, ``validation`` and ``threads``; nothing above.
 from quad_dob_env.dynamics.actuation import (
     ACTUATION_CODES,
     Actuator,
+    ActuatorArrays,
     AppliedCommand,
     actuate_vehicle,
     store_applied,
 )
 from quad_dob_env.dynamics.integrator import (
     NO_GROUND_EFFECT,
+    BodyArrays,
+    Forcing,
+    RigidBody,
     ThrustLaw,
     actuator_wrench,
     advance_vehicle,
@@ -37,13 +41,18 @@ from quad_dob_env.dynamics.integrator import (
     thrust_multiplier_scalar,
     vehicle_physics,
 )
-from quad_dob_env.dynamics.state import VehicleState
+from quad_dob_env.dynamics.state import StateArrays, VehicleState
 
 __all__ = [
     "ACTUATION_CODES",
     "NO_GROUND_EFFECT",
     "Actuator",
+    "ActuatorArrays",
     "AppliedCommand",
+    "BodyArrays",
+    "Forcing",
+    "RigidBody",
+    "StateArrays",
     "ThrustLaw",
     "VehicleState",
     "actuate_vehicle",

@@ -54,6 +54,40 @@ class ThrustLaw(NamedTuple):
 NO_GROUND_EFFECT = ThrustLaw()
 
 
+class BodyArrays(NamedTuple):
+    """Every vehicle's rigid body, so vehicles can differ (randomisation, model tolerance)."""
+
+    mass: NDArray  # (N,) [kg]
+    gravity: float  # [m/s²]
+    inertia: NDArray  # (N, 3, 3) [kg m²]
+    inertia_inverse: NDArray  # (N, 3, 3)
+    drag: NDArray  # (N, 6): linear, then quadratic coefficients, body axes
+
+
+class RigidBody(NamedTuple):
+    """One vehicle's rigid body as the equations take it (``vehicle_physics``)."""
+
+    mass: float
+    gravity: float
+    inertia: tuple  # J, row-major 9-tuple
+    inertia_inverse: tuple
+    drag_linear: tuple
+    drag_quadratic: tuple
+
+
+class Forcing(NamedTuple):
+    """Force, torque and wind velocity on the integrator's sample grid ``t0 + k h / 2``:
+    tables shared by all vehicles (rows x samples x 3) plus each vehicle's own part
+    (N x samples x 3, the random disturbances)."""
+
+    force: NDArray
+    torque: NDArray
+    wind: NDArray
+    force_own: NDArray
+    torque_own: NDArray
+    wind_own: NDArray
+
+
 @njit(cache=True)
 def thrust_multiplier_scalar(z: float, law: tuple) -> float:
     coefficient, exponent, radius, floor, min_height, cutoff_height = law
@@ -96,14 +130,14 @@ def body_drag(v, rotation, wind, drag_linear, drag_quadratic):
 
 
 @njit(cache=True, inline="always")
-def _accelerations(x, v, rotation, omega, thrust, moment, force, torque, wind, mass, gravity,
-                   inertia, inertia_inverse, drag_linear, drag_quadratic, law, speeds, rotors,
-                   thrust_scale):
-    """Linear acceleration (world) and angular acceleration (body) of one vehicle; with the
-    rotors' own model on (``rotors[0]``) the rotors' wrench comes from their ``speeds`` and
-    the air (``quad_dob_env.dynamics.rotors``), else it is ``thrust`` and ``moment``."""
-    drag = body_drag(v, rotation, wind, drag_linear, drag_quadratic)
-    if rotors[0]:
+def _accelerations(x, v, rotation, omega, thrust, moment, force, torque, wind, body, law,
+                   speeds, rotors, thrust_scale):
+    """Linear acceleration (world) and angular acceleration (body) of one vehicle (``body``
+    a ``RigidBody``); with the rotors' own model on (``rotors.active``) the rotors' wrench
+    comes from their ``speeds`` and the air (``quad_dob_env.dynamics.rotors``), else it is
+    ``thrust`` and ``moment``."""
+    drag = body_drag(v, rotation, wind, body.drag_linear, body.drag_quadratic)
+    if rotors.active:
         rotor_force, moment = rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale,
                                            rotors)
         lift = rotor_force[2] * thrust_multiplier_scalar(x[2], law)
@@ -113,11 +147,12 @@ def _accelerations(x, v, rotation, omega, thrust, moment, force, torque, wind, m
         lift = thrust * thrust_multiplier_scalar(x[2], law)
         # m v' = -m g e3 + k f R e3 + R F_drag + d_x  (docs/design.md, with drag as issue 4 adds it)
         body_force = mat_vec_tuple(rotation, (drag[0], drag[1], drag[2] + lift))
+    mass = body.mass
     linear = ((body_force[0] + force[0]) / mass, (body_force[1] + force[1]) / mass,
-              (body_force[2] + force[2]) / mass - gravity)
+              (body_force[2] + force[2]) / mass - body.gravity)
     # J Ω' = -Ω × JΩ + M + d_Ω  (docs/design.md)
-    gyroscopic = cross_tuple(omega, mat_vec_tuple(inertia, omega))
-    angular = mat_vec_tuple(inertia_inverse, (moment[0] + torque[0] - gyroscopic[0],
+    gyroscopic = cross_tuple(omega, mat_vec_tuple(body.inertia, omega))
+    angular = mat_vec_tuple(body.inertia_inverse, (moment[0] + torque[0] - gyroscopic[0],
                                               moment[1] + torque[1] - gyroscopic[1],
                                               moment[2] + torque[2] - gyroscopic[2]))
     return linear, angular
@@ -190,14 +225,15 @@ def actuator_wrench(start, command, factor, to_wrench):
 
 
 @njit(cache=True, inline="always")
-def _stage_inputs(start, command, time_constant, to_wrench, tables, own, row, i, grid, elapsed,
+def _stage_inputs(start, command, time_constant, to_wrench, forcing, row, i, grid, elapsed,
                   rotors):
     """Thrust, moment, rotor speeds, force, torque and wind at grid sample ``grid``,
     ``elapsed`` s in (the rotor speeds are what the rotors' own model reads, when on)."""
-    if rotors[0]:
-        if rotors[1] and rotors[11] > 0.0:  # speed motors spinning up and down unequally
+    if rotors.active:
+        spin_down = rotors.spin_down_time_constant
+        if rotors.speed_motors and spin_down > 0.0:  # spinning up and down unequally
             output = lagged_each(start, command, speed_lag_factors(
-                start, command, time_constant, rotors[11], elapsed))
+                start, command, time_constant, spin_down, elapsed))
         else:
             output = lagged_output(start, command, lag_factor(elapsed, time_constant))
         speeds = speeds_of_output(output, rotors)
@@ -205,55 +241,52 @@ def _stage_inputs(start, command, time_constant, to_wrench, tables, own, row, i,
     else:
         speeds = (0.0, 0.0, 0.0, 0.0)
         f, m = actuator_wrench(start, command, lag_factor(elapsed, time_constant), to_wrench)
-    return (f, m, speeds, sample(tables[0], row, own[0], i, grid),
-            sample(tables[1], row, own[1], i, grid), sample(tables[2], row, own[2], i, grid))
+    return (f, m, speeds, sample(forcing.force, row, forcing.force_own, i, grid),
+            sample(forcing.torque, row, forcing.torque_own, i, grid),
+            sample(forcing.wind, row, forcing.wind_own, i, grid))
 
 
 @njit(cache=True)
-def advance_vehicle(x, v, R, w, start, command, time_constant, to_wrench, tables, row, own, i,
-                    physics, dt, substeps, law, rotors, thrust_scale, first_sample):
-    """One vehicle over ``dt`` in ``substeps`` CF4 steps; returns the new (x, v, R, Ω).
+def advance_vehicle(i, state, start, command, time_constant, to_wrench, forcing, row, body,
+                    dt, substeps, law, rotors, thrust_scale, first_sample):
+    """Vehicle i from ``state`` (x, v, R, Ω) over ``dt`` in ``substeps`` CF4 steps; returns
+    the new (x, v, R, Ω).
 
     Actuators: their output (rotor thrusts, the wrench, or with speed motors the rotor
     speeds) moves from ``start`` to ``command`` as ``command + (start - command) e^{-t/τ}``
     (exact first-order lag; τ = 0 is instantaneous); ``to_wrench`` maps it to (f, M), or
     with the rotors' own model on (``rotors``, ``quad_dob_env.dynamics.rotors``) their
     speeds give the wrench with the air's effect and ``thrust_scale``.
-    ``tables`` / ``own``: force, torque and wind velocity on the substep grid
-    ``t0 + k h / 2``, shared rows plus each vehicle's own part; this interval's samples start
-    at ``first_sample`` (an inner loop flies a control step as several such intervals).
-    ``physics``: mass, gravity, inertia, inverse inertia, linear and quadratic drag.
+    ``forcing``: force, torque and wind velocity on the substep grid (a ``Forcing``); this
+    interval's samples start at ``first_sample`` (an inner loop flies a control step as
+    several such intervals). ``body``: the vehicle's ``RigidBody``.
     """
-    mass, gravity, inertia, inertia_inverse, drag_linear, drag_quadratic = physics
+    x, v, R, w = state
     h = dt / substeps
     for s in range(substeps):
         t0 = s * h
         grid = first_sample + 2 * s
         f1, m1, u1, d1, t1, w1 = _stage_inputs(start, command, time_constant, to_wrench,
-                                               tables, own, row, i, grid, t0, rotors)
+                                               forcing, row, i, grid, t0, rotors)
         f2, m2, u2, d2, t2, w2 = _stage_inputs(start, command, time_constant, to_wrench,
-                                               tables, own, row, i, grid + 1, t0 + 0.5 * h,
+                                               forcing, row, i, grid + 1, t0 + 0.5 * h,
                                                rotors)
         f4, m4, u4, d4, t4, w4 = _stage_inputs(start, command, time_constant, to_wrench,
-                                               tables, own, row, i, grid + 2, t0 + h, rotors)
-        a1, al1 = _accelerations(x, v, R, w, f1, m1, d1, t1, w1, mass, gravity, inertia,
-                                 inertia_inverse, drag_linear, drag_quadratic, law, u1, rotors,
+                                               forcing, row, i, grid + 2, t0 + h, rotors)
+        a1, al1 = _accelerations(x, v, R, w, f1, m1, d1, t1, w1, body, law, u1, rotors,
                                  thrust_scale)
         x2, v2, om2 = _axpy(h / 2, v, x), _axpy(h / 2, a1, v), _axpy(h / 2, al1, w)
         R2 = mat_mul_tuple(R, exp_tuple((h / 2 * w[0], h / 2 * w[1], h / 2 * w[2])))
-        a2, al2 = _accelerations(x2, v2, R2, om2, f2, m2, d2, t2, w2, mass, gravity, inertia,
-                                 inertia_inverse, drag_linear, drag_quadratic, law, u2, rotors,
+        a2, al2 = _accelerations(x2, v2, R2, om2, f2, m2, d2, t2, w2, body, law, u2, rotors,
                                  thrust_scale)
         x3, v3, om3 = _axpy(h / 2, v2, x), _axpy(h / 2, a2, v), _axpy(h / 2, al2, w)
         R3 = mat_mul_tuple(R, exp_tuple((h / 2 * om2[0], h / 2 * om2[1], h / 2 * om2[2])))
-        a3, al3 = _accelerations(x3, v3, R3, om3, f2, m2, d2, t2, w2, mass, gravity, inertia,
-                                 inertia_inverse, drag_linear, drag_quadratic, law, u2, rotors,
+        a3, al3 = _accelerations(x3, v3, R3, om3, f2, m2, d2, t2, w2, body, law, u2, rotors,
                                  thrust_scale)
         x4, v4, om4 = _axpy(h, v3, x), _axpy(h, a3, v), _axpy(h, al3, w)
         # CF4 stage 4: Y4 = Y2 exp(h (Ω3 - Ω1 / 2))
         R4 = mat_mul_tuple(R2, exp_tuple(_weighted(h, -0.5, 0.0, 1.0, 0.0, w, om2, om3, w)))
-        a4, al4 = _accelerations(x4, v4, R4, om4, f4, m4, d4, t4, w4, mass, gravity, inertia,
-                                 inertia_inverse, drag_linear, drag_quadratic, law, u4, rotors,
+        a4, al4 = _accelerations(x4, v4, R4, om4, f4, m4, d4, t4, w4, body, law, u4, rotors,
                                  thrust_scale)
         # CF4 update: R1 = R0 exp(h(Ω1/4 + Ω2/6 + Ω3/6 - Ω4/12)) exp(h(-Ω1/12 + Ω2/6 + Ω3/6 + Ω4/4))
         first = exp_tuple(_weighted(h, 0.25, 1 / 6, 1 / 6, -1 / 12, w, om2, om3, om4))
@@ -274,20 +307,24 @@ def all_finite(x, v, R, w) -> bool:
 
 
 @njit(cache=True, inline="always")
-def vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag):
-    """Vehicle i's (mass, g, J, J⁻¹, linear drag, quadratic drag) as scalars and tuples."""
-    return (mass[i], gravity, matrix_entries(inertia[i]), matrix_entries(inertia_inverse[i]),
-            (drag[i, 0], drag[i, 1], drag[i, 2]), (drag[i, 3], drag[i, 4], drag[i, 5]))
+def vehicle_physics(i, body):
+    """Vehicle i's ``RigidBody`` from the batch's ``BodyArrays``."""
+    drag = body.drag
+    return RigidBody(body.mass[i], body.gravity, matrix_entries(body.inertia[i]),
+                     matrix_entries(body.inertia_inverse[i]),
+                     (drag[i, 0], drag[i, 1], drag[i, 2]), (drag[i, 3], drag[i, 4], drag[i, 5]))
 
 
 def physics_arrays(params: VehicleParams, n: int, drag: bool = False,
-                   rotor_drag: bool = False) -> tuple:
-    """Per-vehicle (mass, inertia, inverse inertia, drag) arrays of ``params`` for N vehicles;
-    the drag columns are zero unless ``drag``, the linear ones also with ``rotor_drag`` (the
-    rotors' own drag, ``dynamics.rotors``, replaces them)."""
+                   rotor_drag: bool = False) -> BodyArrays:
+    """``params``' rigid body for N vehicles; the drag columns are zero unless ``drag``, the
+    linear ones also with ``rotor_drag`` (the rotors' own drag, ``dynamics.rotors``,
+    replaces them)."""
     linear = np.zeros(3) if rotor_drag else np.asarray(params.drag_linear, dtype=float)
     coefficients = (np.concatenate([linear, params.drag_quadratic]) if drag
                     else np.zeros(6))
-    return (np.full(n, params.mass), np.broadcast_to(params.inertia_matrix, (n, 3, 3)).copy(),
-            np.broadcast_to(params.inertia_inverse, (n, 3, 3)).copy(),
-            np.broadcast_to(coefficients, (n, 6)).copy())
+    return BodyArrays(
+        mass=np.full(n, params.mass), gravity=float(params.gravity),
+        inertia=np.broadcast_to(params.inertia_matrix, (n, 3, 3)).copy(),
+        inertia_inverse=np.broadcast_to(params.inertia_inverse, (n, 3, 3)).copy(),
+        drag=np.broadcast_to(coefficients, (n, 6)).copy())

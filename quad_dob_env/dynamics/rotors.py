@@ -55,32 +55,31 @@ from quad_dob_env.params import VehicleParams
 
 
 class RotorModel(NamedTuple):
-    """Which of the rotors' factors a flight has, and their coefficients."""
+    """Which of the rotors' factors a flight has, and their coefficients: the record the
+    compiled step reads by field (``active``: any factor on, so the rotors' own model
+    runs). No field has a default: numba would compile an array default into the kernels
+    as a global constant, which cannot be cached; ``of`` builds it."""
 
-    speed_motors: bool = False
-    thrust_uncertainty: bool = False
-    aerodynamics: bool = False
-    thrust_coefficient: float = 1.0  # nominal k_F [N/(rad/s)²]
-    drag_coefficient: float = 0.0  # k_d [N/(rad/s · m/s)]
-    inflow_coefficient: float = 0.0  # k_z [N/(rad/s · m/s)]
-    positions: NDArray = np.zeros((4, 3))  # hubs in the body frame [m]
-    spin: NDArray = np.zeros(4)  # the allocation's yaw signs times c_τ [m]
-    radius: float = 1.0  # R [m]
-    edgewise_ratio: float = 0.0  # a_μ
-    axial_ratio: float = 0.0  # a_λ
+    speed_motors: bool
+    thrust_uncertainty: bool
+    aerodynamics: bool
+    thrust_coefficient: float  # nominal k_F [N/(rad/s)²]
+    drag_coefficient: float  # k_d [N/(rad/s · m/s)]
+    inflow_coefficient: float  # k_z [N/(rad/s · m/s)]
+    positions: NDArray  # hubs in the body frame [m]
+    spin: NDArray  # the allocation's yaw signs times c_τ [m]
+    radius: float  # R [m]
+    edgewise_ratio: float  # a_μ
+    axial_ratio: float  # a_λ
     # [s] the rotor speed's time constant when it slows (speed motors); 0: the spin-up one
-    spin_down_time_constant: float = 0.0
+    spin_down_time_constant: float
     # the throttle between mixer and rotors (``dynamics.throttle``; speed motors): on, the
     # rotors' κ, the autopilot's κ_ap, and the believed hover thrust per rotor T̂_h [N]
-    throttle: bool = False
-    thrust_model_factor: float = 0.0
-    autopilot_thrust_model_factor: float = 0.0
-    believed_hover_rotor_thrust: float = 1.0
-
-    @property
-    def active(self) -> bool:
-        return (self.speed_motors or self.thrust_uncertainty or self.aerodynamics
-                or self.throttle)
+    throttle: bool
+    thrust_model_factor: float
+    autopilot_thrust_model_factor: float
+    believed_hover_rotor_thrust: float
+    active: bool
 
     @classmethod
     def of(cls, vehicle: VehicleParams, speed_motors: bool, thrust_uncertainty: bool,
@@ -90,22 +89,35 @@ class RotorModel(NamedTuple):
         # the allocation's moment rows: Mx = py T, My = -px T, Mz = spin c_τ T
         positions = np.stack([-allocation[2], allocation[1],
                               np.full(4, vehicle.rotor_height)], axis=1)
-        return cls(bool(speed_motors), bool(thrust_uncertainty), bool(aerodynamics),
-                   float(vehicle.thrust_coefficient), float(vehicle.rotor_drag_coefficient),
-                   float(vehicle.inflow_coefficient), np.ascontiguousarray(positions),
-                   np.ascontiguousarray(allocation[3]), float(vehicle.rotor_radius),
-                   *map(float, vehicle.inflow_quadratic), float(spin_down_time_constant),
-                   throttle is not None,
-                   0.0 if throttle is None else throttle.thrust_model_factor,
-                   0.0 if throttle is None else throttle.autopilot_thrust_model_factor,
-                   float(vehicle.hover_thrust / 4))
+        return cls(
+            speed_motors=bool(speed_motors), thrust_uncertainty=bool(thrust_uncertainty),
+            aerodynamics=bool(aerodynamics),
+            thrust_coefficient=float(vehicle.thrust_coefficient),
+            drag_coefficient=float(vehicle.rotor_drag_coefficient),
+            inflow_coefficient=float(vehicle.inflow_coefficient),
+            positions=np.ascontiguousarray(positions),
+            spin=np.ascontiguousarray(allocation[3]), radius=float(vehicle.rotor_radius),
+            edgewise_ratio=float(vehicle.inflow_quadratic[0]),
+            axial_ratio=float(vehicle.inflow_quadratic[1]),
+            spin_down_time_constant=float(spin_down_time_constant),
+            throttle=throttle is not None,
+            thrust_model_factor=0.0 if throttle is None else throttle.thrust_model_factor,
+            autopilot_thrust_model_factor=(0.0 if throttle is None
+                                           else throttle.autopilot_thrust_model_factor),
+            believed_hover_rotor_thrust=float(vehicle.hover_thrust / 4),
+            active=bool(speed_motors or thrust_uncertainty or aerodynamics
+                        or throttle is not None))
 
-    def kernel_arguments(self) -> tuple:
-        return (self.active, self.speed_motors, self.aerodynamics, self.thrust_coefficient,
-                self.drag_coefficient, self.inflow_coefficient, self.positions, self.spin,
-                self.radius, self.edgewise_ratio, self.axial_ratio,
-                self.spin_down_time_constant, self.throttle, self.thrust_model_factor,
-                self.autopilot_thrust_model_factor, self.believed_hover_rotor_thrust)
+
+class RotorDraws(NamedTuple):
+    """Each vehicle's per-episode draws of the thrust path (``envs.vehicle_loop`` draws
+    them at a reset), (N,) each."""
+
+    thrust_scale: NDArray  # the true k_F over the nominal
+    sag_rate: NDArray  # [1/s] the battery's sag: the command's thrust goes as (1 - r t)²
+    hover_throttle: NDArray  # the throttle map's true hover throttle at the start
+    hover_throttle_drift: NDArray  # [1/s] its climb
+    hover_estimate_factor: NDArray  # the autopilot's estimate over the truth, 1 + ε
 
 
 # The largest advance ratios (λ, μ) the thrust law uses: where Gill & D'Andrea's data and
@@ -152,9 +164,9 @@ def speed_of_thrust(thrust, thrust_coefficient):
 def speeds_of_output(output, rotors):
     """The rotor speeds an actuator output stands for: the output itself on speed motors,
     else the speeds of its rotor thrusts."""
-    if rotors[1]:
+    if rotors.speed_motors:
         return output
-    k = rotors[3]
+    k = rotors.thrust_coefficient
     return (speed_of_thrust(output[0], k), speed_of_thrust(output[1], k),
             speed_of_thrust(output[2], k), speed_of_thrust(output[3], k))
 
@@ -163,8 +175,8 @@ def speeds_of_output(output, rotors):
 def motor_target(thrusts, command_scale, rotors):
     """What the motors move to for the mixer's rotor ``thrusts``, the battery's
     ``command_scale`` applied: speeds on speed motors, else thrusts."""
-    if rotors[1]:
-        k = rotors[3] / command_scale  # ω_c = sqrt(s T / k_F)
+    if rotors.speed_motors:
+        k = rotors.thrust_coefficient / command_scale  # ω_c = sqrt(s T / k_F)
         return (speed_of_thrust(thrusts[0], k), speed_of_thrust(thrusts[1], k),
                 speed_of_thrust(thrusts[2], k), speed_of_thrust(thrusts[3], k))
     return (thrusts[0] * command_scale, thrusts[1] * command_scale,
@@ -176,8 +188,10 @@ def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
     """The rotors' true force (body frame) and moment about the centre of mass at rotor
     ``speeds``, for a vehicle at velocity ``v``, attitude ``rotation`` (row-major 9-tuple),
     body rates ``omega`` in air moving at ``wind``. Returns ((Fx, Fy, Fz), (Mx, My, Mz))."""
-    aerodynamics, k_f, k_d, k_z = rotors[2], rotors[3], rotors[4], rotors[5]
-    positions, spin, radius, a_mu, a_lambda = rotors[6], rotors[7], rotors[8], rotors[9], rotors[10]
+    aerodynamics, k_f = rotors.aerodynamics, rotors.thrust_coefficient
+    k_d, k_z = rotors.drag_coefficient, rotors.inflow_coefficient
+    positions, spin, radius = rotors.positions, rotors.spin, rotors.radius
+    a_mu, a_lambda = rotors.edgewise_ratio, rotors.axial_ratio
     r = rotation
     a = (v[0] - wind[0], v[1] - wind[1], v[2] - wind[2])
     body = (r[0] * a[0] + r[3] * a[1] + r[6] * a[2], r[1] * a[0] + r[4] * a[1] + r[7] * a[2],
@@ -216,7 +230,7 @@ def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
 def nominal_wrench(speeds, rotors, allocation):
     """What the nominal model gives for rotor ``speeds``: k_F ω² through the allocation,
     as f, (Mx, My, Mz) and the four thrusts."""
-    k = rotors[3]
+    k = rotors.thrust_coefficient
     t = (k * speeds[0] * speeds[0], k * speeds[1] * speeds[1], k * speeds[2] * speeds[2],
          k * speeds[3] * speeds[3])
     a = allocation

@@ -3,9 +3,19 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+
+class StateArrays(NamedTuple):
+    """``VehicleState``'s arrays as the compiled kernels take them, read by field."""
+
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    rotation: NDArray[np.float64]
+    angular_velocity: NDArray[np.float64]
 
 
 @dataclass
@@ -32,6 +42,10 @@ class VehicleState:
                     f"for every field, got {value.shape}"
                 )
             setattr(self, name, value)
+
+    def arrays(self) -> StateArrays:
+        """The same arrays (not copies) as the kernels' record."""
+        return StateArrays(self.position, self.velocity, self.rotation, self.angular_velocity)
 
     @property
     def n(self) -> int:

@@ -7,7 +7,8 @@
 - ``termination``: ``TerminationCode``, why an episode ended (the codes the step kernels
   write, the reasons ``info`` reports).
 - ``observation``: ``observation_table``, every observation entry by name, unit, range and
-  columns, for each layout an env can take (rotation representation, residual options).
+  columns, for each layout an env can take (rotation representation, and the entries a
+  residual's options append).
 - ``limits``: the core's settings records (``EpisodeLimits``, ``RewardWeights``) and
   ``SpecWithEpisodeLength``, which makes both envs' ``spec`` report their episodes'
   length.
@@ -22,14 +23,14 @@
 - ``quadrotor_env``: ``QuadrotorEnv(gym.Env)``, its N = 1 view, with the tables of spaces,
   reward, start and end in its docstring.
 - ``vector_env``: ``QuadrotorVectorEnv(gymnasium.vector.VectorEnv)``, its N-vehicle view
-  (next-step autoreset), the ``vector_entry_point`` of every id; with a base controller it
-  runs ``quad_dob_env.residual.ResidualCommand``.
+  (next-step autoreset), the ``vector_entry_point`` of every direct id; its stages are the
+  hooks the residual's vector face (``quad_dob_env.residual``, above) overrides.
 - ``info``: the layout of every vehicle's ``info`` numbers and the pass that writes them.
 - ``rendering``: ``FlightRenderer``, the frames of ``render_mode="rgb_array"``/``"human"``.
 
-May import the simulator's lower layers (params through scenarios, threads); never
-``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``: a residual env
-takes its base controller as an object.
+May import the simulator's folders and modules below it (the order: docs/design.md,
+"Layers"); never ``residual`` or ``wrappers``, which build on it, nor ``quad_dob_baselines``,
+``quad_dob_composition`` or ``quad_dob_training``.
 """
 
 from quad_dob_env.envs.actions import ACTION_MODES, ActionMap

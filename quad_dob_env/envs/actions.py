@@ -80,7 +80,7 @@ class ActionMap:
         the actuators' limits."""
         actions = np.ascontiguousarray(actions, dtype=np.float64).reshape(-1, 4)
         thrust, moment = np.empty(len(actions)), np.empty((len(actions), 3))
-        command_from_action_batch(actions, *self.forward, thrust, moment)
+        command_from_action_batch(actions, self.forward, thrust, moment)
         return thrust, moment
 
 

@@ -22,6 +22,8 @@ from quad_dob_env.dynamics import (
     NO_GROUND_EFFECT,
     Actuator,
     AppliedCommand,
+    BodyArrays,
+    Forcing,
     VehicleState,
     physics_arrays,
 )
@@ -35,8 +37,13 @@ from quad_dob_env.envs.limits import (
 )
 from quad_dob_env.envs.observation import env_entries, observation_size
 from quad_dob_env.envs.step_kernels import (
+    ActionMapArrays,
+    Episode,
+    EpisodeStart,
     StartArguments,
     StepArguments,
+    StepOutputs,
+    kernel_tuples,
     observation_kernel,
     start_kernel,
     step_kernel,
@@ -115,17 +122,15 @@ class QuadrotorBatch:
         # per-vehicle physics (mass, inertia, inverse, drag), so vehicles can differ
         self._nominal = physics_arrays(self.vehicle, 1, scenario.loop.drag,
                                        scenario.loop.rotor_aerodynamics)
-        self.mass, self.inertia, self.inertia_inverse, self.drag = physics_arrays(
-            self.vehicle, n, scenario.loop.drag, scenario.loop.rotor_aerodynamics)
+        body = physics_arrays(self.vehicle, n, scenario.loop.drag,
+                              scenario.loop.rotor_aerodynamics)
+        self.mass, self.inertia, self.inertia_inverse, self.drag = (
+            body.mass, body.inertia, body.inertia_inverse, body.drag)
         self.sampled: list[dict[str, float]] = [{} for _ in range(n)]
         self.actuator_state = np.zeros((n, 4))
-        self._actuation = self.actuator.kernel_arguments()
-        time_constant = scenario.rotor_time_constants[0]
-        self._actuator = (self.actuator.to_wrench, self.actuator.to_rotors, float(time_constant),
-                          self.actuator_state)
-        self._limits = self.limits.kernel_limits(scenario.floor_height)
-        self._reward = (float(self.reward_weights.position_scale),
-                        float(self.reward_weights.effort_weight))
+        self._actuator = self.actuator.kernel_record(scenario.rotor_time_constants[0],
+                                                     self.actuator_state)
+        self._limits = tuple(self.limits.kernel_limits(scenario.floor_height))
         self._rotation_mode = 0 if rotation_representation == "matrix" else 1
         self.sensing = SensingStage(
             scenario.loop.sensing, scenario.loop.extra_latency, self.state,
@@ -307,43 +312,42 @@ class QuadrotorBatch:
         """The step and start kernels' records, built once per reference table (the other
         arrays never change) and kept as plain tuples, which numba types fast."""
         if self._kernel_tables is not self._reference_table:
-            s, applied = self.state, self.applied
+            step = self.step_arguments()
             start = StartArguments(
-                start=self._start, nominal=self._nominal, position=s.position,
-                velocity=s.velocity, rotation=s.rotation, angular_velocity=s.angular_velocity,
-                physics=(self.mass, self.inertia, self.inertia_inverse, self.drag),
-                applied=(applied.thrust, applied.moment, applied.rotor_thrusts,
-                         applied.saturated), disturbance_force=self.disturbance_force,
-                disturbance_torque=self.disturbance_torque, rewards=self.rewards,
-                step_count=self.step_count, reference_row=self.reference_row,
-                actuator_state=self.actuator_state,
-                hover=self._hover_output, reference=self._reference_table,
-                rotation_mode=self._rotation_mode, limits=self._limits, obs=self._true_obs,
-                code=self.termination_code)
-            self._kernel_tuples = (tuple(self.step_arguments()), tuple(start))
+                start=EpisodeStart(*self._start, hover=self._hover_output),
+                nominal=self._nominal,
+                state=step.state, body=step.body, actuator=step.actuator,
+                episode=step.episode, outputs=step.outputs)
+            self._kernel_tuples = (kernel_tuples(step), kernel_tuples(start))
             self._kernel_tables = self._reference_table
         return self._kernel_tuples
 
     def step_arguments(self) -> StepArguments:
         """What ``step_kernel`` takes after the slice and the actions."""
-        s, sc, applied = self.state, self.scenario, self.applied
+        sc, applied = self.scenario, self.applied
+        weights = self.reward_weights
         return StepArguments(
-            action_map=self.action_map.forward, actuation=self._actuation,
-            actuator=self._actuator, rotors=self.loop.model.kernel_arguments(),
-            rotor_state=self.loop.rotor_state(), inner=self.loop.inner,
-            position=s.position, velocity=s.velocity,
-            rotation=s.rotation, angular_velocity=s.angular_velocity,
-            step_count=self.step_count, reference_row=self.reference_row, tables=self._tables,
-            own=self._own, reference=self._reference_table,
-            physics=(self.mass, self.vehicle.gravity, self.inertia, self.inertia_inverse,
-                     self.drag),
-            dt=sc.dt, substeps=sc.substeps, law=self._law, limits=self._limits,
-            reward_weights=self._reward, rotation_mode=self._rotation_mode,
-            obs=self._true_obs, reward=self.rewards, code=self.termination_code,
-            applied_thrust=applied.thrust, applied_moment=applied.moment,
-            rotor_thrusts=applied.rotor_thrusts, saturated=applied.saturated,
-            disturbance_force=self.disturbance_force, disturbance_torque=self.disturbance_torque,
-            wind_velocity=self.wind_velocity)
+            action_map=ActionMapArrays(*self.action_map.forward),
+            state=self.state.arrays(),
+            body=BodyArrays(mass=self.mass, gravity=float(self.vehicle.gravity),
+                            inertia=self.inertia, inertia_inverse=self.inertia_inverse,
+                            drag=self.drag),
+            actuator=self._actuator, rotors=self.loop.model, draws=self.loop.draws,
+            inner=self.loop.inner,
+            forcing=Forcing(*self._tables, *self._own),
+            episode=Episode(
+                step_count=self.step_count, reference_row=self.reference_row,
+                reference=self._reference_table, dt=sc.dt, substeps=sc.substeps,
+                thrust_law=self._law, limits=self._limits,
+                position_scale=float(weights.position_scale),
+                effort_weight=float(weights.effort_weight),
+                rotation_mode=self._rotation_mode),
+            outputs=StepOutputs(
+                obs=self._true_obs, reward=self.rewards, code=self.termination_code,
+                applied_thrust=applied.thrust, applied_moment=applied.moment,
+                rotor_thrusts=applied.rotor_thrusts, saturated=applied.saturated,
+                disturbance_force=self.disturbance_force,
+                disturbance_torque=self.disturbance_torque, wind_velocity=self.wind_velocity))
 
     def finish_step(self) -> None:
         """After the compiled pass: the sensors, the estimate, and the policy's

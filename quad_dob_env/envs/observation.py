@@ -2,22 +2,31 @@
 env can take.
 
 The env's own entries (``env_entries``) come first; the compiled ``observe_vehicle``
-(``step_kernels``) writes them. A residual env appends the residual's
-(``quad_dob_env.residual.observation``). ``observation_table`` places them one after
-another and gives each its columns; the core's and the residual's observation sizes are
-the table's, and a test holds every entry to the columns the kernels write. The env pages
-of the docs are generated from it.
+(``step_kernels``) writes them. A residual env appends the residual's, which its options
+name (``ResidualOptions.observation_entries``: ``quad_dob_env.residual.observation``, a
+layer above this one, so they come in through the options rather than an import).
+``observation_table`` places them one after another and gives each its columns; the core's
+and the residual's observation sizes are the table's, and a test holds every entry to the
+columns the kernels write. The env pages of the docs are generated from it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import Protocol
 
-from quad_dob_env.observation_entry import ObservationEntry
-from quad_dob_env.residual.observation import RESIDUAL_ENTRIES, UNBOUNDED
-from quad_dob_env.residual.options import ResidualOptions
+from quad_dob_env.observation_entry import UNBOUNDED, ObservationEntry
 from quad_dob_env.validation import unknown_name_error
+
+
+class AppendedEntries(Protocol):
+    """What appends entries after the env's own: ``quad_dob_env.residual.ResidualOptions``
+    (the residual sits above the envs, so the table takes its entries from the options)."""
+
+    @property
+    def observation_entries(self) -> tuple[ObservationEntry, ...]: ...
+
 
 # the rotation's entries per representation: R row-major, or its first two columns
 # (Zhou et al., "On the continuity of rotation representations in neural networks", 2019)
@@ -61,11 +70,11 @@ def observation_size(entries: Sequence[ObservationEntry]) -> int:
 
 
 def observation_table(rotation_representation: str = "matrix",
-                      residual: ResidualOptions | None = None) -> tuple[ObservationEntry, ...]:
+                      residual: AppendedEntries | None = None) -> tuple[ObservationEntry, ...]:
     """The observation's entries with their columns: the env's, then (for an env with a
-    base controller, ``residual`` its options) the residual's, the same for every option
-    set."""
+    base controller, ``residual`` its ``ResidualOptions``) the residual's, the same for
+    every option set."""
     entries = env_entries(rotation_representation)
     if residual is not None:
-        entries += RESIDUAL_ENTRIES
+        entries += tuple(residual.observation_entries)
     return placed(entries)

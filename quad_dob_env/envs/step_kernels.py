@@ -1,7 +1,10 @@
 """The environments' compiled per-vehicle step: command, actuation, integration, sensing.
 
 ``QuadrotorBatch`` calls these once per step for the whole batch; they are written once
-and compiled serial (small batches) and threaded (large ones).
+and compiled serial (small batches) and threaded (large ones). ``StepArguments`` is the
+step's record of records; ``fly_vehicles`` is the one loop over an inner loop's ticks,
+specialised per law (the env's own here, a controller's in
+``quad_dob_composition.attitude_loop``).
 """
 
 from typing import NamedTuple
@@ -11,6 +14,10 @@ from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_env.dynamics import (
+    ActuatorArrays,
+    BodyArrays,
+    Forcing,
+    StateArrays,
     actuator_wrench,
     all_finite,
     body_drag,
@@ -21,9 +28,16 @@ from quad_dob_env.dynamics import (
     thrust_multiplier_scalar,
     vehicle_physics,
 )
-from quad_dob_env.dynamics.rotors import nominal_wrench, rotor_wrench, speeds_of_output
+from quad_dob_env.dynamics.rotors import (
+    RotorDraws,
+    RotorModel,
+    nominal_wrench,
+    rotor_wrench,
+    speeds_of_output,
+)
 from quad_dob_env.envs.termination import ATTITUDE_LOST, CRASHED, NON_FINITE_STATE, OUT_OF_BOUNDS
 from quad_dob_env.envs.ticks import (
+    InnerLoop,
     filtered_rate,
     fly_tick,
     held_rate,
@@ -40,8 +54,12 @@ OBSERVATION_BOUND = float(np.finfo(np.float32).max)
 
 
 @njit(cache=True, inline="always")
-def _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation):
-    """Normalised action -> commanded thrust and moment; 0 maps to hover."""
+def _command(actions, i, action_map):
+    """Normalised action -> commanded thrust and moment (``action_map``: an
+    ``ActionMapArrays`` of ``ActionMap.forward``); 0 maps to hover."""
+    rotor_mode, centre = action_map.rotor_mode, action_map.centre
+    scale_up, scale_down, allocation = (action_map.scale_up, action_map.scale_down,
+                                        action_map.matrix)
     s = [0.0, 0.0, 0.0, 0.0]
     for k in range(4):
         a = min(max(actions[i, k], -1.0), 1.0)  # out-of-range actions are clipped
@@ -57,12 +75,12 @@ def _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation):
 
 
 @njit(cache=True)
-def command_from_action_batch(actions, rotor_mode, centre, scale_up, scale_down, allocation,
-                              thrust, moment):
-    """``_command`` for every row: what normalised actions command, before the actuators."""
+def command_from_action_batch(actions, forward, thrust, moment):
+    """``_command`` for every row: what normalised actions command, before the actuators
+    (``forward``: ``ActionMap.forward`` as a plain tuple)."""
+    action_map = ActionMapArrays(*forward)
     for i in range(actions.shape[0]):
-        thrust[i], commanded = _command(actions, i, rotor_mode, centre, scale_up, scale_down,
-                                        allocation)
+        thrust[i], commanded = _command(actions, i, action_map)
         for k in range(3):
             moment[i, k] = commanded[k]
 
@@ -88,11 +106,13 @@ def action_from_command_vehicle(i, thrust, moment, rotor_mode, centre, scale_up,
 @njit(cache=True)
 def action_from_command_batch(thrust, moment, inverse, out):
     """``action_from_command_vehicle`` for every row of ``thrust`` (N,), ``moment`` (N, 3);
-    ``inverse`` is ``ActionMap.inverse``."""
-    rotor_mode, centre, scale_up, scale_down, mixer = inverse
+    ``inverse`` is ``ActionMap.inverse`` as a plain tuple."""
+    action_map = ActionMapArrays(*inverse)
     for i in range(thrust.shape[0]):
         action_from_command_vehicle(i, thrust[i], (moment[i, 0], moment[i, 1], moment[i, 2]),
-                                    rotor_mode, centre, scale_up, scale_down, mixer, out)
+                                    action_map.rotor_mode, action_map.centre,
+                                    action_map.scale_up, action_map.scale_down,
+                                    action_map.matrix, out)
 
 
 @njit(cache=True, inline="always")
@@ -127,10 +147,12 @@ def observe_vehicle(i, x, v, R, w, reference, row, rotation_mode, obs):
 
 
 @njit(cache=True)
-def _sense(i, x, v, R, w, reference, row, rotation_mode, limits, obs):
-    """Write vehicle i's observation; return its termination code and position error."""
-    max_error, cos_max_tilt, max_rate, has_floor, floor = limits
-    error = np.sqrt(observe_vehicle(i, x, v, R, w, reference, row, rotation_mode, obs))
+def _sense(i, x, v, R, w, episode, obs):
+    """Write vehicle i's observation at its reference row (``episode``: an ``Episode``);
+    return its termination code and position error."""
+    max_error, cos_max_tilt, max_rate, has_floor, floor = episode.limits
+    error = np.sqrt(observe_vehicle(i, x, v, R, w, episode.reference,
+                                    episode.reference_row[i], episode.rotation_mode, obs))
     code = 0  # TerminationCode.FLYING
     if error > max_error:
         code = OUT_OF_BOUNDS
@@ -151,109 +173,140 @@ def observation_kernel(indices, position, velocity, rotation, angular_velocity, 
         observe_vehicle(i, x, v, R, w, reference, reference_row[i], rotation_mode, obs)
 
 
-class StepArguments(NamedTuple):
-    """What ``step_kernel`` takes besides the slice and the actions: the core builds it by
-    keyword (``QuadrotorBatch.step_arguments``), the kernel's parameters have its names."""
+class ActionMapArrays(NamedTuple):
+    """``ActionMap.forward`` (and ``.inverse``, with the mixer as ``matrix``) by field."""
 
-    action_map: tuple  # ``ActionMap.forward``
-    actuation: tuple  # ``Actuator.kernel_arguments()``
-    actuator: tuple  # to_wrench, to_rotors, time constant, actuator state (N, 4)
-    rotors: tuple  # ``RotorModel.kernel_arguments()``
-    rotor_state: tuple  # per vehicle: thrust scale (N,), battery sag rate (N,) [1/s]
-    inner: tuple  # ``InnerLoop``: ticks per step, rate law, its gains, the estimate
-    position: NDArray  # the state, updated in place
-    velocity: NDArray
-    rotation: NDArray
-    angular_velocity: NDArray
-    step_count: NDArray  # (N,) each vehicle's step: its time's row in the tables
+    rotor_mode: bool  # actions are rotor thrusts, not thrust and moments
+    centre: NDArray  # (4,) what an action of 0 commands
+    scale_up: NDArray  # (4,) per unit of positive action
+    scale_down: NDArray  # (4,) per unit of negative action
+    matrix: NDArray  # (4, 4) the allocation (forward) or the mixer (inverse)
+
+
+class Episode(NamedTuple):
+    """Each vehicle's clock and reference, and the settings of a step that are neither the
+    vehicle nor its loop: the integration grid, the ground effect, the limits and the
+    reward's weights."""
+
+    step_count: NDArray  # (N,) each vehicle's step: its time's row in the forcing tables
     reference_row: NDArray  # (N,) its row in the reference table (its member's block)
-    tables: tuple  # force, torque and wind tables shared by all vehicles
-    own: tuple  # and each vehicle's own part of them
     reference: NDArray  # the reference table (members x rows, 8, 3)
-    physics: tuple  # mass, g, inertia, inverse inertia, drag (per vehicle)
-    dt: float
+    dt: float  # [s] the control step
     substeps: int  # CF4 steps per inner tick (per control step without an inner loop)
-    law: tuple  # the ground-effect ``ThrustLaw``
-    limits: tuple  # the episode limits
-    reward_weights: tuple  # position scale, effort weight
-    rotation_mode: int
-    obs: NDArray  # what the step writes
-    reward: NDArray
-    code: NDArray
-    applied_thrust: NDArray
-    applied_moment: NDArray
-    rotor_thrusts: NDArray
-    saturated: NDArray
-    disturbance_force: NDArray
-    disturbance_torque: NDArray
-    wind_velocity: NDArray  # the air's velocity at the vehicle (world frame), written
+    thrust_law: tuple  # the ground-effect ``ThrustLaw``'s values
+    limits: tuple  # ``KernelLimits``' values
+    position_scale: float  # the reward's ``RewardWeights``
+    effort_weight: float
+    rotation_mode: int  # 0: R row-major in the observation; 1: its first two columns
+
+
+class StepOutputs(NamedTuple):
+    """What a step writes for each vehicle besides its state."""
+
+    obs: NDArray  # (N, size) float32, the true state's observation
+    reward: NDArray  # (N,)
+    code: NDArray  # (N,) int8 ``TerminationCode``
+    applied_thrust: NDArray  # (N,) [N] what the nominal model says was applied
+    applied_moment: NDArray  # (N, 3) [N m]
+    rotor_thrusts: NDArray  # (N, 4) [N]
+    saturated: NDArray  # (N,) bool, any limit hit
+    disturbance_force: NDArray  # (N, 3) [N] the true disturbance, world frame
+    disturbance_torque: NDArray  # (N, 3) [N m] body frame
+    wind_velocity: NDArray  # (N, 3) [m/s] the air's velocity at the vehicle, world frame
+
+
+class StepArguments(NamedTuple):
+    """What ``step_kernel`` takes after the slice and the actions, one record per concern
+    (``QuadrotorBatch.step_arguments`` builds it by keyword; the kernel's parameters have
+    its names, a test holds them equal). Across the call into compiled code each record
+    travels as a plain tuple (``kernel_tuples``): numba types a plain tuple in half the time
+    of a named one, ~1 µs a record; the kernels name them again (``named_step``)."""
+
+    action_map: ActionMapArrays  # ``ActionMap.forward``
+    state: StateArrays  # the state, updated in place
+    body: BodyArrays  # each vehicle's rigid body
+    actuator: ActuatorArrays  # the mixer, the lag and each vehicle's actuator output
+    rotors: RotorModel  # the rotors' own model
+    draws: RotorDraws  # each vehicle's draws of its thrust path
+    inner: InnerLoop  # the inner loop: ticks, rate law, estimate, gyro filter, pose fix
+    forcing: Forcing  # force, torque and wind tables, shared and per vehicle
+    episode: Episode  # clock, reference, grid, limits, reward weights
+    outputs: StepOutputs  # what the step writes
+
+
+def kernel_tuples(record: NamedTuple) -> tuple:
+    """A record of records as plain tuples, as the compiled entry kernels take it."""
+    return tuple(tuple(part) for part in record)
+
+
+@njit(cache=True, inline="always")
+def named_step(action_map, state, body, actuator, rotors, draws, inner, forcing, episode,
+               outputs):
+    """The ``StepArguments`` record of its fields passed as plain tuples."""
+    return StepArguments(ActionMapArrays(*action_map), StateArrays(*state), BodyArrays(*body),
+                         ActuatorArrays(*actuator), RotorModel(*rotors), RotorDraws(*draws),
+                         InnerLoop(*inner), Forcing(*forcing), Episode(*episode),
+                         StepOutputs(*outputs))
+
+
+class EpisodeStart(NamedTuple):
+    """Where ``start_kernel`` starts a vehicle: the scenario's initial state and the
+    actuator output that holds the weight."""
+
+    position: NDArray  # (3,)
+    velocity: NDArray  # (3,)
+    angular_velocity: NDArray  # (3,)
+    hover: NDArray  # (4,) the actuator output at hover
 
 
 class StartArguments(NamedTuple):
-    """The core's arrays ``start_kernel`` writes a new episode into (``QuadrotorBatch.reset``
-    builds it by keyword; the kernel's parameters have its names)."""
+    """What ``start_kernel`` takes after the draws (``QuadrotorBatch.reset`` builds it by
+    keyword; the kernel's parameters have its names)."""
 
-    start: tuple  # the scenario's initial position, velocity and body rates
-    nominal: tuple  # the vehicle's mass, inertia, inverse inertia and drag, (1, ...) each
-    position: NDArray
-    velocity: NDArray
-    rotation: NDArray
-    angular_velocity: NDArray
-    physics: tuple  # each vehicle's mass, inertia, inverse inertia and drag
-    applied: tuple  # applied thrust, moment, rotor thrusts, saturated
-    disturbance_force: NDArray
-    disturbance_torque: NDArray
-    rewards: NDArray
-    step_count: NDArray
-    reference_row: NDArray  # each vehicle's row of the reference table (its member's block)
-    actuator_state: NDArray
-    hover: NDArray  # the actuator output that holds the weight
-    reference: NDArray
-    rotation_mode: int
-    limits: tuple
-    obs: NDArray
-    code: NDArray
+    start: EpisodeStart
+    nominal: BodyArrays  # the vehicle's nominal body, N = 1
+    state: StateArrays
+    body: BodyArrays
+    actuator: ActuatorArrays
+    episode: Episode
+    outputs: StepOutputs
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated, actions,
-                        actuator, rotors, rotor_state, position, velocity, rotation,
-                        angular_velocity, step_count, reference_row, tables, own, reference,
-                        vehicle, law, limits, reward_weights, rotation_mode, obs, reward, code,
-                        applied_thrust, applied_moment, rotor_thrusts, saturated,
-                        disturbance_force, disturbance_torque, wind_velocity):
+                        body, state, actuator, rotors, draws, forcing, episode, outputs):
     """After vehicle i's step of ``ticks`` ticks: what was applied (the ticks' mean output),
     the end output, the last finite state, clock, observation, termination, reward, and the
     true disturbance (external, extra lift, drag, the rotors' wrench beyond the nominal)."""
-    to_wrench, to_rotors, _, actuator_state = actuator
+    to_wrench = actuator.to_wrench
     mean = (total[0] / ticks, total[1] / ticks, total[2] / ticks, total[3] / ticks)
-    saturated[i] = any_saturated
-    store_applied(i, mean, to_wrench, to_rotors, applied_thrust, applied_moment, rotor_thrusts)
+    outputs.saturated[i] = any_saturated
+    store_applied(i, mean, to_wrench, actuator.to_rotors, outputs.applied_thrust,
+                  outputs.applied_moment, outputs.rotor_thrusts)
     for k in range(4):
-        actuator_state[i, k] = end[k]
-    force_table, torque_table, wind_table = tables
-    force_own, torque_own, wind_own = own
-    position_scale, effort_weight = reward_weights
-    last = force_table.shape[1] - 1
-    row = step_count[i]
+        actuator.output[i, k] = end[k]
+    last = forcing.force.shape[1] - 1
+    row = episode.step_count[i]
     # the last finite state (where a step diverged: its start, or its last finite tick)
-    store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
-    step_count[i] = row + 1
-    reference_row[i] += 1  # time indexes the disturbance tables, this the reference's
-    code[i], error = _sense(i, x, v, R, w, reference, reference_row[i], rotation_mode, limits,
-                            obs)
+    store_vehicle(i, state.position, state.velocity, state.rotation, state.angular_velocity,
+                  x, v, R, w)
+    episode.step_count[i] = row + 1
+    episode.reference_row[i] += 1  # time indexes the forcing tables, this the reference's
+    outputs.code[i], error = _sense(i, x, v, R, w, episode, outputs.obs)
     if diverged:
-        code[i] = NON_FINITE_STATE
+        outputs.code[i] = NON_FINITE_STATE
     effort = 0.0
     for k in range(4):
         effort += min(actions[i, k] * actions[i, k], 1.0)
-    reward[i] = np.exp(-error / position_scale) - effort_weight * effort / 4.0
-    wind = sample(wind_table, row, wind_own, i, last)
-    drag_body = body_drag(v, R, wind, vehicle[4], vehicle[5])
-    multiplier = thrust_multiplier_scalar(x[2], law)
-    if rotors[0]:
+    outputs.reward[i] = (np.exp(-error / episode.position_scale)
+                         - episode.effort_weight * effort / 4.0)
+    wind = sample(forcing.wind, row, forcing.wind_own, i, last)
+    drag_body = body_drag(v, R, wind, body.drag_linear, body.drag_quadratic)
+    multiplier = thrust_multiplier_scalar(x[2], episode.thrust_law)
+    if rotors.active:
         speeds = speeds_of_output(end, rotors)
-        true_force, true_moment = rotor_wrench(speeds, v, R, w, wind, rotor_state[0][i], rotors)
+        true_force, true_moment = rotor_wrench(speeds, v, R, w, wind,
+                                               draws.thrust_scale[i], rotors)
         nominal_thrust, nominal_moment, _ = nominal_wrench(speeds, rotors, to_wrench)
         extra = (drag_body[0] + true_force[0], drag_body[1] + true_force[1],
                  drag_body[2] + true_force[2] * multiplier - nominal_thrust)
@@ -264,59 +317,61 @@ def finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturate
         extra = (drag_body[0], drag_body[1], drag_body[2] + (multiplier - 1.0) * thrust_now)
         moment_error = (0.0, 0.0, 0.0)
     drag_world = mat_vec_tuple(R, extra)
-    external = sample(force_table, row, force_own, i, last)
-    torque = sample(torque_table, row, torque_own, i, last)
+    external = sample(forcing.force, row, forcing.force_own, i, last)
+    torque = sample(forcing.torque, row, forcing.torque_own, i, last)
     for k in range(3):
-        disturbance_force[i, k] = external[k] + drag_world[k]
-        disturbance_torque[i, k] = torque[k] + moment_error[k]
-        wind_velocity[i, k] = wind[k]
+        outputs.disturbance_force[i, k] = external[k] + drag_world[k]
+        outputs.disturbance_torque[i, k] = torque[k] + moment_error[k]
+        outputs.wind_velocity[i, k] = wind[k]
 
 
-@njit(cache=True, nogil=True)
-def step_kernel(start, stop, actions, action_map, actuation, actuator, rotors, rotor_state,
-                inner, position, velocity, rotation, angular_velocity, step_count,
-                reference_row, tables, own, reference, physics, dt, substeps, law, limits,
-                reward_weights, rotation_mode, obs, reward, code, applied_thrust,
-                applied_moment, rotor_thrusts, saturated, disturbance_force,
-                disturbance_torque, wind_velocity):
-    """One control step of vehicles ``start..stop-1``: action -> command -> (inner loop
-    ticks: mixer -> motors -> integration) -> observation, reward, termination and the true
-    disturbance (``quad_dob_env.threads`` splits the batch across cores). Called as
-    ``step_kernel(start, stop, actions, *StepArguments(...))``: the record is built by
-    keyword and its fields are these parameters, in this order (a test holds them equal),
-    so nothing is placed by position. A record passed whole would cost numba's slow typing
-    path, ~3 µs a call (20 % of a single env's step).
+@njit(cache=True, inline="always")
+def fly_vehicles(start, stop, actions, loop, law_command, law_after_tick, law,
+                 reads_estimate):
+    """One control step of vehicles ``start..stop-1``: the one loop over an inner loop's
+    ticks (``loop.inner.ticks``; 1 without one), for every law.
 
-    With an inner loop (``inner[0]`` ticks per step) the ``thrust_rates`` rate law runs at
-    every tick on the inner estimate; other actions are held over the step."""
-    rotor_mode, centre, scale_up, scale_down, allocation = action_map
-    _, _, time_constant, actuator_state = actuator
-    mass, gravity, inertia, inertia_inverse, drag = physics
-    ticks, rates = inner[0], inner[1]
+    Each tick ``law_command(i, actions, rotation, rate, body, tick_dt, law, inner,
+    actuator)`` forms the command (thrust, moment, and a 4-tuple the law keeps for its
+    update) from the inner-rate estimate; then ``fly_tick`` flies mixer -> battery ->
+    motors -> physics; with ``reads_estimate`` the gyro low-pass samples the tick's end and
+    ``law_after_tick(i, rate_before, rate_after, request, mean_output, law, actuator)``
+    updates the law's own state. ``law_command`` and ``law_after_tick`` are compiled
+    functions, fixed where the caller is compiled, so numba specialises this loop per law:
+    the env's held actions and rate law (``step_kernel``), a controller's attitude law
+    (``quad_dob_composition.attitude_loop``). ``law`` is the law's own record.
+
+    The step's records are taken out of ``loop`` once, here: taking a record out of another
+    takes a reference to every array in it, which per vehicle and tick cost 40 % of v1's
+    step."""
+    state, body_arrays, actuator = loop.state, loop.body, loop.actuator
+    rotors, draws, inner, forcing = loop.rotors, loop.draws, loop.inner, loop.forcing
+    episode, outputs = loop.episode, loop.outputs
+    ticks, dt, substeps = inner.ticks, episode.dt, episode.substeps
     tick_dt = dt / ticks
-    mean_factor, end_factor = tick_factors(time_constant, tick_dt)
+    mean_factor, end_factor = tick_factors(actuator.time_constant, tick_dt)
     for i in range(start, stop):
-        f_cmd, m_cmd = _command(actions, i, rotor_mode, centre, scale_up, scale_down, allocation)
-        begin = (actuator_state[i, 0], actuator_state[i, 1], actuator_state[i, 2],
-                 actuator_state[i, 3])
-        row = step_count[i]
-        vehicle = vehicle_physics(i, mass, gravity, inertia, inertia_inverse, drag)
-        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        battery = thrust_path_at(i, row, dt, rotors, rotor_state, vehicle)
+        row = episode.step_count[i]
+        body = vehicle_physics(i, body_arrays)
+        x, v, R, w = load_vehicle(i, state.position, state.velocity, state.rotation,
+                                  state.angular_velocity)
+        battery = thrust_path_at(i, row, dt, rotors, draws, body)
         r0, w0 = R, w
+        output = actuator.output
+        end = (output[i, 0], output[i, 1], output[i, 2], output[i, 3])
         total = (0.0, 0.0, 0.0, 0.0)
-        any_saturated, diverged, end = False, False, begin
+        any_saturated, diverged = False, False
+        seen_rotation, seen_rate = R, w
+        if reads_estimate:
+            seen_rotation, seen_rate = inner_estimate(i, R, w, inner, r0, w0)
+            seen_rate = held_rate(i, seen_rate, inner)  # the gyro low-pass's, when on
         for tick in range(ticks):
-            f_t, m_t = f_cmd, m_cmd
-            if rates:
-                seen_rotation, seen_rate = inner_estimate(i, R, w, inner, r0, w0)
-                seen_rate = held_rate(i, seen_rate, inner)
-                f_t, m_t = rate_law(actions, i, f_cmd, seen_rotation, seen_rate, vehicle[2],
-                                    inner)
+            thrust, moment, request = law_command(i, actions, seen_rotation, seen_rate, body,
+                                                  tick_dt, law, inner, actuator)
             xn, vn, Rn, wn, next_end, mean, hit, _ = fly_tick(
-                i, x, v, R, w, end, f_t, m_t, actuation, actuator, rotors, rotor_state,
-                battery, tables, own, row, vehicle, tick_dt, substeps, law,
-                2 * substeps * tick, mean_factor, end_factor)
+                i, (x, v, R, w), end, thrust, moment, battery, row, body, tick_dt,
+                2 * substeps * tick, mean_factor, end_factor, actuator, rotors, draws,
+                forcing, episode)
             end = next_end
             total = (total[0] + mean[0], total[1] + mean[1], total[2] + mean[2],
                      total[3] + mean[3])
@@ -326,57 +381,87 @@ def step_kernel(start, stop, actions, action_map, actuation, actuator, rotors, r
                 break
             x, v, R, w = xn, vn, Rn, wn
             keep_pose(i, tick + 1, x, v, R, inner)
-            if rates and inner[8][0]:  # the gyro low-pass samples the tick's end
-                filtered_rate(i, inner_estimate(i, R, w, inner, r0, w0)[1], inner)
-        finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated, actions,
-                            actuator, rotors, rotor_state, position, velocity, rotation,
-                            angular_velocity, step_count, reference_row, tables, own,
-                            reference, vehicle, law, limits, reward_weights, rotation_mode,
-                            obs, reward, code, applied_thrust, applied_moment, rotor_thrusts,
-                            saturated, disturbance_force, disturbance_torque, wind_velocity)
+            if reads_estimate:  # the gyro low-pass samples the tick's end
+                rotation_after, rate_after = inner_estimate(i, R, w, inner, r0, w0)
+                rate_after = filtered_rate(i, rate_after, inner)
+                law_after_tick(i, seen_rate, rate_after, request, mean, law, actuator)
+                seen_rotation, seen_rate = rotation_after, rate_after
+        finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated,
+                            actions, body, state, actuator, rotors, draws, forcing, episode,
+                            outputs)
+
+
+@njit(cache=True, inline="always")
+def env_law_command(i, actions, rotation, rate, body, tick_dt, action_map, inner, actuator):
+    """The env's own law: the actions' command held over the step, or with
+    ``thrust_rates``' inner loop its rate law at the tick."""
+    thrust, moment = _command(actions, i, action_map)
+    if inner.rate_law:
+        thrust, moment = rate_law(actions, i, thrust, rotation, rate, body.inertia, inner)
+    return thrust, moment, (0.0, 0.0, 0.0, 0.0)
+
+
+@njit(cache=True, inline="always")
+def env_law_after_tick(i, rate_before, rate_after, request, mean, action_map, actuator):
+    """The env's own law keeps no state."""
+
+
+@njit(cache=True, nogil=True)
+def step_kernel(start, stop, actions, action_map, state, body, actuator, rotors, draws, inner,
+                forcing, episode, outputs):
+    """One control step of vehicles ``start..stop-1``: action -> command -> (inner loop
+    ticks: mixer -> motors -> integration) -> observation, reward, termination and the true
+    disturbance (``quad_dob_env.threads`` splits the batch across cores). Called as
+    ``step_kernel(start, stop, actions, *kernel_tuples(StepArguments(...)))``.
+
+    With an inner loop the ``thrust_rates`` rate law runs at every tick on the inner
+    estimate; other actions are held over the step."""
+    loop = named_step(action_map, state, body, actuator, rotors, draws, inner, forcing,
+                      episode, outputs)
+    fly_vehicles(start, stop, actions, loop, env_law_command, env_law_after_tick,
+                 loop.action_map, loop.inner.rate_law)
 
 
 @njit(cache=True)
-def start_kernel(indices, offsets, rotations, scales, start, nominal, position, velocity,
-                 rotation, angular_velocity, physics, applied, disturbance_force,
-                 disturbance_torque, rewards, step_count, reference_row, actuator_state, hover,
-                 reference, rotation_mode, limits, obs, code):
+def start_kernel(indices, offsets, rotations, scales, start, nominal, state, body, actuator,
+                 episode, outputs):
     """New episodes for vehicles ``indices`` (``QuadrotorBatch.reset``): the j-th starts at
     the scenario's state plus ``offsets[j]`` (position, then velocity) and ``rotations[j]``,
-    at its ``reference_row`` (set by the caller), with
-    the nominal physics times ``scales[j]`` (mass, inertia, drag), nothing applied yet, the
-    rotors at hover; then its first observation and termination code. Called with
-    ``*StartArguments(...)`` after ``scales``, as ``step_kernel`` is."""
-    initial_position, initial_velocity, initial_angular_velocity = start
-    mass0, inertia0, inertia_inverse0, drag0 = nominal
-    mass, inertia, inertia_inverse, drag = physics
-    applied_thrust, applied_moment, rotor_thrusts, saturated = applied
+    at its ``reference_row`` (set by the caller), with the nominal body times ``scales[j]``
+    (mass, inertia, drag), nothing applied yet, the rotors at hover; then its first
+    observation and termination code. Called with ``*kernel_tuples(StartArguments(...))``
+    after ``scales``, as ``step_kernel`` is."""
+    start, nominal, state = EpisodeStart(*start), BodyArrays(*nominal), StateArrays(*state)
+    body, actuator = BodyArrays(*body), ActuatorArrays(*actuator)
+    episode, outputs = Episode(*episode), StepOutputs(*outputs)
+    position, velocity, rotation = state.position, state.velocity, state.rotation
+    angular_velocity = state.angular_velocity
+    inertia, inertia_inverse, drag = body.inertia, body.inertia_inverse, body.drag
     for j in range(len(indices)):
         i = indices[j]
         for k in range(3):
-            position[i, k] = initial_position[k] + offsets[j, k]
-            velocity[i, k] = initial_velocity[k] + offsets[j, 3 + k]
-            angular_velocity[i, k] = initial_angular_velocity[k]
+            position[i, k] = start.position[k] + offsets[j, k]
+            velocity[i, k] = start.velocity[k] + offsets[j, 3 + k]
+            angular_velocity[i, k] = start.angular_velocity[k]
             for c in range(3):
                 rotation[i, k, c] = rotations[j, k, c]
-                inertia[i, k, c] = inertia0[0, k, c] * scales[j, 1]
-                inertia_inverse[i, k, c] = inertia_inverse0[0, k, c] / scales[j, 1]
-            applied_moment[i, k] = 0.0
-            disturbance_force[i, k] = 0.0
-            disturbance_torque[i, k] = 0.0
-        mass[i] = mass0[0] * scales[j, 0]
-        applied_thrust[i] = 0.0
-        saturated[i] = False
-        rewards[i] = 0.0
-        step_count[i] = 0
+                inertia[i, k, c] = nominal.inertia[0, k, c] * scales[j, 1]
+                inertia_inverse[i, k, c] = nominal.inertia_inverse[0, k, c] / scales[j, 1]
+            outputs.applied_moment[i, k] = 0.0
+            outputs.disturbance_force[i, k] = 0.0
+            outputs.disturbance_torque[i, k] = 0.0
+        body.mass[i] = nominal.mass[0] * scales[j, 0]
+        outputs.applied_thrust[i] = 0.0
+        outputs.saturated[i] = False
+        outputs.reward[i] = 0.0
+        episode.step_count[i] = 0
         for k in range(drag.shape[1]):  # linear, then quadratic coefficients
-            drag[i, k] = drag0[0, k] * scales[j, 2]
+            drag[i, k] = nominal.drag[0, k] * scales[j, 2]
         for k in range(4):
-            rotor_thrusts[i, k] = 0.0
-            actuator_state[i, k] = hover[k]
+            outputs.rotor_thrusts[i, k] = 0.0
+            actuator.output[i, k] = start.hover[k]
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
-        code[i], _ = _sense(i, x, v, R, w, reference, reference_row[i], rotation_mode, limits,
-                            obs)
+        outputs.code[i], _ = _sense(i, x, v, R, w, episode, outputs.obs)
 
 
 @njit(cache=True)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import copy
+import warnings
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -19,7 +19,6 @@ from quad_dob_env.envs.limits import SpecWithEpisodeLength
 from quad_dob_env.envs.rendering import FlightRenderer
 from quad_dob_env.envs.step_kernels import OBSERVATION_BOUND, episode_ends_kernel
 from quad_dob_env.envs.termination import TERMINATION_REASONS
-from quad_dob_env.residual import ResidualCommand, ResidualOptions, split_residual_keys
 from quad_dob_env.scenarios import Scenario, make_scenario
 from quad_dob_env.validation import checked_keywords, unknown_name_error
 
@@ -50,40 +49,46 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
     episodes end at the scenario's end, whatever ``scenario_options`` made of its length;
     ``spec.max_episode_steps`` reports the limit in force.
 
-    Residual mode: with ``base_controller`` (a controller object; by name through
-    ``quad_dob_composition.ResidualVectorEnv``, what the residual ids build) every vehicle is
-    flown by that controller, run once per step for the whole batch, plus the action as a
-    residual (``quad_dob_env.residual``: the command, the 16 extra observation entries, the
-    reward). Its options come as ``residual_options`` (a ``ResidualOptions``: modes, scales,
-    gate, floor fade, reward weights; its table lists them) or as the same names as flat
-    keys (``thrust_scale=0.2``), as gym kwargs and configs give them; a key given both ways
-    takes the flat value. ``fused_pass`` runs thrust-and-moment residuals in one compiled
-    pass per step, ``attitude_loop`` the base's attitude law at a scenario's inner rate
-    (``quad_dob_composition`` passes both). ``info`` then adds ``base_thrust``,
-    ``base_moment``, ``force_estimate`` and ``torque_estimate``. ``reward_effort_weight``
-    defaults to 0.01 without a base and to 0 with one (the residual's own effort is
-    ``residual_effort_weight``).
+    A base controller plus the action as a residual is
+    ``quad_dob_env.residual.ResidualQuadrotorVectorEnv`` (a controller object) or
+    ``quad_dob_composition.ResidualVectorEnv`` (by name; what the residual ids build), a
+    subclass that the residual layer, above this one, defines; ``residual`` and
+    ``base_controller`` are None here. ``QuadrotorVectorEnv(..., base_controller=...)`` still
+    builds that subclass, with a DeprecationWarning naming it.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 100,
                                           "autoreset_mode": AutoresetMode.NEXT_STEP}
+    # what the deprecated ``QuadrotorVectorEnv(base_controller=...)`` builds: the residual's
+    # vector face, which sits above the envs and names itself here when imported (importing
+    # quad_dob_env imports it), so this layer needs no import of the residual
+    residual_face: ClassVar[type[QuadrotorVectorEnv] | None] = None
 
-    @checked_keywords(ResidualOptions)
+    def __new__(cls, *args: Any, base_controller: Any = None, **kwargs: Any) -> Any:
+        if base_controller is None or cls is not QuadrotorVectorEnv:
+            return super().__new__(cls)
+        warnings.warn("QuadrotorVectorEnv(base_controller=...) is deprecated: use "
+                      "quad_dob_env.residual.ResidualQuadrotorVectorEnv (a controller object) "
+                      "or quad_dob_composition.ResidualVectorEnv (a controller by name)",
+                      DeprecationWarning, stacklevel=2)
+        # Python then runs the face's __init__ with the same arguments
+        return super().__new__(cls.residual_face)
+
+    @checked_keywords()
     def __init__(self, num_envs: int, scenario: str | Scenario = "paper-none",
                  scenario_options: dict[str, Any] | None = None,
                  action_mode: str = "thrust_moments", rotation_representation: str = "matrix",
                  max_position_error: float = 5.0, max_tilt: float = np.pi / 2,
                  max_body_rate: float = 35.0, reward_position_scale: float = 0.25,
                  reward_effort_weight: float | None = None, render_mode: str | None = None,
-                 base_controller: Any = None, invalid_actions: str = "raise",
-                 fused_pass: Any = None, max_episode_steps: int | None = None,
+                 base_controller: None = None, invalid_actions: str = "raise",
+                 max_episode_steps: int | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-                 attitude_loop: Any = None, benchmark: str | None = None,
-                 residual_options: ResidualOptions | None = None,
-                 **residual_keys: Any) -> None:
-        # the residual's options as flat keys (gym kwargs, configs) become the record here;
-        # a direct env takes none
-        residual_options = split_residual_keys(residual_keys, residual_options)
+                 benchmark: str | None = None) -> None:
+        if base_controller is not None:  # reached only by a subclass other than the face
+            raise ValueError(f"{type(self).__name__} flies no base controller: use "
+                             "quad_dob_env.residual.ResidualQuadrotorVectorEnv (a controller "
+                             "object) or quad_dob_composition.ResidualVectorEnv (by name)")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported by the vector env; "
                              "valid: None, rgb_array")
@@ -94,7 +99,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
         self.scenario = make_scenario(scenario, **scenario_options_for(scenario_options,
                                                                        benchmark))
         if reward_effort_weight is None:
-            reward_effort_weight = 0.01 if base_controller is None else 0.0
+            reward_effort_weight = 0.01
         self.core = QuadrotorBatch(
             self.scenario, num_envs, action_mode, rotation_representation,
             EpisodeLimits(max_position_error, max_tilt, max_body_rate),
@@ -110,22 +115,16 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
             given = getattr(autoreset_mode, "value", autoreset_mode)
             raise ValueError(f"autoreset_mode {given!r} is not supported; valid: "
                              + ", ".join(mode.value for mode in modes))
-        self.residual = None if base_controller is None else ResidualCommand(
-            self.core, base_controller, residual_options, fused_pass=fused_pass,
-            attitude_loop=attitude_loop)
-        # None without a base; with one, its name and gains (also in the reset info)
-        self.base_controller = (None if self.residual is None
-                                else self.residual.controller.describe())
+        # the residual face's (its command; the base's name and gains, also in the reset
+        # info): None here, read by code that flies either kind
+        self.residual: Any = None
+        self.base_controller: dict[str, Any] | None = None
         self.num_envs = self.core.n
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.scenario.dt),
                          "autoreset_mode": self.autoreset_mode}
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
-        size = self.core.observation_size + (
-            0 if self.residual is None else self.residual.extra_observation.shape[1])
-        self.single_observation_space = gym.spaces.Box(
-            -OBSERVATION_BOUND, OBSERVATION_BOUND, (size,), np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.set_observation_size(self.core.observation_size)
         self._generators: list[np.random.Generator] = []
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
         self._ended_count = 0
@@ -137,6 +136,12 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
         self._estimate_masks: dict[str, NDArray[np.bool_]] = {}
         self._renderer = None if render_mode is None else FlightRenderer(self.core)
         self._rendered = range(min(self.num_envs, RENDERED_VEHICLES))
+
+    def set_observation_size(self, size: int) -> None:
+        """The observation spaces for ``size`` columns (a residual face's are wider)."""
+        self.single_observation_space = gym.spaces.Box(
+            -OBSERVATION_BOUND, OBSERVATION_BOUND, (size,), np.float32)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:
@@ -211,11 +216,8 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
 
     # --- the stages, shared with quad_dob_training.rl.vec_env's SB3 adapter ---------------------
     def restart(self, indices: NDArray[np.intp]) -> None:
-        """New episodes for vehicles ``indices``, from their own generators (residual mode:
-        with their first base command planned)."""
+        """New episodes for vehicles ``indices``, from their own generators."""
         self.core.reset(indices, [self._generators[i] for i in indices])
-        if self.residual is not None:
-            self.residual.restart(indices)
         if self._renderer is not None:
             for i in indices:
                 self._renderer.reset(int(i))
@@ -228,17 +230,18 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
         return tuple(self._renderer.frame(i) for i in self._rendered)
 
     def step_vehicles(self, actions: Any) -> None:
-        """One step of every vehicle (residual mode: with the residuals, and the next base
-        command planned); NaN/inf rows raise or, with ``invalid_actions="terminate"``, fly
-        at hover (residual mode: at the base command, a zero residual) and end those
-        episodes."""
+        """One step of every vehicle; NaN/inf rows raise or, with
+        ``invalid_actions="terminate"``, fly at hover (a residual face: at the base command,
+        a zero residual) and end those episodes."""
         actions, invalid = screen_actions(actions, (self.num_envs, 4), self.invalid_actions)
-        if self.residual is None:
-            self.core.step(actions)
-        else:
-            self.residual.step(actions)
+        self.apply_actions(actions)
         if invalid.size:
             self.core.end_for_invalid_actions(invalid)
+
+    def apply_actions(self, actions: NDArray) -> None:
+        """One step of every vehicle on screened actions (a residual face adds them to its
+        base's command)."""
+        self.core.step(actions)
 
     def record_paths(self) -> None:
         """The rendered vehicles' paths grow, once the batch is settled after a step."""
@@ -247,18 +250,24 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
                 self._renderer.record(i)
 
     def rewards(self) -> NDArray[np.float64]:
-        return self.core.rewards if self.residual is None else self.residual.rewards
+        return self.core.rewards
 
     def observations(self) -> NDArray[np.float32]:
-        if self.residual is None:
-            return self.core.obs.copy()
-        return self.residual.observation(self.core.obs)
+        return self.core.obs.copy()
+
+    def info_arrays(self) -> dict[str, Any]:
+        """This step's ``info`` entries, each an (N, ...) array (a residual face adds its
+        own), before their masks."""
+        return self.core.info_arrays()
+
+    def shared_reset_info(self) -> dict[str, Any]:
+        """Reset info every vehicle that starts an episode shares, one copy per call (none
+        here; a residual face adds its ``base_controller``)."""
+        return {}
 
     def _info(self, ended: NDArray[np.bool_], ended_count: int) -> dict[str, Any]:
         core = self.core
-        info = core.info_arrays()
-        if self.residual is not None:
-            info.update(self.residual.info())
+        info = self.info_arrays()
         if self._key_masks is None:  # the keys never change: their masks are made once
             self._key_masks = {f"_{key}": self._every_vehicle for key in info}
             # a nested dict carries its own masks, as Gymnasium's
@@ -275,16 +284,14 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
 
     def _reset_info(self, indices: NDArray[np.intp]) -> dict[str, Any]:
         """The reset info of the vehicles that started an episode: ``sampled`` (the draws of
-        domain randomisation and random disturbances) and, in residual mode,
-        ``base_controller``, merged as Gymnasium's vector envs merge each env's reset info
-        (every value an (N, ...) array, nested dicts alike, each with its ``_key`` mask)."""
+        domain randomisation and random disturbances) and ``shared_reset_info``, merged as
+        Gymnasium's vector envs merge each env's reset info (every value an (N, ...) array,
+        nested dicts alike, each with its ``_key`` mask)."""
         merged: dict[str, Any] = {}
         # one copy for the call: the merge copies leaf values into its own arrays
-        base = None if self.base_controller is None else copy.deepcopy(self.base_controller)
+        shared = self.shared_reset_info()
         for i in indices:
-            vehicle = {"sampled": self.core.sampled[i]}
-            if base is not None:
-                vehicle["base_controller"] = base
+            vehicle = {"sampled": self.core.sampled[i], **shared}
             _add_vehicle_info(merged, vehicle, int(i), self.num_envs)
         return merged
 

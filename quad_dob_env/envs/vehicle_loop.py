@@ -2,7 +2,7 @@
 (``quad_dob_env.dynamics.rotors``), its per-episode draws, and the inner loop's ticks.
 
 ``VehicleLoop`` gathers what the compiled step takes for them (``StepArguments.rotors``,
-``rotor_state`` and ``inner``) and draws each episode's thrust scale and battery sag from a
+``draws`` and ``inner``) and draws each episode's thrust scale and battery sag from a
 stream spawned off the episode's child of the vehicle's generator (the sensors draw from that
 child itself), so turning the factor on or off changes no other random draw.
 """
@@ -13,9 +13,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_env.dynamics import Actuator
-from quad_dob_env.dynamics.rotors import RotorModel
+from quad_dob_env.dynamics.rotors import RotorDraws, RotorModel
 from quad_dob_env.envs.actions import MAX_RATE_COMMAND, RATE_GAIN
-from quad_dob_env.envs.ticks import butterworth_coefficients
+from quad_dob_env.envs.ticks import InnerLoop, butterworth_coefficients
 from quad_dob_env.scenarios import Scenario
 
 # Per-episode true thrust coefficient over the nominal: air density from 0 °C to 30 °C at
@@ -65,16 +65,24 @@ class VehicleLoop:
                                    if self.gyro_filter else (0.0,) * 5)
         self._initial_rate = np.array(scenario.initial_angular_velocity, dtype=float)
         self.gyro_state, self.gyro_output = np.zeros((n, 3, 2)), np.zeros((n, 3))
-        self.inner = (self.ticks, self.rates, RATE_GAIN, MAX_RATE_COMMAND,
-                      np.array(actuator.moment_limit, dtype=float),
-                      bool(has_estimate and self.active), rotation, rate,
-                      (self.gyro_filter, self._gyro_coefficients, self.gyro_state,
-                       self.gyro_output),
-                      # where the sensing takes the pose fix within a step (0: its end)
-                      pose if pose is not None else (0, np.zeros((1, 3)), np.zeros((1, 3)),
-                                                     np.zeros((1, 3, 3))),
-                      # the told inertia over the truth, which thrust_rates' rate loop flies
-                      self.told_over_true[:, 1])
+        if pose is None:  # the pose fix is taken at the step's end
+            pose = (0, np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3, 3)))
+        pose_tick, pose_position, pose_velocity, pose_rotation = pose
+        self.inner = InnerLoop(
+            ticks=self.ticks, rate_law=self.rates, rate_gain=RATE_GAIN,
+            max_rate=MAX_RATE_COMMAND,
+            moment_limit=np.array(actuator.moment_limit, dtype=float),
+            has_estimate=bool(has_estimate and self.active), estimate_rotation=rotation,
+            estimate_rate=rate, gyro_filter=self.gyro_filter,
+            gyro_coefficients=self._gyro_coefficients, gyro_state=self.gyro_state,
+            gyro_output=self.gyro_output, pose_tick=pose_tick, pose_position=pose_position,
+            pose_velocity=pose_velocity, pose_rotation=pose_rotation,
+            # the told inertia over the truth, which thrust_rates' rate loop flies
+            told_inertia=self.told_over_true[:, 1])
+        self.draws = RotorDraws(
+            thrust_scale=self.thrust_scale, sag_rate=self.sag_rate,
+            hover_throttle=self.hover_throttle, hover_throttle_drift=self.hover_throttle_drift,
+            hover_estimate_factor=self.hover_estimate_factor)
 
     @property
     def speed_motors(self) -> bool:
@@ -85,10 +93,6 @@ class VehicleLoop:
         if not self.speed_motors:
             return hover
         return np.sqrt(np.maximum(hover, 0.0) / self.model.thrust_coefficient)
-
-    def rotor_state(self) -> tuple[NDArray, ...]:
-        return (self.thrust_scale, self.sag_rate, self.hover_throttle,
-                self.hover_throttle_drift, self.hover_estimate_factor)
 
     def hover_throttle_estimate(self, time: NDArray) -> NDArray:
         """The autopilot's hover throttle t̂_h at each vehicle's ``time`` [s] (the throttle

@@ -3,19 +3,23 @@
 - ``options``: ``ResidualOptions``, every option in one frozen record (with the table of
   what each does and which are experimental), ``split_residual_keys`` (flat keys -> the
   record, the one place), and ``RESIDUAL_PRESETS``, each shipped policy's options.
-- ``command``: ``ResidualCommand``, base + residual for a whole ``QuadrotorBatch``; the
-  vector env's ``base_controller=`` mode and ``ResidualActionWrapper`` both run it; the base
+- ``command``: ``ResidualCommand``, base + residual for a whole ``QuadrotorBatch``;
+  ``ResidualQuadrotorVectorEnv`` and ``ResidualActionWrapper`` both run it; the base
   behind ``BaseController``.
+- ``vector_env``: ``ResidualQuadrotorVectorEnv``, the residual's vector face: a
+  ``QuadrotorVectorEnv`` flown by a base controller object plus the residual.
 - ``modes``: the command's two modes, ``AccelerationMode`` and its guard.
 - ``gate``: ``AuthorityGate``, the gate on the observed disturbance, its state and factor.
 - ``floor_fade``: ``FloorFade``, the fade near the floor.
-- ``observation``: the residual's observation entries, named (``RESIDUAL_ENTRIES``).
+- ``observation``: the residual's observation entries, named (``RESIDUAL_ENTRIES``), which
+  ``ResidualOptions.observation_entries`` hands to the env's observation table.
 - ``residual_kernels``: the compiled per-vehicle command, reward and extra observation
   (``quad_dob_composition.fused`` runs them in its single pass).
 
-May import the simulator's layers below the envs' faces (validation, the env core's kernels
-and types); never ``quad_dob_baselines``, ``quad_dob_composition`` or ``quad_dob_training``:
-the base comes in as an object.
+Sits above ``envs`` (its command drives the env's core and reuses its kernels) and may import
+the simulator's folders and modules below it (the order: docs/design.md, "Layers"); never
+``wrappers``, which sits above it, nor ``quad_dob_baselines``, ``quad_dob_composition`` or
+``quad_dob_training``: the base comes in as an object.
 """
 
 from quad_dob_env.residual.command import (
@@ -31,6 +35,7 @@ from quad_dob_env.residual.options import (
     ResidualOptions,
     split_residual_keys,
 )
+from quad_dob_env.residual.vector_env import ResidualQuadrotorVectorEnv
 
 __all__ = [
     "DEFAULT_BASE_CONTROLLER",
@@ -41,5 +46,6 @@ __all__ = [
     "BaseController",
     "ResidualCommand",
     "ResidualOptions",
+    "ResidualQuadrotorVectorEnv",
     "split_residual_keys",
 ]

@@ -2,7 +2,7 @@
 
 ``ResidualCommand`` does it for a whole ``QuadrotorBatch`` (one controller call for all N
 vehicles); ``quad_dob_env.wrappers.ResidualActionWrapper`` is its single-env face and
-``QuadrotorVectorEnv(..., base_controller=...)`` its vector face, so both run this code.
+``ResidualQuadrotorVectorEnv`` (``vector_env``) its vector face, so both run this code.
 The base is a controller *object* (``reset``, ``compute``, ``applied``): the simulator
 knows no controller by name. ``quad_dob_composition`` builds one by name and hands it in,
 which is what the registered residual ids do. Two ways to run a step, with the same

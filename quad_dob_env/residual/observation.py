@@ -3,16 +3,13 @@ the compiled ``residual_observation_vehicle`` write, named (``quad_dob_env.envs.
 puts them in the env's table and gives them columns).
 
 Imports only the entry record; a test holds each entry to the columns the
-kernels write.
+kernels write. ``ResidualOptions.observation_entries`` hands them to the env's table, which
+sits below the residual and does not import it.
 """
 
 from __future__ import annotations
 
-import math
-
-from quad_dob_env.observation_entry import ObservationEntry
-
-UNBOUNDED = (-math.inf, math.inf)
+from quad_dob_env.observation_entry import UNBOUNDED, ObservationEntry
 
 # Always there, in this order, from the measurement the base controller reads.
 RESIDUAL_ENTRIES = (

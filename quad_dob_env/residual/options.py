@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from quad_dob_env.observation_entry import ObservationEntry
+from quad_dob_env.residual.observation import RESIDUAL_ENTRIES
 from quad_dob_env.validation import as_finite, unknown_name_error
 
 RESIDUAL_MODES = ("thrust_moments", "acceleration")
@@ -117,6 +119,13 @@ class ResidualOptions:
     def with_keys(self, **keys: Any) -> ResidualOptions:
         """This record with ``keys`` changed (validated again)."""
         return replace(self, **keys)
+
+    @property
+    def observation_entries(self) -> tuple[ObservationEntry, ...]:
+        """The entries an env flying these options appends after its own, the same for every
+        option set (``observation``); ``envs.observation_table`` reads them here, as the
+        envs sit below the residual and do not import it."""
+        return RESIDUAL_ENTRIES
 
 
 OPTION_NAMES = tuple(option.name for option in fields(ResidualOptions))

@@ -6,12 +6,20 @@ compass heading (1), gyroscope (3), accelerometer (3), rotor speeds (4). Each se
 its noise from its own key (``quad_dob_env.rng``: the n-th draw of a key depends on the
 key and n alone), so one sensor's settings never move another's noise, nor any other
 random draw of the flight.
+
+``take_readings_kernel`` reads its records by name: the state the pose fix sees
+(``PoseState``), the truth (``TrueState``), each source's settings (``PoseSettings``,
+``ImuSettings``, ``RotorSettings``, ``StateNoise``) and the sensors' own arrays
+(``ReadingLines``); passed from Python as plain tuples (numba types a named tuple on a
+slower path every call) and rebuilt in its first lines.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
 from quad_dob_env.rng import gaussian_pair
 from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, matrix_entries
@@ -26,6 +34,78 @@ HISTORY_WIDTH = 18
 # keys per vehicle: pose, IMU, rotors, state noise, initial biases
 KEYS = 5
 POSE_KEY, IMU_KEY, ROTOR_KEY, STATE_KEY, BIAS_KEY = range(KEYS)
+
+
+class PoseState(NamedTuple):
+    """The state the pose fix reads: now, or where the step passed the pose's latency."""
+
+    position: NDArray  # (N, 3)
+    velocity: NDArray  # (N, 3)
+    rotation: NDArray  # (N, 3, 3)
+
+
+class TrueState(NamedTuple):
+    """The truth the sensors read: the state now, what the physics applied over the step,
+    and what the rotors give at a reset (they start at hover; nothing is applied yet)."""
+
+    position: NDArray  # (N, 3)
+    velocity: NDArray  # (N, 3)
+    rotation: NDArray  # (N, 3, 3)
+    angular_velocity: NDArray  # (N, 3)
+    thrust: NDArray  # (N,) applied thrust, the step's mean
+    force: NDArray  # (N, 3) every non-gravity force but the thrust, world frame
+    mass: NDArray  # (N,)
+    rotor_thrusts: NDArray  # (N, 4)
+    hover_thrust: float  # at a reset
+    hover_rotor_thrusts: NDArray  # (4,) at a reset
+
+
+class PoseSettings(NamedTuple):
+    """The pose fix's settings (the defaults: no pose fix, nothing drawn)."""
+
+    kind: int = 0  # 0 mocap, 1 gnss
+    period: int = 1  # a fix every so many steps
+    position_std: float = 0.0  # [m], horizontal
+    vertical_std: float = 0.0  # [m]
+    attitude_std: float = 0.0  # [rad]
+    velocity_std: float = 0.0  # [m/s]
+    heading_std: float = 0.0  # [rad]
+
+
+class ImuSettings(NamedTuple):
+    """The IMU's settings per control step (the defaults: none)."""
+
+    gyroscope_std: float = 0.0  # white noise per sample [rad/s]
+    accelerometer_std: float = 0.0  # [m/s²]
+    gyroscope_walk: float = 0.0  # the bias's random walk per step
+    accelerometer_walk: float = 0.0
+    gyroscope_initial_bias: float = 0.0  # the std of a new episode's bias
+    accelerometer_initial_bias: float = 0.0
+
+
+class RotorSettings(NamedTuple):
+    """The rotor-speed telemetry's settings."""
+
+    speed_std: float  # [rad/s]
+    thrust_coefficient: float  # k_F, T = k_F ω²
+
+
+class StateNoise(NamedTuple):
+    """``SensorNoise``'s noise on the state itself (the defaults: none)."""
+
+    position_std: float = 0.0
+    velocity_std: float = 0.0
+    attitude_std: float = 0.0
+    rate_std: float = 0.0
+
+
+class ReadingLines(NamedTuple):
+    """The sensors' own arrays: each vehicle's keys and true IMU biases, and the delay
+    line of readings."""
+
+    keys: NDArray  # (N, KEYS) uint64
+    true_bias: NDArray  # (N, 6) gyroscope, accelerometer
+    ring: NDArray  # (depth, N, READING_WIDTH)
 
 
 @njit(cache=True, inline="always")
@@ -71,32 +151,37 @@ def rotor_speed(rotor_thrust, thrust_coefficient):
 
 
 @njit(cache=True, nogil=True)
-def take_readings_kernel(start, stop, indices, step_count, pose_position, pose_velocity,
-                         pose_rotation, position, velocity, rotation,
-                         angular_velocity, thrust, force, mass, rotor_thrusts,
-                         thrust_coefficient, hover_thrust, hover_rotor_thrusts, keys,
-                         true_bias, pose, imu, rotors, state_noise, ring, reset):
+def take_readings_kernel(start, stop, indices, step_count, pose_at, truth, pose, imu, rotors,
+                         state_noise, lines, reset):
     """The readings of vehicles ``indices[start:stop]`` of their true state now, into each
     delay line's slot ``step % depth`` (at a reset, into every slot: no older readings
     exist). A source whose standard deviations are all zero draws nothing: its reading is
     the same, and no other source's noise depends on it.
 
-    The pose fix reads ``pose_*`` (the state now, or where the step passed the pose's
-    latency on the physics grid: ``SensingStage.pose_tick``); the gyroscope reads the body
-    rate now; the accelerometer the specific force of the step
-    (its mean thrust, with the drag and disturbance at its end). At a reset nothing is
-    applied yet and the rotors turn at hover: the readings are ``hover_thrust``'s and
-    ``hover_rotor_thrusts``'. Their white noise has the std density / √dt, the density's
-    over the step.
+    The pose fix reads ``pose_at`` (a ``PoseState``: the state now, or where the step passed
+    the pose's latency on the physics grid: ``SensingStage.pose_tick``); the gyroscope
+    reads the body rate now; the accelerometer the specific force of the step (its mean
+    thrust, with the drag and disturbance at its end; ``truth`` a ``TrueState``). At a reset
+    nothing is applied yet and the rotors turn at hover: the readings are ``hover_thrust``'s
+    and ``hover_rotor_thrusts``'. Their white noise has the std density / √dt, the
+    density's over the step.
 
-    ``pose``: kind (0 mocap, 1 gnss), period in steps, position std, vertical std, attitude
-    std, velocity std, heading std. ``imu``: gyroscope and accelerometer std per sample, the
-    biases' walk per step, their initial std. ``rotors``: speed std. ``state_noise``:
-    position, velocity, attitude and rate std of ``SensorNoise`` (its mode has no IMU
-    noise, biases nor estimator: ``imu`` is all zeros)."""
-    _, period, position_std, vertical_std, attitude_std, velocity_std, heading_std = pose
-    gyro_std, accel_std, gyro_walk, accel_walk, gyro_bias0, accel_bias0 = imu
-    p_std, v_std, a_std, w_std = state_noise
+    ``pose`` a ``PoseSettings``, ``imu`` an ``ImuSettings``, ``rotors`` a ``RotorSettings``,
+    ``state_noise`` a ``StateNoise`` (``SensorNoise``'s mode has no IMU noise, biases nor
+    estimator: ``imu`` is all zeros), ``lines`` the ``ReadingLines``; each passed as a plain
+    tuple."""
+    pose_at, truth, lines = PoseState(*pose_at), TrueState(*truth), ReadingLines(*lines)
+    pose, imu, rotors = PoseSettings(*pose), ImuSettings(*imu), RotorSettings(*rotors)
+    state_noise = StateNoise(*state_noise)
+    position_std, vertical_std = pose.position_std, pose.vertical_std
+    attitude_std, velocity_std, heading_std = pose.attitude_std, pose.velocity_std, pose.heading_std
+    gyro_std, accel_std = imu.gyroscope_std, imu.accelerometer_std
+    gyro_walk, accel_walk = imu.gyroscope_walk, imu.accelerometer_walk
+    gyro_bias0, accel_bias0 = imu.gyroscope_initial_bias, imu.accelerometer_initial_bias
+    p_std, v_std = state_noise.position_std, state_noise.velocity_std
+    a_std, w_std = state_noise.attitude_std, state_noise.rate_std
+    keys, true_bias, ring = lines.keys, lines.true_bias, lines.ring
+    thrust, mass = truth.thrust, truth.mass
     depth = ring.shape[0]
     g = np.zeros(12)
     pose_noisy = position_std + vertical_std + attitude_std + velocity_std + heading_std > 0
@@ -109,7 +194,7 @@ def take_readings_kernel(start, stop, indices, step_count, pose_position, pose_v
         i = indices[j]
         step = step_count[i]
         slot = step % depth
-        R = matrix_entries(rotation[i])
+        R = matrix_entries(truth.rotation[i])
         if reset:  # a new episode's biases: zero, or drawn
             if gyro_bias0 + accel_bias0 > 0:
                 _normals(keys[i, BIAS_KEY], 0, 6, g)
@@ -120,14 +205,14 @@ def take_readings_kernel(start, stop, indices, step_count, pose_position, pose_v
                 true_bias[i, 3 + k] = accel_bias0 * g[3 + k]
         row = ring[slot, i]
         # the pose fix (taken every ``period`` steps; the slot keeps whatever it held else)
-        if step % period == 0 or reset:
+        if step % pose.period == 0 or reset:
             if pose_noisy:
                 _normals(keys[i, POSE_KEY], step, pose_draws, g)
             for k in range(3):
                 std = vertical_std if k == 2 else position_std
-                row[POSITION + k] = pose_position[i, k] + std * g[k]
-                row[VELOCITY + k] = pose_velocity[i, k] + velocity_std * g[6 + k]
-            seen = matrix_entries(pose_rotation[i])
+                row[POSITION + k] = pose_at.position[i, k] + std * g[k]
+                row[VELOCITY + k] = pose_at.velocity[i, k] + velocity_std * g[6 + k]
+            seen = matrix_entries(pose_at.rotation[i])
             turned = mat_mul_tuple(seen, exp_tuple((attitude_std * g[3], attitude_std * g[4],
                                                     attitude_std * g[5])))
             for k in range(9):
@@ -142,27 +227,28 @@ def take_readings_kernel(start, stop, indices, step_count, pose_position, pose_v
             for k in range(3):
                 true_bias[i, k] += gyro_walk * g[6 + k]
                 true_bias[i, 3 + k] += accel_walk * g[9 + k]
-        specific = specific_force_vehicle(i, thrust, force, rotation, mass)
+        specific = specific_force_vehicle(i, thrust, truth.force, truth.rotation, mass)
         if reset:
             specific = (specific[0], specific[1],
-                        specific[2] + (hover_thrust - thrust[i]) / mass[i])
+                        specific[2] + (truth.hover_thrust - thrust[i]) / mass[i])
         for k in range(3):
-            row[GYRO + k] = angular_velocity[i, k] + true_bias[i, k] + gyro_std * g[k]
+            row[GYRO + k] = truth.angular_velocity[i, k] + true_bias[i, k] + gyro_std * g[k]
             row[ACCEL + k] = specific[k] + true_bias[i, 3 + k] + accel_std * g[3 + k]
-        if rotors[0] > 0:
+        if rotors.speed_std > 0:
             _normals(keys[i, ROTOR_KEY], step, 4, g)
         else:
             g[:4] = 0.0
         for k in range(4):
-            rotor_thrust = hover_rotor_thrusts[k] if reset else rotor_thrusts[i, k]
-            row[ROTORS + k] = (rotor_speed(rotor_thrust, thrust_coefficient)
-                               + rotors[0] * g[k])
+            rotor_thrust = (truth.hover_rotor_thrusts[k] if reset
+                            else truth.rotor_thrusts[i, k])
+            row[ROTORS + k] = (rotor_speed(rotor_thrust, rotors.thrust_coefficient)
+                               + rotors.speed_std * g[k])
         if p_std + v_std + a_std + w_std > 0.0:  # SensorNoise: noise on the state itself
             _normals(keys[i, STATE_KEY], step, 12, g)
             for k in range(3):
-                row[POSITION + k] = position[i, k] + p_std * g[k]
-                row[VELOCITY + k] = velocity[i, k] + v_std * g[3 + k]
-                row[GYRO + k] = angular_velocity[i, k] + w_std * g[9 + k]
+                row[POSITION + k] = truth.position[i, k] + p_std * g[k]
+                row[VELOCITY + k] = truth.velocity[i, k] + v_std * g[3 + k]
+                row[GYRO + k] = truth.angular_velocity[i, k] + w_std * g[9 + k]
             turned = mat_mul_tuple(R, exp_tuple((a_std * g[6], a_std * g[7], a_std * g[8])))
             for k in range(9):
                 row[ROTATION + k] = turned[k]

@@ -20,6 +20,13 @@ from quad_dob_env.sensing.sensing_pass import (
     HISTORY_WIDTH,
     KEYS,
     READING_WIDTH,
+    ImuSettings,
+    PoseSettings,
+    PoseState,
+    ReadingLines,
+    RotorSettings,
+    StateNoise,
+    TrueState,
     ideal_readings_kernel,
     measurement_kernel,
     take_readings_kernel,
@@ -73,26 +80,32 @@ class SensingStage:
         self.pose_tick = 0
         self.pose_state = (truth.position, truth.velocity, truth.rotation)
         self._fresh = False
-        self._state_noise = (0.0, 0.0, 0.0, 0.0)
-        self._imu = (0.0,) * 6
-        self._rotors = (0.0,)
+        self._state_noise = StateNoise()
+        self._imu = ImuSettings()
+        self._rotors = RotorSettings(speed_std=0.0,
+                                     thrust_coefficient=self.thrust_coefficient)
         if self.estimating:
             pose, imu = sensing.pose, sensing.imu
             # a fix every so many steps: the nearest grid period not faster than the rate
             self.period = max(1, math.ceil(1.0 / (pose.rate * dt) - 1e-9))
-            self._pose = (0 if pose.kind == "mocap" else 1, self.period, pose.position_std,
-                          pose.vertical_std, pose.attitude_std, pose.velocity_std,
-                          pose.heading_std)
+            self._pose = PoseSettings(
+                kind=0 if pose.kind == "mocap" else 1, period=self.period,
+                position_std=pose.position_std, vertical_std=pose.vertical_std,
+                attitude_std=pose.attitude_std, velocity_std=pose.velocity_std,
+                heading_std=pose.heading_std)
             root = math.sqrt(dt)
             # vibration (v3): white noise of its own RMS on every reading, the rotors' effect
             # left by the autopilot's filters, added to the sensor's own in quadrature
             gyro_vibration, accelerometer_vibration = vibration
-            self._imu = (math.hypot(imu.gyroscope_noise_density / root, gyro_vibration),
-                         math.hypot(imu.accelerometer_noise_density / root,
-                                    accelerometer_vibration),
-                         imu.gyroscope_bias_walk * root, imu.accelerometer_bias_walk * root,
-                         imu.gyroscope_initial_bias, imu.accelerometer_initial_bias)
-            self._rotors = (sensing.rotors.speed_std,)
+            self._imu = ImuSettings(
+                gyroscope_std=math.hypot(imu.gyroscope_noise_density / root, gyro_vibration),
+                accelerometer_std=math.hypot(imu.accelerometer_noise_density / root,
+                                             accelerometer_vibration),
+                gyroscope_walk=imu.gyroscope_bias_walk * root,
+                accelerometer_walk=imu.accelerometer_bias_walk * root,
+                gyroscope_initial_bias=imu.gyroscope_initial_bias,
+                accelerometer_initial_bias=imu.accelerometer_initial_bias)
+            self._rotors = self._rotors._replace(speed_std=sensing.rotors.speed_std)
 
             def pose_delay(unmodelled: float) -> tuple[int, int]:
                 """The fix's delay in steps, and the tick after which it is taken (0: the
@@ -128,11 +141,13 @@ class SensingStage:
         else:  # Scenario refuses an unmodelled pose latency without a pose fix
             self.period = 1
             self.lag = 0
-            self._pose = (0, 1) + (0.0,) * 5
+            self._pose = PoseSettings()
             state_delay = extra + (0 if sensing is None else int(sensing.delay_steps))
             if isinstance(sensing, SensorNoise):
-                self._state_noise = (float(sensing.position_std), float(sensing.velocity_std),
-                                     float(sensing.attitude_std), float(sensing.rate_std))
+                self._state_noise = StateNoise(
+                    position_std=float(sensing.position_std),
+                    velocity_std=float(sensing.velocity_std),
+                    attitude_std=float(sensing.attitude_std), rate_std=float(sensing.rate_std))
             self.delays = (state_delay, state_delay)
             self.rotor_delay = state_delay
         if self.pose_tick:
@@ -156,6 +171,24 @@ class SensingStage:
             self.measurement = Measurement(*(np.zeros_like(getattr(truth, name)) for name in (
                 "position", "velocity", "rotation", "angular_velocity")))
             self.measurement.rotation[:] = np.eye(3)
+        # the readings kernel's records, built once: their arrays are the batch's own for its
+        # life; passed as plain tuples (numba types a named tuple on a slower path each call)
+        thrust, force, mass, rotor_thrusts = physics
+        self._truth = tuple(TrueState(
+            position=truth.position, velocity=truth.velocity, rotation=truth.rotation,
+            angular_velocity=truth.angular_velocity, thrust=thrust, force=force, mass=mass,
+            rotor_thrusts=rotor_thrusts, hover_thrust=self._hover[0],
+            hover_rotor_thrusts=self._hover[1]))
+        # the pose fix reads the state now at a reset, else where the step passed its latency
+        self._pose_now = tuple(PoseState(position=truth.position, velocity=truth.velocity,
+                                         rotation=truth.rotation))
+        position, velocity, rotation = self.pose_state
+        self._pose_seen = tuple(PoseState(position=position, velocity=velocity,
+                                          rotation=rotation))
+        self._settings = (tuple(self._pose), tuple(self._imu), tuple(self._rotors),
+                          tuple(self._state_noise))
+        self._lines = tuple(ReadingLines(keys=self.keys, true_bias=self.true_bias,
+                                         ring=self.ring))
 
     def start(self, index: int, stream: np.random.Generator | None) -> None:
         """A new episode's sensor keys for vehicle ``index``, from ``stream``, the first
@@ -173,22 +206,16 @@ class SensingStage:
         self._fresh = False  # the identity's IMU readings are for the state before
         if self.identity:
             return
-        thrust, force, mass, rotor_thrusts = self.physics
         truth, m = self.truth, self.measurement
-        pose_at = (truth.position, truth.velocity, truth.rotation) if reset else (
-            self.pose_state)
-        run_over_batch(take_readings_kernel, len(indices), indices, step_count, *pose_at,
-                       truth.position, truth.velocity, truth.rotation, truth.angular_velocity,
-                       thrust, force, mass, rotor_thrusts, self.thrust_coefficient,
-                       self._hover[0], self._hover[1], self.keys, self.true_bias,
-                       self._pose, self._imu, self._rotors, self._state_noise, self.ring,
-                       reset)
+        run_over_batch(take_readings_kernel, len(indices), indices, step_count,
+                       self._pose_now if reset else self._pose_seen, self._truth,
+                       *self._settings, self._lines, reset)
         if self.estimating:
             if reset:
                 start_estimates_kernel(indices, truth.position, truth.velocity,
                                        truth.rotation, self.estimate_state, self.history)
             run_over_batch(estimate_kernel, len(indices), indices, step_count, not reset,
-                           self.ring, self._filter_delays, self.period, self._pose[0],
+                           self.ring, self._filter_delays, self.period, self._pose.kind,
                            self._gains, self.dt, self.gravity, self.estimate_state, self.history,
                            m.position, m.velocity, m.rotation, m.angular_velocity)
         run_over_batch(measurement_kernel, len(indices), indices, step_count, self.ring,

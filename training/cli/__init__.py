@@ -7,8 +7,8 @@
 - ``listing``: what ``quad-dob list`` prints (every name, every preset number's source).
 - ``replay``: episodes rendered to GIF/MP4, side by side (``quad-dob replay``).
 
-May import every other part of ``quad_dob_training``; nothing imports it but the entry point
-and ``wind_tunnel.tool``, whose ``quad-dob wind-tunnel`` parser uses ``checks``.
+The top of ``quad_dob_training``: may import every other part of it; nothing imports it but
+the entry point.
 """
 
 from quad_dob_training.cli.commands import build_parser, main

@@ -16,7 +16,8 @@ MAX_TIMESTEPS = 10**11
 MAX_SEED = 2**32 - 1  # numpy seeds the run's generators from it
 
 
-def _names(text: str) -> list[str]:
+def comma_list(text: str) -> list[str]:
+    """``"pid, smc,"`` -> ``["pid", "smc"]``: a comma-separated option's names."""
     return [name.strip() for name in text.split(",") if name.strip()]
 
 
@@ -45,7 +46,7 @@ def key_values(pairs: list[str], option: str) -> dict[str, object]:
     return options
 
 
-def _delay_grid(text: str) -> tuple[float, ...]:
+def delay_grid(text: str) -> tuple[float, ...]:
     """``"0,0.01,0.02"`` -> increasing latencies >= 0 [s] (``margins.check_grid``), or
     argparse's error."""
     from quad_dob_training.evaluation.margins import check_grid
@@ -71,7 +72,7 @@ def _parsed_number(text: str) -> int | float:
         return float(text)
 
 
-def _writable_folder(path: Path, option: str) -> None:
+def writable_folder(path: Path, option: str) -> None:
     """Refuse, before any work, an output folder that is a file or cannot be written:
     create it (its parents too) and a file in it, as the command will."""
     if path.exists() and not path.is_dir():
@@ -86,17 +87,17 @@ def _writable_folder(path: Path, option: str) -> None:
                          "a folder you may write into") from None
 
 
-def _writable_file(path: Path, option: str) -> None:
+def writable_file(path: Path, option: str) -> None:
     """Refuse, before any work, an output file that is a folder or whose folder cannot be
     written."""
     if path.is_dir():
         raise ValueError(f"{option} {str(path)!r} is a folder: give a file name")
-    _writable_folder(path.parent if str(path.parent) else Path("."), f"{option}'s folder")
+    writable_folder(path.parent if str(path.parent) else Path("."), f"{option}'s folder")
     if path.exists() and not os.access(path, os.W_OK):
         raise ValueError(f"{option} {str(path)!r} exists and cannot be overwritten")
 
 
-def _number_in(kind: type, low: float, high: float, what: str,
+def number_in(kind: type, low: float, high: float, what: str,
                strictly: bool = False) -> object:
     """An argparse type: a ``kind`` number in [low, high] (above ``low`` if ``strictly``)."""
     def parse(text: str) -> float | int:
@@ -112,12 +113,12 @@ def _number_in(kind: type, low: float, high: float, what: str,
     return parse
 
 
-_positive_float = _number_in(float, 0, 1e9, "a number", strictly=True)
-_positive_int = _number_in(int, 1, MAX_TIMESTEPS, "a whole number")
-_seed = _number_in(int, 0, MAX_SEED, "a whole number")
+positive_float = number_in(float, 0, 1e9, "a number", strictly=True)
+positive_int = number_in(int, 1, MAX_TIMESTEPS, "a whole number")
+seed_number = number_in(int, 0, MAX_SEED, "a whole number")
 
 
-def _tuning_seeds(text: str) -> tuple[int, ...]:
+def tuning_seeds(text: str) -> tuple[int, ...]:
     """``quad-dob tune --seeds``: a count or range as for evaluate, none of them an
     evaluation seed (9001-9020: reported on, so never tuned on)."""
     from quad_dob_training.evaluation.evaluate import parse_seeds

@@ -12,19 +12,19 @@ import os
 import sys
 from pathlib import Path
 
-from quad_dob_env.benchmark import TOOLS_BENCHMARK
+from quad_dob_env.benchmark import BENCHMARKS, TOOLS_BENCHMARK
 from quad_dob_training.cli.checks import (
     MAX_TIMESTEPS,
-    _delay_grid,
-    _names,
-    _number_in,
-    _positive_float,
-    _positive_int,
-    _seed,
-    _tuning_seeds,
-    _writable_file,
-    _writable_folder,
+    comma_list,
+    delay_grid,
     key_values,
+    number_in,
+    positive_float,
+    positive_int,
+    seed_number,
+    tuning_seeds,
+    writable_file,
+    writable_folder,
 )
 from quad_dob_training.cli.listing import ALGORITHMS, print_hyperparams
 from quad_dob_training.cli.listing import main as list_main
@@ -37,9 +37,10 @@ MAX_FPS = 1000.0
 def _paper(args: argparse.Namespace) -> int:
     from quad_dob_training.paper import main as paper_main
 
-    _writable_folder(args.out, "--out")
-    return paper_main(_names(args.scenarios), _names(args.controllers), args.torque_reading,
-                      args.dt, args.substeps, args.out, args.json, not args.no_figures)
+    writable_folder(args.out, "--out")
+    return paper_main(comma_list(args.scenarios), comma_list(args.controllers),
+                      args.torque_reading, args.dt, args.substeps, args.out, args.json,
+                      not args.no_figures)
 
 
 def _train(args: argparse.Namespace) -> int:
@@ -51,15 +52,15 @@ def _train(args: argparse.Namespace) -> int:
     if args.n_envs is not None:
         check_vehicle_memory(args.n_envs, "--n-envs")
     if args.out is not None:
-        _writable_folder(args.out, "--out")
+        writable_folder(args.out, "--out")
     elif args.resume is not None and args.resume.suffix != ".zip" and args.resume.exists():
         from quad_dob_training.rl.run_folder import run_folder
 
-        _writable_folder(args.resume if args.resume.is_dir() else run_folder(args.resume),
+        writable_folder(args.resume if args.resume.is_dir() else run_folder(args.resume),
                          "--resume's run folder")
     elif args.resume is None or args.resume.suffix == ".zip":
-        _writable_folder(Path(f"runs/{args.algo}"), "the default --out")
-    from quad_dob_training.rl.train import main as train_main  # torch: seconds to import
+        writable_folder(Path(f"runs/{args.algo}"), "the default --out")
+    from quad_dob_training.learning.train import main as train_main  # torch: seconds to import
 
     return train_main(args.algo, args.mode, args.env, args.scenario, args.timesteps,
                       args.n_envs, args.seed, args.out, args.resume, args.base,
@@ -71,7 +72,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from quad_dob_training.evaluation.evaluate import main as evaluate_main
 
     if not args.json:
-        _writable_folder(args.out, "--out")
+        writable_folder(args.out, "--out")
     elif args.merge:
         raise ValueError("--merge writes leaderboard-merged.md into --out, and --json writes "
                          "nothing: drop one (quad-dob leaderboard merges files alone)")
@@ -93,8 +94,9 @@ def _evaluate(args: argparse.Namespace) -> int:
                              f"{given} id the model was trained on")
         options.setdefault("benchmark", flies)
     options.setdefault("benchmark", args.benchmark or TOOLS_BENCHMARK)
-    return evaluate_main(_names(args.policies), _names(args.scenarios), args.seeds, args.out,
-                         args.json, args.baseline, args.suite, trust_pickle=args.trust_pickle,
+    return evaluate_main(comma_list(args.policies), comma_list(args.scenarios), args.seeds,
+                         args.out, args.json, args.baseline, args.suite,
+                         trust_pickle=args.trust_pickle,
                          scenario_options=options, delay_grid=args.delay_margins,
                          delay_path=args.delay_on, env_id=args.env,
                          merge=args.merge, command=["quad-dob", *args.argv])
@@ -108,7 +110,7 @@ def _leaderboard(args: argparse.Namespace) -> int:
     )
 
     if args.out is not None:
-        _writable_file(args.out, "--out")
+        writable_file(args.out, "--out")
     documents = [read_document(path) for path in args.files]
     board = merged_leaderboard(list(zip(source_labels(args.files), documents, strict=True)))
     print(board, end="")
@@ -122,9 +124,9 @@ def _tune(args: argparse.Namespace) -> int:
     from quad_dob_training.tuning.tune import main as tune_main
 
     get_vehicle(args.vehicle)  # an unknown name fails here, naming the presets
-    _writable_folder(args.out, "--out")
-    return tune_main(None if args.controllers is None else _names(args.controllers), args.out,
-                     args.benchmark or TOOLS_BENCHMARK, args.vehicle, seeds=args.seeds,
+    writable_folder(args.out, "--out")
+    return tune_main(None if args.controllers is None else comma_list(args.controllers),
+                     args.out, args.benchmark or TOOLS_BENCHMARK, args.vehicle, seeds=args.seeds,
                      passes=args.passes)
 
 
@@ -145,21 +147,29 @@ def _check_controller(args: argparse.Namespace) -> int:
 def _replay(args: argparse.Namespace) -> int:
     from quad_dob_training.cli.replay import main as replay_main
 
-    _writable_file(args.out, "--out")
-    return replay_main(_names(args.policy), args.scenario, args.seed, args.out, args.fps,
+    writable_file(args.out, "--out")
+    return replay_main(comma_list(args.policy), args.scenario, args.seed, args.out, args.fps,
                        args.width, trust_pickle=args.trust_pickle, benchmark=args.benchmark)
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from quad_dob_training.rl.sweep import run_sweep
+    from quad_dob_training.learning.sweep import run_sweep
 
     if not args.config.is_file():
         raise ValueError(f"sweep config {str(args.config)!r} is not a file: give a sweep's "
                          "YAML (see training/sweeps/)")
     if args.out is not None:
-        _writable_folder(args.out, "--out")
+        writable_folder(args.out, "--out")
     run_sweep(args.config, args.out, args.ray_address, args.workers)
     return 0
+
+
+def _wind_tunnel(args: argparse.Namespace) -> int:
+    from quad_dob_training.wind_tunnel.tool import main as wind_tunnel_main
+
+    writable_folder(args.out, "--out")
+    return wind_tunnel_main(args.benchmark, args.seeds, args.neural_fly, args.out,
+                            args.duration)
 
 
 def _benchmark_option(parser: argparse.ArgumentParser) -> None:
@@ -191,9 +201,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="comma-separated controller names (default: %(default)s)")
     paper.add_argument("--torque-reading", default="0.6*dx", choices=["0.6*dx", "dx/0.6"],
                        help="how to read the paper's 'd_x = 0.6 d_Ω' (default: %(default)s)")
-    paper.add_argument("--dt", type=_positive_float, default=None,
+    paper.add_argument("--dt", type=positive_float, default=None,
                        help="control period [s] (default: the scenario's, 0.01)")
-    paper.add_argument("--substeps", type=_positive_int, default=None,
+    paper.add_argument("--substeps", type=positive_int, default=None,
                        help="physics substeps per control step (default: 1)")
     paper.add_argument("--out", type=Path, default=Path("results"),
                        help="output folder (default: %(default)s)")
@@ -216,11 +226,11 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--scenario", default=None, help="scenario (default: the yml's)")
     train.add_argument("--base", default=None,
                        help="base controller of a residual (default: the yml's)")
-    train.add_argument("--timesteps", type=_positive_int, default=None,
+    train.add_argument("--timesteps", type=positive_int, default=None,
                        help=f"at most {MAX_TIMESTEPS:.0e} (default: the yml's)")
-    train.add_argument("--n-envs", type=_positive_int, default=None,
+    train.add_argument("--n-envs", type=positive_int, default=None,
                        help="vehicles trained in parallel (default: the yml's n_envs)")
-    train.add_argument("--seed", type=_seed, default=0,
+    train.add_argument("--seed", type=seed_number, default=0,
                        help="seeds the envs and the algorithm: policy initialisation, sampling "
                        "(default: %(default)s)")
     train.add_argument("--out", type=Path, default=None,
@@ -229,10 +239,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="a run folder (its newest checkpoint) or a checkpoint's .state: "
                        "finishes that run as if it had never stopped; or a model .zip: "
                        "trains --timesteps more from its weights (default: a fresh run)")
-    train.add_argument("--checkpoint-every", type=_positive_int, default=None,
+    train.add_argument("--checkpoint-every", type=positive_int, default=None,
                        help="timesteps between checkpoints, of which the run keeps its "
                        "newest two (default: 100000, or the resumed run's own)")
-    train.add_argument("--evaluate-every", type=_positive_int, default=None,
+    train.add_argument("--evaluate-every", type=positive_int, default=None,
                        help="timesteps between evaluations against the base, each run at "
                        "the first rollout's start past it (default: 100000, or the resumed "
                        "run's own)")
@@ -284,7 +294,7 @@ def build_parser() -> argparse.ArgumentParser:
                           help="an option for every scenario flown (make_scenario's keywords: "
                           "dt=0.005, duration=20, wind_scale=1.5, motor_lag=true, ...); "
                           "repeatable (default: none, each scenario as it is named)")
-    evaluate.add_argument("--delay-margins", nargs="?", type=_delay_grid, default=None,
+    evaluate.add_argument("--delay-margins", nargs="?", type=delay_grid, default=None,
                           const=",".join(f"{v:g}" for v in DELAY_GRID), metavar="GRID",
                           help="also each policy's delay margin: the largest extra latency of "
                           "GRID (comma-separated seconds, default %(const)s) that keeps every "
@@ -325,10 +335,10 @@ def build_parser() -> argparse.ArgumentParser:
     tune.add_argument("--out", type=Path, default=Path("results/tuning"),
                       help="folder for tuning.json, every trial of the search "
                       "(default: %(default)s)")
-    tune.add_argument("--seeds", type=_tuning_seeds, default=None,
+    tune.add_argument("--seeds", type=tuning_seeds, default=None,
                       help="tuning seeds, a count or a range A-B (default: 100-109, which "
                       "every shipped set was tuned on; evaluation's 9001-9020 are refused)")
-    tune.add_argument("--passes", type=_number_in(int, 1, 10, "a whole number"), default=None,
+    tune.add_argument("--passes", type=number_in(int, 1, 10, "a whole number"), default=None,
                       help="passes of the descent over the gains, 1 to 10 (default: 2, "
                       "and in v2 up to 2 more while the best loses margin flights)")
     tune.set_defaults(handler=_tune)
@@ -347,7 +357,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="comma-separated policies, as for evaluate (default: %(default)s)")
     replay.add_argument("--scenario", default="paper-II",
                         help="the scenario flown (default: %(default)s)")
-    replay.add_argument("--seed", type=_seed, default=0,
+    replay.add_argument("--seed", type=seed_number, default=0,
                         help="the episode's seed (default: %(default)s)")
     # v1 unless told, as the library: the default scenario is the paper's (moments applied
     # directly), which only v1's ideal loop flies as the paper did
@@ -357,9 +367,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "shipped policy (default: %(default)s)")
     replay.add_argument("--out", type=Path, default=Path("results/flight.gif"),
                         help="a .gif or .mp4 path (default: %(default)s)")
-    replay.add_argument("--fps", type=_number_in(float, 0, MAX_FPS, "a number", True), default=20.0,
+    replay.add_argument("--fps", type=number_in(float, 0, MAX_FPS, "a number", True), default=20.0,
                         help="frames per second of flight (default: %(default)s)")
-    replay.add_argument("--width", type=_number_in(int, 16, MAX_VIDEO_WIDTH, "a whole number"),
+    replay.add_argument("--width", type=number_in(int, 16, MAX_VIDEO_WIDTH, "a whole number"),
                         default=400, help="width of each policy's panel in pixels, 16 to "
                         f"{MAX_VIDEO_WIDTH} (default: %(default)s)")
     _trust_pickle_option(replay)
@@ -373,13 +383,31 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--ray-address", default=None,
                        help="run the tasks on Ray: auto, HOST:PORT, or local (a Ray instance "
                        "on this machine); default: a process pool, no Ray needed")
-    sweep.add_argument("--workers", type=_positive_int, default=None,
+    sweep.add_argument("--workers", type=positive_int, default=None,
                        help="local processes (default: every core); with --ray-address "
                        "local, Ray's CPUs")
     sweep.set_defaults(handler=_sweep)
-    from quad_dob_training.wind_tunnel.tool import add_parser as add_wind_tunnel
-
-    add_wind_tunnel(commands)
+    tunnel = commands.add_parser(
+        "wind-tunnel", help="fly the counterparts of Neural-Fly's controllers on the "
+        "wind-tunnel figure-8s and score them, and optionally Neural-Fly's own logs, by the "
+        "same code over the same whole laps")
+    tunnel.add_argument("--benchmark", default=None, choices=list(BENCHMARKS),
+                        help="the loop the figure-8s are flown in (default: the newest, "
+                        f"{TOOLS_BENCHMARK})")
+    tunnel.add_argument("--seeds", default="9001-9020",
+                        help="a count N (seeds 0..N-1) or a range A-B (default: %(default)s)")
+    tunnel.add_argument("--neural-fly", type=Path, default=None, metavar="DIR",
+                        help="also read Neural-Fly's custom_figure8_<METHOD>_<COND>.csv from "
+                        "DIR (your copy of their data/experiment; their terms: personal and "
+                        "educational use) and score them beside the simulation, which then "
+                        "flies their span (default: none)")
+    tunnel.add_argument("--duration", type=positive_float, default=None,
+                        help="seconds each simulated flight lasts, 12.57 or more (default: "
+                        "the logs' span with --neural-fly, else the scenario's 30)")
+    tunnel.add_argument("--out", type=Path, default=Path("results/wind-tunnel"),
+                        help="folder for wind_tunnel.json and the PNG figures "
+                        "(default: %(default)s)")
+    tunnel.set_defaults(handler=_wind_tunnel)
     listing = commands.add_parser(
         "list", help="list env ids, scenarios with their feasibility margins, wind presets, "
         "controllers, policies and vehicles")

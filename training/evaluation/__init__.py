@@ -11,7 +11,8 @@
 - ``report``: the self-contained interactive ``report.html``.
 - ``plots``: the PNG figures (the paper's, the evaluation's bars).
 
-May import ``quad_dob_env``, ``quad_dob_composition``, ``quad_dob_baselines`` and the top
-modules of ``quad_dob_training`` (``rollout``, ``policies``); not ``cli``, ``rl``'s training
-and sweeps, ``tuning`` or ``wind_tunnel`` (``tests/test_layering.py``).
+May import ``quad_dob_env``, ``quad_dob_composition``, ``quad_dob_baselines`` and the parts
+of ``quad_dob_training`` below it (``rollout``, ``rl``, ``policies``; the order:
+docs/design.md, "Layers"); not ``learning``, ``tuning``, ``wind_tunnel``, ``paper`` or ``cli``,
+which score with it.
 """

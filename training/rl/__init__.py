@@ -1,6 +1,7 @@
-"""Reinforcement learning: training runs, their files, and the SB3 adapter.
+"""Reinforcement learning's plumbing: the SB3 adapter, model files and run folders, below the
+policies (which load models through ``model_files``); the runs that train and sweep, which
+fly policies, are ``quad_dob_training.learning``.
 
-- ``train``: PPO, SAC or TD3 training, read top to bottom (``quad-dob train``).
 - ``run_config``: the run as plain data (hyperparameters from ``hyperparams/ALGO.yml`` in
   rl-zoo3's schema, the versions and CPU it ran on).
 - ``vec_env``: ``QuadrotorSB3VecEnv``, the stable-baselines3 ``VecEnv`` adapter over the
@@ -14,22 +15,18 @@
   supplies it), and rl-zoo3's ``vecnormalize.pkl`` read without unpickling.
 - ``model_files``: model zips loaded without unpickling (and, for a run's own checkpoints,
   with); ``pretrained/`` holds the shipped residual policies.
-- ``baseline_evaluation``: the evaluation against the base on held-out seeds during
-  training, and the training curve.
 - ``checkpoints``: the checkpoints a killed run resumes from, to the weights of a run never
   stopped.
 - ``run_folder``: a run folder's identity (the run id in every file loaded again) and its
   lock.
-- ``sweep``: grid and random sweeps of training or evaluation, resumable, on a process pool
-  or Ray (``sweeps/``).
 
 Here too, light enough for the command line to import without the simulator: ``ALGORITHMS``
 and ``HYPERPARAMS``.
 
-May import ``quad_dob_env``, ``quad_dob_composition``, ``quad_dob_baselines``, the top
-modules of ``quad_dob_training`` (``rollout``, ``policies``) and ``evaluation``; not
-``cli``, ``tuning`` or ``wind_tunnel``. ``policies`` loads models through ``model_files``
-and flies them through ``vec_env``'s options.
+May import ``quad_dob_env``, ``quad_dob_composition`` and ``quad_dob_baselines``; of
+``quad_dob_training``, only what sits below it (the order: docs/design.md, "Layers"): not
+``policies``, ``evaluation``, ``learning`` or anything above them. ``policies`` loads models
+through ``model_files`` and flies them through ``vec_env``'s options.
 """
 
 from pathlib import Path

@@ -49,11 +49,11 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnvWrapper
 
 from quad_dob_training.rl.run_folder import (
-    _HEADER_LIMIT,
-    _write_atomically,
+    HEADER_LIMIT,
     folder_config,
     run_folder,
     save_model,
+    write_bytes_atomically,
     zip_run_id,
 )
 
@@ -96,7 +96,7 @@ def _parse_header(data: bytes, magic: bytes, path: Path,
     pickle starts."""
     if not data.startswith(magic):
         return None, 0
-    end = data.find(b"\n", len(magic), len(magic) + _HEADER_LIMIT)
+    end = data.find(b"\n", len(magic), len(magic) + HEADER_LIMIT)
     try:
         if end < 0:
             raise ValueError("no end of header")
@@ -115,7 +115,7 @@ def state_run_id(path: Path) -> str | None:
     state holds every vehicle's state, some 170 MB, and each checkpoint's pruning asks
     this of the ones before it)."""
     with open(path, "rb") as file:
-        head = file.read(len(STATE_MAGIC) + _HEADER_LIMIT)
+        head = file.read(len(STATE_MAGIC) + HEADER_LIMIT)
     header, _ = _parse_header(head, STATE_MAGIC, path, "checkpoint state")
     return None if header is None else header.get("run_id")
 
@@ -168,7 +168,7 @@ def write_state(path: Path, state: dict[str, Any]) -> None:
     config = state["config"]
     header = {"format": HEADER_FORMAT, "run_id": config.get("run_id"),
               "algo": config.get("algo"), "num_timesteps": int(state["num_timesteps"])}
-    _write_atomically(Path(path), _with_header(STATE_MAGIC, header, pickle.dumps(state)))
+    write_bytes_atomically(Path(path), _with_header(STATE_MAGIC, header, pickle.dumps(state)))
 
 
 class ResumableCheckpoint(BaseCallback):
@@ -203,7 +203,7 @@ class ResumableCheckpoint(BaseCallback):
         save_model(self.model, self.folder / f"{stem}.zip", run_id)
         if isinstance(self.model, OffPolicyAlgorithm):
             header = {"format": HEADER_FORMAT, "run_id": run_id}
-            _write_atomically(self.folder / f"{stem}_replay.pkl",
+            write_bytes_atomically(self.folder / f"{stem}_replay.pkl",
                               _with_header(REPLAY_MAGIC, header,
                                            pickle.dumps(self.model.replay_buffer)))
         state = {"config": self.config, "num_timesteps": self.num_timesteps,

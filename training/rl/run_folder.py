@@ -44,14 +44,16 @@ RUN_MEMBER = "quad_dob_run.json"  # the run id inside a model zip; SB3's load ig
 LOCK_NAME = "run.lock"
 # a JSON header line (a state's, a lock file's) is a few hundred bytes; reading more than
 # this means it is no header
-_HEADER_LIMIT = 4096
+HEADER_LIMIT = 4096
 
 
 def new_run_id() -> str:
     return uuid.uuid4().hex
 
 
-def _write_atomically(path: Path, data: bytes) -> None:
+def write_bytes_atomically(path: Path, data: bytes) -> None:
+    """A file a kill leaves either old or new, never half written (models, checkpoint
+    states, replay buffers)."""
     partial = path.with_name(path.name + ".partial")
     with open(partial, "wb") as file:
         file.write(data)
@@ -63,7 +65,7 @@ def _write_atomically(path: Path, data: bytes) -> None:
 def write_text_atomically(path: Path, text: str) -> None:
     """A file a kill leaves either old or new, never half written (config.yaml, the
     evaluations CSV)."""
-    _write_atomically(Path(path), text.encode())
+    write_bytes_atomically(Path(path), text.encode())
 
 
 # --- run ids in zips, the folder's config ---------------------------------------------------
@@ -75,7 +77,7 @@ def save_model(model: Any, path: Path, run_id: str | None) -> None:
     if run_id is not None:
         with zipfile.ZipFile(archive, "a") as bundle:
             bundle.writestr(RUN_MEMBER, json.dumps({"run_id": run_id}))
-    _write_atomically(Path(path), archive.getvalue())
+    write_bytes_atomically(Path(path), archive.getvalue())
 
 
 def zip_run_id(path: Path, content: bytes | None = None) -> str | None:
@@ -183,7 +185,7 @@ class RunLock:
 
 def _holder(fd: int, missing: str = "its holder did not say who it is") -> str:
     """Who a lock file says holds it, in words."""
-    text = os.pread(fd, _HEADER_LIMIT, 0).decode(errors="replace").strip()
+    text = os.pread(fd, HEADER_LIMIT, 0).decode(errors="replace").strip()
     if not text:
         return missing
     try:

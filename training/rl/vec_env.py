@@ -36,7 +36,7 @@ from quad_dob_env.benchmark import v3_loop
 from quad_dob_env.benchmark_v3 import REAL_LOOPS
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.params import VEHICLES, get_vehicle
-from quad_dob_env.residual import ResidualOptions
+from quad_dob_env.residual import ResidualOptions, ResidualQuadrotorVectorEnv
 from quad_dob_env.scenarios import SCENARIOS, make_scenario
 from quad_dob_env.sensing import SENSING_PRESETS
 from quad_dob_env.validation import checked_keywords, unknown_name_error
@@ -208,7 +208,8 @@ class QuadrotorSB3VecEnv(VecEnv):
     split into groups of nearly equal size, each flying its own drawn loop; vehicle i is
     seeded ``seed + i`` either way."""
 
-    @checked_keywords(ResidualVectorEnv.__init__, QuadrotorVectorEnv.__init__, ResidualOptions)
+    @checked_keywords(ResidualVectorEnv.__init__, ResidualQuadrotorVectorEnv.__init__,
+                      QuadrotorVectorEnv.__init__, ResidualOptions)
     def __init__(self, num_envs: int, scenario: str = "paper-none", seed: int | None = None,
                  loop_randomization: dict[str, Any] | None = None, **env_kwargs: Any) -> None:
         dt = None  # the clock the latency draws were made on

@@ -2,16 +2,17 @@
 
 - ``published``: Neural-Fly's published table (RMS error per controller and wind speed),
   the counterparts and the side-by-side with its factor of 2.
-- ``tool``: ``quad-dob wind-tunnel``: both sides through one code path, from a Neural-Fly
-  folder the user supplies (never shipped).
+- ``tool``: the work of ``quad-dob wind-tunnel`` (its parser: ``cli.commands``): both sides
+  through one code path, from a Neural-Fly folder the user supplies (never shipped).
 - ``flight_logs``: Neural-Fly's logs read as flights (the same records simulated flights
   give).
 - ``flight_statistics``: the statistics both sides share: per-axis error, the z share, the
   vertical residual force and its fit.
 - ``plots``: the tool's figures.
 
-May import ``quad_dob_env``, ``quad_dob_composition``, ``quad_dob_baselines``, the top
-modules of ``quad_dob_training`` and ``evaluation``.
+May import ``quad_dob_env``, ``quad_dob_composition``, ``quad_dob_baselines`` and the parts
+of ``quad_dob_training`` below it (``rollout``, ``rl``, ``policies``, ``evaluation``; the
+order: docs/design.md, "Layers"); not ``cli``.
 """
 
 # what ``quad_dob_training.wind_tunnel`` held when it was one module (before 2026-12-05)

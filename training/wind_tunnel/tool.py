@@ -13,7 +13,6 @@ real only); writes ``wind_tunnel.json`` (every statistic) and PNG figures under 
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 from dataclasses import asdict
@@ -262,39 +261,3 @@ def main(benchmark: str | None, seeds: str, neural_fly: Path | None, out: Path,
     figures = write_figures(simulated, real_rows, out)
     print(f"\nwrote {out / 'wind_tunnel.json'}, " + ", ".join(path.name for path in figures))
     return 0
-
-
-def command(args: argparse.Namespace) -> int:
-    """``quad-dob wind-tunnel``'s handler."""
-    from quad_dob_training.cli.checks import _writable_folder
-
-    _writable_folder(args.out, "--out")
-    return main(args.benchmark, args.seeds, args.neural_fly, args.out, args.duration)
-
-
-def add_parser(commands: Any) -> None:
-    """The ``wind-tunnel`` subcommand of ``quad-dob``."""
-    from quad_dob_env.benchmark import BENCHMARKS
-    from quad_dob_training.cli.checks import _positive_float
-
-    tunnel = commands.add_parser(
-        "wind-tunnel", help="fly the counterparts of Neural-Fly's controllers on the "
-        "wind-tunnel figure-8s and score them, and optionally Neural-Fly's own logs, by the "
-        "same code over the same whole laps")
-    tunnel.add_argument("--benchmark", default=None, choices=list(BENCHMARKS),
-                        help="the loop the figure-8s are flown in (default: the newest, "
-                        f"{TOOLS_BENCHMARK})")
-    tunnel.add_argument("--seeds", default="9001-9020",
-                        help="a count N (seeds 0..N-1) or a range A-B (default: %(default)s)")
-    tunnel.add_argument("--neural-fly", type=Path, default=None, metavar="DIR",
-                        help="also read Neural-Fly's custom_figure8_<METHOD>_<COND>.csv from "
-                        "DIR (your copy of their data/experiment; their terms: personal and "
-                        "educational use) and score them beside the simulation, which then "
-                        "flies their span (default: none)")
-    tunnel.add_argument("--duration", type=_positive_float, default=None,
-                        help="seconds each simulated flight lasts, 12.57 or more (default: "
-                        "the logs' span with --neural-fly, else the scenario's 30)")
-    tunnel.add_argument("--out", type=Path, default=Path("results/wind-tunnel"),
-                        help="folder for wind_tunnel.json and the PNG figures "
-                        "(default: %(default)s)")
-    tunnel.set_defaults(handler=command)

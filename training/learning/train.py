@@ -4,9 +4,10 @@ Read top to bottom: set up the process (``setup_process``: the same torch settin
 fresh run and a resumed one), build the vector env and the model, lock the run folder, start
 fresh or resume a checkpoint, train with checkpoints and an evaluation against the base
 controller, save the model with its config beside it; ``main`` last, which first resolves the
-config (``run_config``: the env id's entry in ``hyperparams/ALGO.yml``, in rl-zoo3's schema,
-then the command line). The run folder's id and lock live in ``run_folder``, checkpoints in
-``checkpoints``, the evaluation and training curve in ``baseline_evaluation``.
+config (``rl.run_config``: the env id's entry in ``hyperparams/ALGO.yml``, in rl-zoo3's
+schema, then the command line). The run folder's id and lock live in ``rl.run_folder``,
+checkpoints in ``rl.checkpoints``, the evaluation and training curve in
+``baseline_evaluation``.
 
 Outputs in ``--out``:
 
@@ -17,7 +18,7 @@ Outputs in ``--out``:
 |                      | CPU it was trained with                                           |
 | ``model.zip``        | the final model (SB3's zip, plus the run id as a member)          |
 | ``best_model.zip``   | the best evaluated model so far, ``best_model.yaml`` its config   |
-| ``checkpoints/``     | resumable checkpoints, see ``checkpoints.py``                     |
+| ``checkpoints/``     | resumable checkpoints, see ``rl/checkpoints.py``                  |
 | ``evaluations.csv``  | the training curve: the policy's and the base controller's RMS    |
 |                      | position error and crash rate on held-out seeds, one row per      |
 |                      | evaluation; a resumed run's rows are those of a run never stopped |
@@ -46,7 +47,7 @@ import yaml
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
 from quad_dob_env.memory import check_memory
-from quad_dob_training.rl.baseline_evaluation import (
+from quad_dob_training.learning.baseline_evaluation import (
     BaselineEvaluation,
     normalization,
     plot_training_curve,

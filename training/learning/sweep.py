@@ -166,9 +166,9 @@ def _train_task(task: dict[str, Any]) -> dict[str, Any]:
 
     from quad_dob_env.scenarios import make_scenario
     from quad_dob_training.evaluation.metrics import flight_metrics
+    from quad_dob_training.learning.train import train
     from quad_dob_training.policies import Policy, fly_policy, trained_benchmark
     from quad_dob_training.rl.run_config import resolve_config
-    from quad_dob_training.rl.train import train
 
     params = dict(task["params"])
     seed = int(params.pop("seed", 0))
