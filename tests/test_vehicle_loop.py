@@ -97,7 +97,8 @@ def _call_wrench(speeds, v, R, omega, wind, scale=1.0):
     rotors = RotorModel.of(PAPER, False, False, True)
     force, moment = rotor_wrench(tuple(float(s) for s in speeds), tuple(map(float, v)),
                                  tuple(float(r) for r in np.asarray(R).reshape(9)),
-                                 tuple(map(float, omega)), tuple(map(float, wind)), float(scale),
+                                 tuple(map(float, omega)), tuple(map(float, wind)),
+                                 (float(scale),) * 4,
                                  rotors)
     return np.array(force), np.array(moment)
 
@@ -279,7 +280,7 @@ def test_neural_fly_in_the_tunnels_strongest_wind_keeps_nine_tenths_of_its_thrus
     rotation = np.array([[math.cos(lean), 0.0, math.sin(lean)], [0.0, 1.0, 0.0],
                          [-math.sin(lean), 0.0, math.cos(lean)]])  # tilted toward +x
     force, _ = rotor_wrench((w,) * 4, (0.0, 0.0, 0.0), tuple(rotation.reshape(9)),
-                            (0.0, 0.0, 0.0), (-12.1, 0.0, 0.0), 1.0, rotors)
+                            (0.0, 0.0, 0.0), (-12.1, 0.0, 0.0), (1.0,) * 4, rotors)
     assert force[2] == pytest.approx(nf.hover_thrust * ratio, rel=1e-9)
 
 

@@ -131,14 +131,14 @@ def body_drag(v, rotation, wind, drag_linear, drag_quadratic):
 
 @njit(cache=True, inline="always")
 def _accelerations(x, v, rotation, omega, thrust, moment, force, torque, wind, body, law,
-                   speeds, rotors, thrust_scale):
+                   speeds, rotors, thrust_scales):
     """Linear acceleration (world) and angular acceleration (body) of one vehicle (``body``
     a ``RigidBody``); with the rotors' own model on (``rotors.active``) the rotors' wrench
     comes from their ``speeds`` and the air (``quad_dob_env.dynamics.rotors``), else it is
     ``thrust`` and ``moment``."""
     drag = body_drag(v, rotation, wind, body.drag_linear, body.drag_quadratic)
     if rotors.active:
-        rotor_force, moment = rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale,
+        rotor_force, moment = rotor_wrench(speeds, v, rotation, omega, wind, thrust_scales,
                                            rotors)
         lift = rotor_force[2] * thrust_multiplier_scalar(x[2], law)
         body_force = mat_vec_tuple(rotation, (drag[0] + rotor_force[0],
@@ -248,7 +248,7 @@ def _stage_inputs(start, command, time_constant, to_wrench, forcing, row, i, gri
 
 @njit(cache=True)
 def advance_vehicle(i, state, start, command, time_constant, to_wrench, forcing, row, body,
-                    dt, substeps, law, rotors, thrust_scale, first_sample):
+                    dt, substeps, law, rotors, thrust_scales, first_sample):
     """Vehicle i from ``state`` (x, v, R, Ω) over ``dt`` in ``substeps`` CF4 steps; returns
     the new (x, v, R, Ω).
 
@@ -256,7 +256,7 @@ def advance_vehicle(i, state, start, command, time_constant, to_wrench, forcing,
     speeds) moves from ``start`` to ``command`` as ``command + (start - command) e^{-t/τ}``
     (exact first-order lag; τ = 0 is instantaneous); ``to_wrench`` maps it to (f, M), or
     with the rotors' own model on (``rotors``, ``quad_dob_env.dynamics.rotors``) their
-    speeds give the wrench with the air's effect and ``thrust_scale``.
+    speeds give the wrench with the air's effect and each rotor's ``thrust_scales``.
     ``forcing``: force, torque and wind velocity on the substep grid (a ``Forcing``); this
     interval's samples start at ``first_sample`` (an inner loop flies a control step as
     several such intervals). ``body``: the vehicle's ``RigidBody``.
@@ -274,20 +274,20 @@ def advance_vehicle(i, state, start, command, time_constant, to_wrench, forcing,
         f4, m4, u4, d4, t4, w4 = _stage_inputs(start, command, time_constant, to_wrench,
                                                forcing, row, i, grid + 2, t0 + h, rotors)
         a1, al1 = _accelerations(x, v, R, w, f1, m1, d1, t1, w1, body, law, u1, rotors,
-                                 thrust_scale)
+                                 thrust_scales)
         x2, v2, om2 = _axpy(h / 2, v, x), _axpy(h / 2, a1, v), _axpy(h / 2, al1, w)
         R2 = mat_mul_tuple(R, exp_tuple((h / 2 * w[0], h / 2 * w[1], h / 2 * w[2])))
         a2, al2 = _accelerations(x2, v2, R2, om2, f2, m2, d2, t2, w2, body, law, u2, rotors,
-                                 thrust_scale)
+                                 thrust_scales)
         x3, v3, om3 = _axpy(h / 2, v2, x), _axpy(h / 2, a2, v), _axpy(h / 2, al2, w)
         R3 = mat_mul_tuple(R, exp_tuple((h / 2 * om2[0], h / 2 * om2[1], h / 2 * om2[2])))
         a3, al3 = _accelerations(x3, v3, R3, om3, f2, m2, d2, t2, w2, body, law, u2, rotors,
-                                 thrust_scale)
+                                 thrust_scales)
         x4, v4, om4 = _axpy(h, v3, x), _axpy(h, a3, v), _axpy(h, al3, w)
         # CF4 stage 4: Y4 = Y2 exp(h (Ω3 - Ω1 / 2))
         R4 = mat_mul_tuple(R2, exp_tuple(_weighted(h, -0.5, 0.0, 1.0, 0.0, w, om2, om3, w)))
         a4, al4 = _accelerations(x4, v4, R4, om4, f4, m4, d4, t4, w4, body, law, u4, rotors,
-                                 thrust_scale)
+                                 thrust_scales)
         # CF4 update: R1 = R0 exp(h(Ω1/4 + Ω2/6 + Ω3/6 - Ω4/12)) exp(h(-Ω1/12 + Ω2/6 + Ω3/6 + Ω4/4))
         first = exp_tuple(_weighted(h, 0.25, 1 / 6, 1 / 6, -1 / 12, w, om2, om3, om4))
         second = exp_tuple(_weighted(h, -1 / 12, 1 / 6, 1 / 6, 0.25, w, om2, om3, om4))

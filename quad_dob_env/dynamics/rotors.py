@@ -120,6 +120,14 @@ class RotorDraws(NamedTuple):
     hover_estimate_factor: NDArray  # the autopilot's estimate over the truth, 1 + ε
 
 
+@njit(cache=True, inline="always")
+def true_thrust_scales(i, draws):
+    """Vehicle i's four rotors' true thrust coefficients over the nominal k_F, as the rotors'
+    wrench reads them: the one place a per-rotor factor of the draws enters the physics."""
+    scale = draws.thrust_scale[i]
+    return (scale, scale, scale, scale)
+
+
 # The largest advance ratios (λ, μ) the thrust law uses: where Gill & D'Andrea's data and
 # their models stop (μ, λ < 0.3); beyond it the ratio is held.
 FIT_LIMIT = 0.3
@@ -184,10 +192,11 @@ def motor_target(thrusts, command_scale, rotors):
 
 
 @njit(cache=True)
-def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
+def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scales, rotors):
     """The rotors' true force (body frame) and moment about the centre of mass at rotor
     ``speeds``, for a vehicle at velocity ``v``, attitude ``rotation`` (row-major 9-tuple),
-    body rates ``omega`` in air moving at ``wind``. Returns ((Fx, Fy, Fz), (Mx, My, Mz))."""
+    body rates ``omega`` in air moving at ``wind``, each rotor's true k_F its nominal times
+    ``thrust_scales`` (``true_thrust_scales``). Returns ((Fx, Fy, Fz), (Mx, My, Mz))."""
     aerodynamics, k_f = rotors.aerodynamics, rotors.thrust_coefficient
     k_d, k_z = rotors.drag_coefficient, rotors.inflow_coefficient
     positions, spin, radius = rotors.positions, rotors.spin, rotors.radius
@@ -200,7 +209,7 @@ def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scale, rotors):
     for k in range(4):
         px, py, pz = positions[k, 0], positions[k, 1], positions[k, 2]
         w = speeds[k]
-        thrust = thrust_scale * k_f * w * w
+        thrust = thrust_scales[k] * k_f * w * w
         torque = spin[k] * thrust  # the rotor's drag torque, ∝ ω² (inflow left out of it)
         dx = dy = 0.0
         if aerodynamics:

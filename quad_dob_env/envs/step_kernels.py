@@ -34,6 +34,7 @@ from quad_dob_env.dynamics.rotors import (
     nominal_wrench,
     rotor_wrench,
     speeds_of_output,
+    true_thrust_scales,
 )
 from quad_dob_env.envs.termination import ATTITUDE_LOST, CRASHED, NON_FINITE_STATE, OUT_OF_BOUNDS
 from quad_dob_env.envs.ticks import (
@@ -306,7 +307,7 @@ def finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturate
     if rotors.active:
         speeds = speeds_of_output(end, rotors)
         true_force, true_moment = rotor_wrench(speeds, v, R, w, wind,
-                                               draws.thrust_scale[i], rotors)
+                                               true_thrust_scales(i, draws), rotors)
         nominal_thrust, nominal_moment, _ = nominal_wrench(speeds, rotors, to_wrench)
         extra = (drag_body[0] + true_force[0], drag_body[1] + true_force[1],
                  drag_body[2] + true_force[2] * multiplier - nominal_thrust)

@@ -27,6 +27,7 @@ from quad_dob_env.dynamics.rotors import (
     mean_square_speeds,
     motor_target,
     speed_lag_factors,
+    true_thrust_scales,
 )
 from quad_dob_env.dynamics.throttle import rotor_thrusts_of, throttle_state
 from quad_dob_env.so3 import cross_tuple, mat_mul_tuple, mat_vec_tuple
@@ -202,7 +203,7 @@ def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first
     xn, vn, Rn, wn = advance_vehicle(i, state, start, target, time_constant,
                                      actuator.to_wrench, forcing, row, body, tick_dt,
                                      episode.substeps, episode.thrust_law, rotors,
-                                     draws.thrust_scale[i], first_sample)
+                                     true_thrust_scales(i, draws), first_sample)
     return xn, vn, Rn, wn, end, mean, saturated, command
 
 
