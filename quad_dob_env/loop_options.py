@@ -23,6 +23,7 @@ state and what the policy reads, is one option of this record; ``Scenario.loop``
 | ``motor_time_constant_scale`` | the rotors' time constants times this (the margin)   |    |    |
 | ``extra_latency``           | [s] on every reading, on the control grid (the margin) |    |    |
 | ``unmodelled_pose_latency`` | [s] on the pose fix, unknown to its estimator (margin) |    |    |
+| ``rotor_thrust_mismatch``   | each rotor's k_F off the nominal by up to ± this       |    |    |
 
 The twelve benchmark options (``LOOP_FIELDS``) left None are what ``benchmark`` sets
 (``quad_dob_env.benchmark.loop_fields``, the one resolution; the v2 and v3 columns say which
@@ -129,6 +130,13 @@ class LoopOptions:
     motor_time_constant_scale: float = 1.0
     extra_latency: float = 0.0
     unmodelled_pose_latency: float = 0.0
+    # e: each rotor's true thrust coefficient is the nominal times 1 + δ_k, δ_k uniform in
+    # [-e, e] per episode and rescaled to a mean of 0, so the rotors differ and their sum
+    # does not (the autopilot's nominal model knows neither). Off (0) in v1-v3. 0.10 is
+    # the range Molchanov et al. 2019 ("Sim-to-(Multi)-Real", IROS) randomise per motor
+    # (amolchanov86/quad_sim2multireal, quadrotor_randomization.py: "assymetry" in
+    # [0.9, 1.1], rescaled to a sum of 4): a design choice there, not a measurement
+    rotor_thrust_mismatch: float = 0.0
     # the record as given, kept by ``resolved`` (None: this one is as given); a change of
     # benchmark or clock resolves from it again, as a given 0 or "ideal" resolves to None
     given: LoopOptions | None = field(default=None, init=False, compare=False, repr=False)
@@ -168,6 +176,12 @@ class LoopOptions:
             strictly=True)
         for name in ("extra_latency", "unmodelled_pose_latency"):
             checked[name] = as_finite(getattr(self, name), f"LoopOptions.{name}", 0.0)
+        mismatch = as_finite(self.rotor_thrust_mismatch, "LoopOptions.rotor_thrust_mismatch",
+                             0.0)
+        if mismatch >= 0.5:
+            raise ValueError(f"LoopOptions.rotor_thrust_mismatch is a rotor's relative "
+                             f"thrust error bound, in [0, 0.5), got {mismatch!r}")
+        checked["rotor_thrust_mismatch"] = mismatch
         for name, value in checked.items():  # frozen: the normalised values, set once
             object.__setattr__(self, name, value)
 
@@ -245,6 +259,11 @@ class LoopOptions:
                              f"{self.motor_time_constant_scale:g} scales the motor lag, but "
                              f"{flight} flies without it: set motor_lag=True (or "
                              "speed_motors=True) too")
+        if self.rotor_thrust_mismatch and not (self.speed_motors or self.rotor_aerodynamics
+                                               or self.thrust_uncertainty):
+            raise ValueError(f"LoopOptions.rotor_thrust_mismatch acts on the rotors' own model, "
+                             f"but {flight} flies without it: set speed_motors=True (or "
+                             "benchmark='v2' or 'v3')")
         if self.motor_time_constants is not None and not self.speed_motors:
             raise ValueError(f"LoopOptions.motor_time_constants {self.motor_time_constants} "
                              f"are the rotor speed's, but {flight} flies without speed "

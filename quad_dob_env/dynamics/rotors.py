@@ -118,14 +118,16 @@ class RotorDraws(NamedTuple):
     hover_throttle: NDArray  # the throttle map's true hover throttle at the start
     hover_throttle_drift: NDArray  # [1/s] its climb
     hover_estimate_factor: NDArray  # the autopilot's estimate over the truth, 1 + ε
+    rotor_thrust_factor: NDArray  # (N, 4) each rotor's true k_F over the vehicle's
 
 
 @njit(cache=True, inline="always")
 def true_thrust_scales(i, draws):
     """Vehicle i's four rotors' true thrust coefficients over the nominal k_F, as the rotors'
     wrench reads them: the one place a per-rotor factor of the draws enters the physics."""
-    scale = draws.thrust_scale[i]
-    return (scale, scale, scale, scale)
+    scale, factor = draws.thrust_scale[i], draws.rotor_thrust_factor
+    return (scale * factor[i, 0], scale * factor[i, 1], scale * factor[i, 2],
+            scale * factor[i, 3])
 
 
 # The largest advance ratios (λ, μ) the thrust law uses: where Gill & D'Andrea's data and

@@ -52,6 +52,9 @@ class VehicleLoop:
         # its inverse; the thrust coefficient's is ``thrust_scale``)
         self.tolerance = scenario.loop.model_tolerance
         self.told_over_true = np.ones((n, 3))  # mass, inertia, thrust coefficient
+        # each rotor's true k_F over the vehicle's (LoopOptions.rotor_thrust_mismatch)
+        self.rotor_mismatch = scenario.loop.rotor_thrust_mismatch
+        self.rotor_thrust_factor = np.ones((n, 4))
         self.ticks = scenario.inner_ticks
         self.active = scenario.loop.inner_rate is not None
         # thrust_rates' rate loop is the inner loop, when there is one
@@ -82,7 +85,8 @@ class VehicleLoop:
         self.draws = RotorDraws(
             thrust_scale=self.thrust_scale, sag_rate=self.sag_rate,
             hover_throttle=self.hover_throttle, hover_throttle_drift=self.hover_throttle_drift,
-            hover_estimate_factor=self.hover_estimate_factor)
+            hover_estimate_factor=self.hover_estimate_factor,
+            rotor_thrust_factor=self.rotor_thrust_factor)
 
     @property
     def speed_motors(self) -> bool:
@@ -133,6 +137,12 @@ class VehicleLoop:
                 self.told_over_true[index] = 1.0 + stream.uniform(-bounds, bounds)
                 drawn = self.thrust_scale[index] if self.uncertain else 1.0
                 self.thrust_scale[index] = drawn / self.told_over_true[index, 2]
+        if self.rotor_mismatch:
+            # a stream of its own, spawned after the others, so switching the mismatch on
+            # changes no other draw; rescaled to a mean of 1 (Molchanov et al. 2019)
+            factors = 1.0 + child.spawn(1)[0].uniform(-self.rotor_mismatch,
+                                                      self.rotor_mismatch, 4)
+            self.rotor_thrust_factor[index] = factors * (4.0 / factors.sum())
 
     def told_inertia(self, inertia: NDArray) -> NDArray:
         """The inertia (N, 3, 3) an autopilot's rate loop is told for the vehicles' true
@@ -147,11 +157,15 @@ class VehicleLoop:
 
     @property
     def needs_streams(self) -> bool:
-        return self.uncertain or self.throttle is not None or self.tolerance is not None
+        return (self.uncertain or self.throttle is not None or self.tolerance is not None
+                or bool(self.rotor_mismatch))
 
     def sampled(self, index: int) -> dict[str, float]:
         """What was drawn for vehicle ``index`` (for ``info["sampled"]``)."""
         drawn = {}
+        if self.rotor_mismatch:
+            drawn.update({f"rotor_{k}_thrust_factor": float(self.rotor_thrust_factor[index, k])
+                          for k in range(4)})
         if self.throttle is not None:
             drawn.update(hover_throttle=float(self.hover_throttle[index]),
                          hover_throttle_drift=float(self.hover_throttle_drift[index]),
