@@ -65,7 +65,8 @@ def test_randomized_physics_is_the_nominal_scaled_by_the_reported_draws():
     for seed in (0, 1):
         _, info = env.reset(seed=seed)
         core, sampled = env.core, info["sampled"]
-        _, inertia, inertia_inverse, drag = core._nominal
+        nominal = core._nominal  # the vehicle's BodyArrays, N = 1
+        inertia, inertia_inverse, drag = nominal.inertia, nominal.inertia_inverse, nominal.drag
         assert np.all(drag[0] > 0)
         np.testing.assert_array_equal(core.mass, [sampled["mass"]])
         np.testing.assert_array_equal(core.inertia, inertia * sampled["inertia_scale"])
