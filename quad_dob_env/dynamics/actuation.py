@@ -26,8 +26,8 @@ ACTUATION_CODES = {"rotors": 0, "wrench": 1}
 
 class ActuatorArrays(NamedTuple):
     """The actuators as the compiled step reads them (``Actuator.kernel_record``): the
-    mixer's limits, the maps from their output to the wrench and the rotors, the lag, and
-    each vehicle's output now."""
+    mixer's limits, the maps from their output to the wrench and the rotors, and each
+    vehicle's output now (the lag is each vehicle's, ``rotors.RotorDraws``)."""
 
     code: int  # ACTUATION_CODES
     mixer: NDArray  # (4, 4) [f, M] -> rotor thrusts
@@ -36,7 +36,6 @@ class ActuatorArrays(NamedTuple):
     moment_limit: NDArray  # (3,) [N m]
     to_wrench: NDArray  # (4, 4) output -> [f, Mx, My, Mz]
     to_rotors: NDArray  # (4, 4) output -> rotor thrusts
-    time_constant: float  # [s] the output's lag (spin-up on speed motors); 0: none
     output: NDArray  # (N, 4) rotor thrusts, the wrench, or rotor speeds (speed motors)
 
 
@@ -147,15 +146,14 @@ class Actuator:
         return (self.code, p.mixer_matrix, float(p.max_rotor_thrust), float(p.max_total_thrust),
                 self.moment_limit)
 
-    def kernel_record(self, time_constant: float, output: NDArray) -> ActuatorArrays:
-        """The record the compiled step reads, with the lag ``time_constant`` [s] and the
-        batch's ``output`` array (N, 4), written in place."""
+    def kernel_record(self, output: NDArray) -> ActuatorArrays:
+        """The record the compiled step reads, with the batch's ``output`` array (N, 4),
+        written in place."""
         p = self.params
         return ActuatorArrays(
             code=self.code, mixer=p.mixer_matrix, max_rotor_thrust=float(p.max_rotor_thrust),
             max_total_thrust=float(p.max_total_thrust), moment_limit=self.moment_limit,
-            to_wrench=self.to_wrench, to_rotors=self.to_rotors,
-            time_constant=float(time_constant), output=output)
+            to_wrench=self.to_wrench, to_rotors=self.to_rotors, output=output)
 
     def apply(self, thrust: ArrayLike, moment: ArrayLike) -> AppliedCommand:
         """What an instantaneous actuator produces for the commanded thrust and moment."""

@@ -225,12 +225,12 @@ def actuator_wrench(start, command, factor, to_wrench):
 
 
 @njit(cache=True, inline="always")
-def _stage_inputs(start, command, time_constant, to_wrench, forcing, row, i, grid, elapsed,
-                  rotors):
+def _stage_inputs(start, command, time_constant, spin_down, to_wrench, forcing, row, i, grid,
+                  elapsed, rotors):
     """Thrust, moment, rotor speeds, force, torque and wind at grid sample ``grid``,
-    ``elapsed`` s in (the rotor speeds are what the rotors' own model reads, when on)."""
+    ``elapsed`` s in (the rotor speeds are what the rotors' own model reads, when on;
+    ``spin_down``: their time constant when they slow, 0: ``time_constant``)."""
     if rotors.active:
-        spin_down = rotors.spin_down_time_constant
         if rotors.speed_motors and spin_down > 0.0:  # spinning up and down unequally
             output = lagged_each(start, command, speed_lag_factors(
                 start, command, time_constant, spin_down, elapsed))
@@ -247,14 +247,15 @@ def _stage_inputs(start, command, time_constant, to_wrench, forcing, row, i, gri
 
 
 @njit(cache=True)
-def advance_vehicle(i, state, start, command, time_constant, to_wrench, forcing, row, body,
-                    dt, substeps, law, rotors, thrust_scales, first_sample):
+def advance_vehicle(i, state, start, command, time_constant, spin_down, to_wrench, forcing,
+                    row, body, dt, substeps, law, rotors, thrust_scales, first_sample):
     """Vehicle i from ``state`` (x, v, R, Ω) over ``dt`` in ``substeps`` CF4 steps; returns
     the new (x, v, R, Ω).
 
     Actuators: their output (rotor thrusts, the wrench, or with speed motors the rotor
     speeds) moves from ``start`` to ``command`` as ``command + (start - command) e^{-t/τ}``
-    (exact first-order lag; τ = 0 is instantaneous); ``to_wrench`` maps it to (f, M), or
+    (exact first-order lag; τ = 0 is instantaneous; speed motors slowing down take
+    ``spin_down`` where it is above 0); ``to_wrench`` maps it to (f, M), or
     with the rotors' own model on (``rotors``, ``quad_dob_env.dynamics.rotors``) their
     speeds give the wrench with the air's effect and each rotor's ``thrust_scales``.
     ``forcing``: force, torque and wind velocity on the substep grid (a ``Forcing``); this
@@ -266,13 +267,14 @@ def advance_vehicle(i, state, start, command, time_constant, to_wrench, forcing,
     for s in range(substeps):
         t0 = s * h
         grid = first_sample + 2 * s
-        f1, m1, u1, d1, t1, w1 = _stage_inputs(start, command, time_constant, to_wrench,
-                                               forcing, row, i, grid, t0, rotors)
-        f2, m2, u2, d2, t2, w2 = _stage_inputs(start, command, time_constant, to_wrench,
-                                               forcing, row, i, grid + 1, t0 + 0.5 * h,
+        f1, m1, u1, d1, t1, w1 = _stage_inputs(start, command, time_constant, spin_down,
+                                               to_wrench, forcing, row, i, grid, t0, rotors)
+        f2, m2, u2, d2, t2, w2 = _stage_inputs(start, command, time_constant, spin_down,
+                                               to_wrench, forcing, row, i, grid + 1,
+                                               t0 + 0.5 * h, rotors)
+        f4, m4, u4, d4, t4, w4 = _stage_inputs(start, command, time_constant, spin_down,
+                                               to_wrench, forcing, row, i, grid + 2, t0 + h,
                                                rotors)
-        f4, m4, u4, d4, t4, w4 = _stage_inputs(start, command, time_constant, to_wrench,
-                                               forcing, row, i, grid + 2, t0 + h, rotors)
         a1, al1 = _accelerations(x, v, R, w, f1, m1, d1, t1, w1, body, law, u1, rotors,
                                  thrust_scales)
         x2, v2, om2 = _axpy(h / 2, v, x), _axpy(h / 2, a1, v), _axpy(h / 2, al1, w)

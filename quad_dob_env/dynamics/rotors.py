@@ -71,20 +71,17 @@ class RotorModel(NamedTuple):
     radius: float  # R [m]
     edgewise_ratio: float  # a_μ
     axial_ratio: float  # a_λ
-    # [s] the rotor speed's time constant when it slows (speed motors); 0: the spin-up one
-    spin_down_time_constant: float
     # the throttle between mixer and rotors (``dynamics.throttle``; speed motors): on, the
-    # rotors' κ, the autopilot's κ_ap, and the believed hover thrust per rotor T̂_h [N]
+    # autopilot's κ_ap, and the believed hover thrust per rotor T̂_h [N] (the rotors' own κ
+    # is each vehicle's, ``RotorDraws.thrust_model_factor``)
     throttle: bool
-    thrust_model_factor: float
     autopilot_thrust_model_factor: float
     believed_hover_rotor_thrust: float
     active: bool
 
     @classmethod
     def of(cls, vehicle: VehicleParams, speed_motors: bool, thrust_uncertainty: bool,
-           aerodynamics: bool, spin_down_time_constant: float = 0.0,
-           throttle: ThrottleMap | None = None) -> RotorModel:
+           aerodynamics: bool, throttle: ThrottleMap | None = None) -> RotorModel:
         allocation = vehicle.allocation_matrix
         # the allocation's moment rows: Mx = py T, My = -px T, Mz = spin c_τ T
         positions = np.stack([-allocation[2], allocation[1],
@@ -99,9 +96,7 @@ class RotorModel(NamedTuple):
             spin=np.ascontiguousarray(allocation[3]), radius=float(vehicle.rotor_radius),
             edgewise_ratio=float(vehicle.inflow_quadratic[0]),
             axial_ratio=float(vehicle.inflow_quadratic[1]),
-            spin_down_time_constant=float(spin_down_time_constant),
             throttle=throttle is not None,
-            thrust_model_factor=0.0 if throttle is None else throttle.thrust_model_factor,
             autopilot_thrust_model_factor=(0.0 if throttle is None
                                            else throttle.autopilot_thrust_model_factor),
             believed_hover_rotor_thrust=float(vehicle.hover_thrust / 4),
@@ -110,9 +105,14 @@ class RotorModel(NamedTuple):
 
 
 class RotorDraws(NamedTuple):
-    """Each vehicle's per-episode draws of the thrust path (``envs.vehicle_loop`` draws
-    them at a reset), (N,) each."""
+    """Each vehicle's values of its thrust path, (N,) each, set at a reset
+    (``envs.vehicle_loop``): per-vehicle arrays, so an episode may draw its own."""
 
+    # [s] the actuators' lag (spin-up on speed motors; 0: none) and the rotor speed's when
+    # it slows (0: the spin-up one), the margin's motor_time_constant_scale applied
+    time_constant: NDArray
+    spin_down_time_constant: NDArray
+    thrust_model_factor: NDArray  # the rotors' κ of the throttle map (0 without one)
     thrust_scale: NDArray  # the true k_F over the nominal
     sag_rate: NDArray  # [1/s] the battery's sag: the command's thrust goes as (1 - r t)²
     hover_throttle: NDArray  # the throttle map's true hover throttle at the start

@@ -128,8 +128,7 @@ class QuadrotorBatch:
             body.mass, body.inertia, body.inertia_inverse, body.drag)
         self.sampled: list[dict[str, float]] = [{} for _ in range(n)]
         self.actuator_state = np.zeros((n, 4))
-        self._actuator = self.actuator.kernel_record(scenario.rotor_time_constants[0],
-                                                     self.actuator_state)
+        self._actuator = self.actuator.kernel_record(self.actuator_state)
         self._limits = tuple(self.limits.kernel_limits(scenario.floor_height))
         self._rotation_mode = 0 if rotation_representation == "matrix" else 1
         self.sensing = SensingStage(

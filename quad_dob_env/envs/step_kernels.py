@@ -350,8 +350,9 @@ def fly_vehicles(start, stop, actions, loop, law_command, law_after_tick, law,
     episode, outputs = loop.episode, loop.outputs
     ticks, dt, substeps = inner.ticks, episode.dt, episode.substeps
     tick_dt = dt / ticks
-    mean_factor, end_factor = tick_factors(actuator.time_constant, tick_dt)
+    time_constants = draws.time_constant
     for i in range(start, stop):
+        mean_factor, end_factor = tick_factors(time_constants[i], tick_dt)
         row = episode.step_count[i]
         body = vehicle_physics(i, body_arrays)
         x, v, R, w = load_vehicle(i, state.position, state.velocity, state.rotation,

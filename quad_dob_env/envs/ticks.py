@@ -171,16 +171,16 @@ def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first
     the wrench (what the nominal model says was applied), whether a limit was hit and what
     the mixer made of the command. The records come one by one, taken out of the step's
     record once a call: each taking of a record takes a reference to every array in it."""
-    time_constant = actuator.time_constant
+    time_constant = draws.time_constant[i]
+    spin_down = draws.spin_down_time_constant[i]
     command, saturated = actuate_vehicle(thrust, moment, actuator.code, actuator.mixer,
                                          actuator.max_rotor_thrust, actuator.max_total_thrust,
                                          actuator.moment_limit)
     command_scale, per_newton, full = battery
-    spin_down = rotors.spin_down_time_constant
     if rotors.active:
         if rotors.throttle:  # the throttle map (speed motors): ω_c = sqrt(T / (κ_s k_F))
             true_thrusts, ceiling = rotor_thrusts_of(command, per_newton, full,
-                                                     rotors.thrust_model_factor,
+                                                     draws.thrust_model_factor[i],
                                                      rotors.autopilot_thrust_model_factor)
             saturated = saturated or ceiling
             target = motor_target(true_thrusts, 1.0 / draws.thrust_scale[i], rotors)
@@ -200,7 +200,7 @@ def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first
                                                            spin_down, tick_dt))
     else:
         end = lagged_output(start, target, end_factor)
-    xn, vn, Rn, wn = advance_vehicle(i, state, start, target, time_constant,
+    xn, vn, Rn, wn = advance_vehicle(i, state, start, target, time_constant, spin_down,
                                      actuator.to_wrench, forcing, row, body, tick_dt,
                                      episode.substeps, episode.thrust_law, rotors,
                                      true_thrust_scales(i, draws), first_sample)
@@ -227,7 +227,7 @@ def thrust_path_at(i, row, dt, rotors, draws, body):
         per_newton, full = throttle_state(
             draws.hover_throttle[i] + draws.hover_throttle_drift[i] * row * dt,
             draws.hover_estimate_factor[i], 0.25 * body.mass * body.gravity,
-            rotors.believed_hover_rotor_thrust, rotors.thrust_model_factor,
+            rotors.believed_hover_rotor_thrust, draws.thrust_model_factor[i],
             rotors.autopilot_thrust_model_factor)
         return 1.0, per_newton, full
     if not rotors.active:

@@ -34,12 +34,17 @@ class VehicleLoop:
                  estimate: tuple[bool, NDArray, NDArray],
                  pose: tuple[int, NDArray, NDArray, NDArray] | None = None) -> None:
         vehicle = scenario.vehicle
-        up, down = scenario.rotor_time_constants
         self.throttle = scenario.loop.throttle_map
         self.model = RotorModel.of(vehicle, scenario.loop.speed_motors,
                                    scenario.loop.thrust_uncertainty,
-                                   scenario.loop.rotor_aerodynamics, 0.0 if down == up else down,
-                                   self.throttle)
+                                   scenario.loop.rotor_aerodynamics, self.throttle)
+        # each vehicle's lag and the rotors' κ, per-vehicle arrays set at a reset, so that an
+        # episode may draw its own (the margin's time-constant scale is in them)
+        up, down = scenario.rotor_time_constants
+        self.time_constant = np.full(n, up)
+        self.spin_down_time_constant = np.full(n, 0.0 if down == up else down)
+        self.thrust_model_factor = np.full(
+            n, 0.0 if self.throttle is None else self.throttle.thrust_model_factor)
         self.uncertain = scenario.loop.thrust_uncertainty
         self.thrust_scale = np.ones(n)
         self.sag_rate = np.zeros(n)
@@ -83,8 +88,11 @@ class VehicleLoop:
             # the told inertia over the truth, which thrust_rates' rate loop flies
             told_inertia=self.told_over_true[:, 1])
         self.draws = RotorDraws(
-            thrust_scale=self.thrust_scale, sag_rate=self.sag_rate,
-            hover_throttle=self.hover_throttle, hover_throttle_drift=self.hover_throttle_drift,
+            time_constant=self.time_constant,
+            spin_down_time_constant=self.spin_down_time_constant,
+            thrust_model_factor=self.thrust_model_factor, thrust_scale=self.thrust_scale,
+            sag_rate=self.sag_rate, hover_throttle=self.hover_throttle,
+            hover_throttle_drift=self.hover_throttle_drift,
             hover_estimate_factor=self.hover_estimate_factor,
             rotor_thrust_factor=self.rotor_thrust_factor)
 
