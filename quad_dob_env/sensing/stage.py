@@ -33,7 +33,7 @@ from quad_dob_env.sensing.sensing_pass import (
 )
 from quad_dob_env.sensing.stability import check_stability
 from quad_dob_env.threads import run_over_batch
-from quad_dob_env.variation import SensorNoise
+from quad_dob_env.variation import SensorNoise, range_bounds
 
 
 def delay_steps(latency: float, dt: float) -> int:
@@ -52,19 +52,21 @@ class SensingStage:
       ``ticks`` > 1, the pose's resolved on the grid of ``ticks`` intervals a step: its
       fix is taken where the step passes it, ``pose_tick``, the rest on the control grid), and
       the estimator (``quad_dob_env.sensing.estimator``) fusing them; ``vibration`` (gyro
-      [rad/s], accelerometer [m/s²], RMS per axis) adds to its IMU's white noise, and
-      ``unmodelled_pose_latency`` [s] delays its pose fix alone.
+      [rad/s], accelerometer [m/s²], RMS per axis) times ``vibration_scale`` adds to its
+      IMU's white noise, and ``unmodelled_pose_latency`` [s] delays its pose fix alone.
 
-    The pose fix's delay and tick (``pose_delay``, ``pose_tick``) and the IMU's white noise
-    (``gyroscope_std``, ``accelerometer_std``) are each vehicle's own, (N,) arrays the
-    kernels read by vehicle, so that a value may be drawn per episode.
+    ``unmodelled_pose_latency`` and ``vibration_scale`` are each a number or a (low, high)
+    range drawn per episode (``start``), so the pose fix's delay and tick (``pose_delay``,
+    ``pose_tick``) and the IMU's white noise (``gyroscope_std``, ``accelerometer_std``) are
+    each vehicle's own, (N,) arrays the kernels read by vehicle.
     """
 
     def __init__(self, sensing: SensorSuite | SensorNoise | None, extra_latency: float,
                  truth: VehicleState, physics: tuple, vehicle: VehicleParams,
                  dt: float, hover: tuple[float, NDArray[np.float64]] | None = None,
                  vibration: tuple[float, float] = (0.0, 0.0), ticks: int = 1,
-                 unmodelled_pose_latency: float = 0.0) -> None:
+                 unmodelled_pose_latency: float | tuple[float, float] = 0.0,
+                 vibration_scale: float | tuple[float, float] = 1.0) -> None:
         n = truth.n
         self.sensing, self.dt, self.gravity = sensing, float(dt), float(vehicle.gravity)
         self.truth = truth
@@ -88,6 +90,13 @@ class SensingStage:
         self.pose_state = (truth.position, truth.velocity, truth.rotation)
         # each vehicle's IMU white noise per reading, its vibration included
         self.gyroscope_std, self.accelerometer_std = np.zeros(n), np.zeros(n)
+        # the ranges drawn per episode (None: a fixed value), and each vehicle's unmodelled
+        # pose latency [s] and vibration scale: its draw, else the fixed value
+        self._ranges = tuple(value if isinstance(value, tuple) else None
+                             for value in (unmodelled_pose_latency, vibration_scale))
+        (latency_low, latency_high), (scale_low, _) = (range_bounds(unmodelled_pose_latency),
+                                                       range_bounds(vibration_scale))
+        self.drawn = np.tile((latency_low, scale_low), (n, 1))
         self._fresh = False
         self._state_noise = StateNoise()
         self._imu = ImuSettings(self.gyroscope_std, self.accelerometer_std)
@@ -104,13 +113,10 @@ class SensingStage:
                 attitude_std=pose.attitude_std, velocity_std=pose.velocity_std,
                 heading_std=pose.heading_std)
             root = math.sqrt(dt)
-            # vibration (v3): white noise of its own RMS on every reading, the rotors' effect
-            # left by the autopilot's filters, added to the sensor's own in quadrature
-            gyro_vibration, accelerometer_vibration = vibration
-            self.gyroscope_std[:] = math.hypot(imu.gyroscope_noise_density / root,
-                                               gyro_vibration)
-            self.accelerometer_std[:] = math.hypot(imu.accelerometer_noise_density / root,
-                                                   accelerometer_vibration)
+            self._imu_noise = (imu.gyroscope_noise_density / root,
+                               imu.accelerometer_noise_density / root)
+            self._vibration = vibration
+            self._shake(slice(None), scale_low)
             self._imu = ImuSettings(
                 gyroscope_std=self.gyroscope_std, accelerometer_std=self.accelerometer_std,
                 gyroscope_walk=imu.gyroscope_bias_walk * root,
@@ -126,8 +132,10 @@ class SensingStage:
             imu_delay = delay_steps(imu.latency, dt) + extra
             if ticks > 1:
                 imu_delay = min(imu_delay, told)
-            self.pose_delay[:], self.pose_tick[:] = self.pose_delay_of(unmodelled_pose_latency)
-            pose_depth = self.pose_delay[0]
+            # every vehicle's until it draws its own (the range's low end), and the deepest
+            # the delay lines must hold (the range's top: a delay grows with the latency)
+            self.pose_delay[:], self.pose_tick[:] = self.pose_delay_of(latency_low)
+            pose_depth = self.pose_delay_of(latency_high)[0]
             self.imu_delay = imu_delay
             # the estimator compensates the lag it is told, not one the suite does not say
             self.lag = max(told - imu_delay, 0)
@@ -208,14 +216,47 @@ class SensingStage:
         late = delay_steps(latency + self._extra_latency + unmodelled, self.dt / ticks)
         return late // ticks, (ticks - late % ticks if late % ticks else 0)
 
+    def _shake(self, index: int | slice, scale: float) -> None:
+        """Vehicle ``index``'s IMU white noise with the vibration times ``scale``: (v3) white
+        noise of its own RMS on every reading, the rotors' effect left by the autopilot's
+        filters, added to the sensor's own in quadrature."""
+        (gyroscope, accelerometer), (gyro_vibration, accelerometer_vibration) = (
+            self._imu_noise, self._vibration)
+        self.gyroscope_std[index] = math.hypot(gyroscope, scale * gyro_vibration)
+        self.accelerometer_std[index] = math.hypot(accelerometer,
+                                                   scale * accelerometer_vibration)
+
     def start(self, index: int, stream: np.random.Generator | None) -> None:
-        """A new episode's sensor keys for vehicle ``index``, from ``stream``, the first
-        child spawned off its generator (None: the identity needs none): spawning draws
-        nothing from it, so the wind, gusts, starts and randomisation it gives are the same
-        with any sensing."""
+        """A new episode's sensor keys for vehicle ``index``, from ``stream``, the episode's
+        child of its generator (None: the identity needs none), and where a range is given
+        its unmodelled pose latency and vibration scale, from a stream spawned off that
+        child. The core calls this after the vehicle loop has spawned its own streams off
+        the same child: spawning draws nothing from it, so the wind, gusts, starts and
+        randomisation it gives are the same with any sensing, and a range switched on
+        changes no other draw."""
         if self.identity:
             return
         self.keys[index] = stream.integers(1, 2**63, size=KEYS, dtype=np.uint64)
+        if self._ranges == (None, None):
+            return
+        # one uniform per value, drawn whether it is a range or not: switching one range
+        # on changes not the other's draw
+        uniforms = stream.spawn(1)[0].random(2)
+        for k, bounds in enumerate(self._ranges):
+            if bounds is not None:
+                low, high = bounds
+                self.drawn[index, k] = low + (high - low) * uniforms[k]
+        latency, scale = self._ranges
+        if latency is not None:
+            self.pose_delay[index], self.pose_tick[index] = self.pose_delay_of(
+                self.drawn[index, 0])
+        if scale is not None:
+            self._shake(index, self.drawn[index, 1])
+
+    def sampled(self, index: int) -> dict[str, float]:
+        """What was drawn for vehicle ``index``'s episode (for ``info["sampled"]``)."""
+        return {name: float(self.drawn[index, k]) for k, name in enumerate(
+            ("unmodelled_pose_latency", "imu_vibration_scale")) if self._ranges[k] is not None}
 
     def measure(self, indices: NDArray[np.intp], step_count: NDArray[np.int64],
                 reset: bool) -> None:
