@@ -23,12 +23,16 @@ state and what the policy reads, is one option of this record; ``Scenario.loop``
 | ``motor_time_constant_scale`` | the rotors' time constants times this (the margin)   |    |    |
 | ``extra_latency``           | [s] on every reading, on the control grid (the margin) |    |    |
 | ``unmodelled_pose_latency`` | [s] on the pose fix, unknown to its estimator (margin) |    |    |
+| ``imu_vibration_scale``     | ``imu_vibration`` times this                           |    |    |
 | ``rotor_thrust_mismatch``   | each rotor's k_F off the nominal by up to ± this       |    |    |
 
 The twelve benchmark options (``LOOP_FIELDS``) left None are what ``benchmark`` sets
 (``quad_dob_env.benchmark.loop_fields``, the one resolution; the v2 and v3 columns say which
 it turns on), so one option given keeps its value under any benchmark and one factor is
 switched off in turn; v3's own are switched off with ``False`` (``gyro_cutoff``: 0).
+
+Ranges: ``unmodelled_pose_latency`` and ``imu_vibration_scale`` take a number or a (low, high)
+range, drawn uniformly per episode for each vehicle (the draws in ``info["sampled"]``).
 
 Where the other options went, and why: ``motor_lag`` and the robustness margin's knobs
 (``motor_time_constant_scale``, ``extra_latency``, ``unmodelled_pose_latency``) are parts of
@@ -59,7 +63,7 @@ from quad_dob_env.dynamics.throttle import ThrottleMap
 from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.sensing.models import SensorSuite, resolve_sensing
 from quad_dob_env.validation import as_finite, unknown_name_error
-from quad_dob_env.variation import ModelTolerance, SensorNoise
+from quad_dob_env.variation import ModelTolerance, SensorNoise, range_bounds, value_or_range
 
 # the options that take True, False or None (None: as the benchmark says)
 SWITCHES = ("speed_motors", "thrust_uncertainty", "rotor_aerodynamics", "drag",
@@ -129,7 +133,12 @@ class LoopOptions:
     motor_lag: bool = False
     motor_time_constant_scale: float = 1.0
     extra_latency: float = 0.0
-    unmodelled_pose_latency: float = 0.0
+    # a number, or a (low, high) range [s] drawn per episode for each vehicle
+    unmodelled_pose_latency: float | tuple[float, float] = 0.0
+    # the IMU's vibration (``imu_vibration``, gyroscope and accelerometer alike: one source,
+    # the rotors) times this; a (low, high) range is drawn per episode for each vehicle, so
+    # a recipe draws about a benchmark's own level without knowing it
+    imu_vibration_scale: float | tuple[float, float] = 1.0
     # e: each rotor's true thrust coefficient is the nominal times 1 + δ_k, δ_k uniform in
     # [-e, e] per episode and rescaled to a mean of 0, so the rotors differ and their sum
     # does not (the autopilot's nominal model knows neither). Off (0) in v1-v3. 0.10 is
@@ -174,8 +183,14 @@ class LoopOptions:
         checked["motor_time_constant_scale"] = as_finite(
             self.motor_time_constant_scale, "LoopOptions.motor_time_constant_scale", 0.0,
             strictly=True)
-        for name in ("extra_latency", "unmodelled_pose_latency"):
-            checked[name] = as_finite(getattr(self, name), f"LoopOptions.{name}", 0.0)
+        checked["extra_latency"] = as_finite(self.extra_latency, "LoopOptions.extra_latency",
+                                             0.0)
+        checked["unmodelled_pose_latency"] = value_or_range(
+            self.unmodelled_pose_latency, "LoopOptions.unmodelled_pose_latency",
+            "a latency in seconds")
+        checked["imu_vibration_scale"] = value_or_range(
+            self.imu_vibration_scale, "LoopOptions.imu_vibration_scale",
+            "a factor on imu_vibration")
         mismatch = as_finite(self.rotor_thrust_mismatch, "LoopOptions.rotor_thrust_mismatch",
                              0.0)
         if mismatch >= 0.5:
@@ -249,11 +264,17 @@ class LoopOptions:
             raise ValueError(f"LoopOptions.pose_latency_on_ticks resolves a sensor suite's pose "
                              f"latency, but {flight} senses {self.sensing!r}: give sensing a "
                              "suite ('mocap', 'gnss-imu')")
-        if self.unmodelled_pose_latency and not suite:
-            raise ValueError(f"LoopOptions.unmodelled_pose_latency "
-                             f"({self.unmodelled_pose_latency:g} s) delays a sensor suite's "
-                             f"pose fix, but {flight} senses {self.sensing!r}: give sensing "
-                             "a suite ('mocap', 'gnss-imu'), or use extra_latency")
+        low, high = range_bounds(self.unmodelled_pose_latency)
+        if high and not suite:
+            latency = f"{high:g}" if low == high else f"{low:g} to {high:g}"
+            raise ValueError(f"LoopOptions.unmodelled_pose_latency ({latency} s) delays a "
+                             f"sensor suite's pose fix, but {flight} senses "
+                             f"{self.sensing!r}: give sensing a suite ('mocap', 'gnss-imu'), "
+                             "or use extra_latency")
+        if self.imu_vibration_scale != 1.0 and self.imu_vibration is None:
+            raise ValueError(f"LoopOptions.imu_vibration_scale = {self.imu_vibration_scale} "
+                             f"scales the IMU's vibration, but {flight} has none: give "
+                             "imu_vibration (or benchmark='v3')")
         if self.motor_time_constant_scale != 1.0 and not (self.motor_lag or self.speed_motors):
             raise ValueError(f"LoopOptions.motor_time_constant_scale = "
                              f"{self.motor_time_constant_scale:g} scales the motor lag, but "

@@ -4,11 +4,32 @@ randomisation, both optional parts of a ``Scenario`` (the sensors and estimator 
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
 
 from quad_dob_env.validation import as_finite
+
+
+def value_or_range(value: object, name: str, what: str,
+                   minimum: float = 0.0) -> float | tuple[float, float]:
+    """``value`` checked as a number (fixed) or a (low, high) range, drawn uniformly per
+    episode (a list, as a config gives it, becomes the tuple); each at least ``minimum``."""
+    if isinstance(value, (tuple, list, np.ndarray)) and len(value) == 2:
+        low, high = (as_finite(v, f"{name}[{k}]", minimum) for k, v in enumerate(value))
+        if high < low:
+            raise ValueError(f"{name}: a range is (low, high) with low <= high, got {value!r}")
+        return low, high
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be {what}: a number, or a (low, high) range drawn "
+                         f"uniformly per episode, got {value!r}")
+    return as_finite(value, name, minimum)
+
+
+def range_bounds(value: float | tuple[float, float]) -> tuple[float, float]:
+    """A ``value_or_range``'s (low, high); a number is both."""
+    return value if isinstance(value, tuple) else (value, value)
 
 
 @dataclass(frozen=True)

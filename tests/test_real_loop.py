@@ -438,7 +438,7 @@ def test_at_50_hz_the_pose_fix_keeps_its_latency_on_the_tick_grid(latency, extra
     slow = _core(make_scenario("hover-calm", dt=0.02, sensing=_still_mocap(latency),
                                extra_latency=extra, pose_latency_on_ticks=True, **options))
     late_ticks = round((latency + extra) / 0.005)
-    assert slow.sensing.delays[0] == late_ticks // 4
+    assert slow.sensing.pose_delay.tolist() == [late_ticks // 4]
     thrusts = HOVER_ROTOR * np.array([1.3, 1.0, 0.8, 1.1])  # a climb, pitching and yawing
     truth = [(fast.state.position[0].copy(), fast.state.rotation[0].copy())]
     for _ in range(48):
@@ -447,7 +447,7 @@ def test_at_50_hz_the_pose_fix_keeps_its_latency_on_the_tick_grid(latency, extra
     depth = slow.sensing.ring.shape[0]
     for k in range(1, 12):
         slow.step(_rotor_actions(slow, thrusts))
-        q = slow.sensing.delays[0]
+        q = slow.sensing.pose_delay[0]
         if 4 * k < late_ticks:  # before the start: the reset's reading
             continue
         # the fix read now: taken at step k - q, r ticks before that step's end
@@ -475,14 +475,15 @@ def test_an_unmodelled_pose_latency_delays_the_fix_alone_and_is_not_told_the_est
     late_ticks = round((latency + unmodelled) / 0.005)
     if not on_ticks:  # on the control grid the fix is late by whole steps
         late_ticks = ticks * math.ceil(round((latency + unmodelled) / dt, 9))
-    assert late.delays == (late_ticks // ticks, told.delays[1])
-    assert late.lag == told.lag == told.delays[0] - told.delays[1]
+    assert late.pose_delay.tolist() == [late_ticks // ticks]
+    assert late.imu_delay == told.imu_delay
+    assert late.lag == told.lag == told.pose_delay[0] - told.imu_delay
     thrusts = HOVER_ROTOR * np.array([1.3, 1.0, 0.8, 1.1])
     truth = [(fast.state.position[0].copy(), fast.state.rotation[0].copy())]
     for _ in range(12 * ticks):
         fast.step(_rotor_actions(fast, thrusts))
         truth.append((fast.state.position[0].copy(), fast.state.rotation[0].copy()))
-    depth, q = late.ring.shape[0], late.delays[0]
+    depth, q = late.ring.shape[0], late.pose_delay[0]
     for k in range(1, 12):
         for core in flown.values():
             core.step(_rotor_actions(core, thrusts))

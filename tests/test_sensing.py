@@ -184,7 +184,8 @@ def test_extra_latency_and_motor_scale_are_checked_and_resolved_on_the_grid():
     scenario = make_scenario("gusty-hover", extra_latency=0.025, motor_time_constant_scale=2)
     assert delay_steps(scenario.loop.extra_latency, scenario.dt) == 3
     core = QuadrotorBatch(scenario, 1)
-    assert core.sensing.delays == (3, 3) and not core.sensing.identity
+    assert core.sensing.pose_delay.tolist() == [3] and core.sensing.imu_delay == 3
+    assert not core.sensing.identity
     with pytest.raises(ValueError, match="extra_latency must be >= 0"):
         make_scenario("gusty-hover", extra_latency=-0.01)
     with pytest.raises(ValueError, match=r"motor_time_constant_scale = 2 .* set motor_lag=True"):

@@ -139,7 +139,8 @@ class QuadrotorBatch:
                    self.actuator.to_rotors @ self.actuator.hover_output()),
             vibration=scenario.loop.imu_vibration or (0.0, 0.0),
             ticks=scenario.inner_ticks if scenario.loop.pose_latency_on_ticks else 1,
-            unmodelled_pose_latency=scenario.loop.unmodelled_pose_latency)
+            unmodelled_pose_latency=scenario.loop.unmodelled_pose_latency,
+            vibration_scale=scenario.loop.imu_vibration_scale)
         # the kernels write the true state's observation here; a policy reads ``obs`` (the
         # same array for the identity, else rebuilt from the measurement)
         self._true_obs = self.obs if self.sensing.identity else np.zeros_like(self.obs)
@@ -236,11 +237,12 @@ class QuadrotorBatch:
             if randomization is not None:
                 r = randomization
                 scales[j] = [rng.uniform(*r.mass), rng.uniform(*r.inertia), rng.uniform(*r.drag)]
-            # one child a reset (the sensors read it, the rotors a grandchild of it)
+            # one child a reset (the sensors read it, the rotors a grandchild of it); the
+            # sensors start last, so the stream their ranges spawn follows the rotors' own
             child = (rng.spawn(1)[0] if not self.sensing.identity or self.loop.needs_streams
                      else None)
-            self.sensing.start(int(indices[j]), child)
             self.loop.start(int(indices[j]), child)
+            self.sensing.start(int(indices[j]), child)
             if self.loop.tolerance is not None:  # the controllers keep the nominal model
                 scales[j, :2] *= self.loop.truth_scales(int(indices[j]))
         offsets = np.zeros((count, 6))  # position, velocity
@@ -267,7 +269,7 @@ class QuadrotorBatch:
                     "mass": float(self.mass[index]), "inertia_scale": float(scales[j, 1]),
                     "drag_scale": float(scales[j, 2])}),
                 **({} if random is None else random.sampled_parameters(index)),
-                **self.loop.sampled(index)}
+                **self.loop.sampled(index), **self.sensing.sampled(index)}
         self._reference_now = None
         self._measure(indices, reset=True)
 

@@ -50,7 +50,9 @@ class InnerLoop(NamedTuple):
     gyro_coefficients: tuple  # (b0, b1, b2, a1, a2)
     gyro_state: NDArray  # (N, 3, 2) its transposed direct form II state
     gyro_output: NDArray  # (N, 3) its last output
-    pose_tick: int  # the tick (from 1) after which the pose fix is taken; 0: the step's end
+    # (N,) int64 each vehicle's tick (from 1) after which its pose fix is taken; 0: the
+    # step's end (an unmodelled pose latency may be drawn per episode)
+    pose_tick: NDArray
     pose_position: NDArray  # (N, 3) where it is kept
     pose_velocity: NDArray
     pose_rotation: NDArray  # (N, 3, 3)
@@ -127,9 +129,9 @@ def held_rate(i, rate, inner):
 
 @njit(cache=True, inline="always")
 def keep_pose(i, tick, x, v, R, inner):
-    """Vehicle i's state after tick ``tick`` (counted from 1) where the pose fix is taken
-    within the step (``inner.pose_tick``; 0 for none)."""
-    if tick == inner.pose_tick:
+    """Vehicle i's state after tick ``tick`` (counted from 1) where its pose fix is taken
+    within the step (``inner.pose_tick[i]``; 0 for none)."""
+    if tick == inner.pose_tick[i]:
         position, velocity, rotation = (inner.pose_position, inner.pose_velocity,
                                         inner.pose_rotation)
         for k in range(3):

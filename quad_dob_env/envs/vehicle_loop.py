@@ -32,7 +32,7 @@ class VehicleLoop:
 
     def __init__(self, scenario: Scenario, actuator: Actuator, n: int, action_mode: str,
                  estimate: tuple[bool, NDArray, NDArray],
-                 pose: tuple[int, NDArray, NDArray, NDArray] | None = None) -> None:
+                 pose: tuple[NDArray, NDArray, NDArray, NDArray] | None = None) -> None:
         vehicle = scenario.vehicle
         self.throttle = scenario.loop.throttle_map
         self.model = RotorModel.of(vehicle, scenario.loop.speed_motors,
@@ -74,7 +74,8 @@ class VehicleLoop:
         self._initial_rate = np.array(scenario.initial_angular_velocity, dtype=float)
         self.gyro_state, self.gyro_output = np.zeros((n, 3, 2)), np.zeros((n, 3))
         if pose is None:  # the pose fix is taken at the step's end
-            pose = (0, np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3, 3)))
+            pose = (np.zeros(n, dtype=np.int64), np.zeros((1, 3)), np.zeros((1, 3)),
+                    np.zeros((1, 3, 3)))
         pose_tick, pose_position, pose_velocity, pose_rotation = pose
         self.inner = InnerLoop(
             ticks=self.ticks, rate_law=self.rates, rate_gain=RATE_GAIN,

@@ -88,13 +88,12 @@ def estimate_kernel(start, stop, indices, step_count, predict, ring, delays, per
                     gains, dt, gravity, estimate, history, out_position, out_velocity,
                     out_rotation, out_rates):
     """One step of the filter for vehicles ``indices[start:stop]`` (module docstring), then
-    the
-    estimate into the ``out_`` arrays (``predict`` False at a reset: the estimate stays
-    where ``start_estimates_kernel`` put it). ``delays``: pose, IMU delay in steps, and the
-    lag the filter is told the fix has over the IMU (the two's difference, but for an
-    unmodelled pose latency);
-    ``gains``: ω_p, ω_R, ω_v [rad/s]."""
-    pose_delay, imu_delay, lag = delays
+    the estimate into the ``out_`` arrays (``predict`` False at a reset: the estimate stays
+    where ``start_estimates_kernel`` put it). ``delays``: each vehicle's pose delay (N,)
+    and the IMU's delay in steps, and the lag the filter is told the fix has over the IMU
+    (the two's difference, but for an unmodelled pose latency, which each vehicle may draw
+    per episode); ``gains``: ω_p, ω_R, ω_v [rad/s]."""
+    pose_delays, imu_delay, lag = delays
     position_bandwidth, attitude_bandwidth, velocity_bandwidth = gains
     depth, length = ring.shape[0], history.shape[0]
     fix_period = period * dt
@@ -126,7 +125,7 @@ def estimate_kernel(start, stop, indices, step_count, predict, ring, delays, per
             newest[k] = e[k]
         for k in range(3):
             newest[HS + k] = specific[k]
-        taken = step - pose_delay
+        taken = step - pose_delays[i]
         if taken >= 0 and taken % period == 0:
             fix = ring[taken % depth, i]
             then = history[(step - lag) % length, i]

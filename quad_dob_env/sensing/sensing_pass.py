@@ -7,11 +7,12 @@ its noise from its own key (``quad_dob_env.rng``: the n-th draw of a key depends
 key and n alone), so one sensor's settings never move another's noise, nor any other
 random draw of the flight.
 
-``take_readings_kernel`` reads its records by name: the state the pose fix sees
-(``PoseState``), the truth (``TrueState``), each source's settings (``PoseSettings``,
-``ImuSettings``, ``RotorSettings``, ``StateNoise``) and the sensors' own arrays
-(``ReadingLines``); passed from Python as plain tuples (numba types a named tuple on a
-slower path every call) and rebuilt in its first lines.
+``take_readings_kernel`` reads its records by name: the states the pose fix sees
+(``PoseState``: now, and where the step passed its latency), the truth (``TrueState``),
+each source's settings (``PoseSettings``, ``ImuSettings``, ``RotorSettings``,
+``StateNoise``) and the sensors' own arrays (``ReadingLines``); passed from Python as
+plain tuples (numba types a named tuple on a slower path every call) and rebuilt in its
+first lines.
 """
 
 import math
@@ -61,8 +62,10 @@ class TrueState(NamedTuple):
 
 
 class PoseSettings(NamedTuple):
-    """The pose fix's settings (the defaults: no pose fix, nothing drawn)."""
+    """The pose fix's settings (the defaults: no pose fix, nothing drawn); where each
+    vehicle's is taken within a step is its own (an unmodelled latency drawn per episode)."""
 
+    tick: NDArray  # (N,) int64 the tick after which the fix is taken; 0: the step's end
     kind: int = 0  # 0 mocap, 1 gnss
     period: int = 1  # a fix every so many steps
     position_std: float = 0.0  # [m], horizontal
@@ -73,10 +76,11 @@ class PoseSettings(NamedTuple):
 
 
 class ImuSettings(NamedTuple):
-    """The IMU's settings per control step (the defaults: none)."""
+    """The IMU's settings per control step (the defaults: none); its white noise is each
+    vehicle's own (the rotors' vibration in it is drawn per episode)."""
 
-    gyroscope_std: float = 0.0  # white noise per sample [rad/s]
-    accelerometer_std: float = 0.0  # [m/s²]
+    gyroscope_std: NDArray  # (N,) white noise per sample [rad/s], vibration included
+    accelerometer_std: NDArray  # (N,) [m/s²]
     gyroscope_walk: float = 0.0  # the bias's random walk per step
     accelerometer_walk: float = 0.0
     gyroscope_initial_bias: float = 0.0  # the std of a new episode's bias
@@ -151,16 +155,17 @@ def rotor_speed(rotor_thrust, thrust_coefficient):
 
 
 @njit(cache=True, nogil=True)
-def take_readings_kernel(start, stop, indices, step_count, pose_at, truth, pose, imu, rotors,
-                         state_noise, lines, reset):
+def take_readings_kernel(start, stop, indices, step_count, pose_now, pose_seen, truth, pose,
+                         imu, rotors, state_noise, lines, reset):
     """The readings of vehicles ``indices[start:stop]`` of their true state now, into each
     delay line's slot ``step % depth`` (at a reset, into every slot: no older readings
     exist). A source whose standard deviations are all zero draws nothing: its reading is
     the same, and no other source's noise depends on it.
 
-    The pose fix reads ``pose_at`` (a ``PoseState``: the state now, or where the step passed
-    the pose's latency on the physics grid: ``SensingStage.pose_tick``); the gyroscope
-    reads the body rate now; the accelerometer the specific force of the step (its mean
+    The pose fix reads ``pose_seen`` (a ``PoseState``: where the step passed the pose's
+    latency on the physics grid, after the vehicle's own ``pose.tick``), or ``pose_now``
+    where that tick is 0 and at a reset (nothing flown yet); the gyroscope reads the body
+    rate now; the accelerometer the specific force of the step (its mean
     thrust, with the drag and disturbance at its end; ``truth`` a ``TrueState``). At a reset
     nothing is applied yet and the rotors turn at hover: the readings are ``hover_thrust``'s
     and ``hover_rotor_thrusts``'. Their white noise has the std density / √dt, the
@@ -170,12 +175,16 @@ def take_readings_kernel(start, stop, indices, step_count, pose_at, truth, pose,
     ``state_noise`` a ``StateNoise`` (``SensorNoise``'s mode has no IMU noise, biases nor
     estimator: ``imu`` is all zeros), ``lines`` the ``ReadingLines``; each passed as a plain
     tuple."""
-    pose_at, truth, lines = PoseState(*pose_at), TrueState(*truth), ReadingLines(*lines)
+    now, seen = PoseState(*pose_now), PoseState(*pose_seen)
+    truth, lines = TrueState(*truth), ReadingLines(*lines)
     pose, imu, rotors = PoseSettings(*pose), ImuSettings(*imu), RotorSettings(*rotors)
     state_noise = StateNoise(*state_noise)
     position_std, vertical_std = pose.position_std, pose.vertical_std
     attitude_std, velocity_std, heading_std = pose.attitude_std, pose.velocity_std, pose.heading_std
-    gyro_std, accel_std = imu.gyroscope_std, imu.accelerometer_std
+    gyro_stds, accel_stds = imu.gyroscope_std, imu.accelerometer_std  # (N,) each
+    pose_ticks = pose.tick
+    now_position, now_velocity, now_rotation = now.position, now.velocity, now.rotation
+    seen_position, seen_velocity, seen_rotation = seen.position, seen.velocity, seen.rotation
     gyro_walk, accel_walk = imu.gyroscope_walk, imu.accelerometer_walk
     gyro_bias0, accel_bias0 = imu.gyroscope_initial_bias, imu.accelerometer_initial_bias
     p_std, v_std = state_noise.position_std, state_noise.velocity_std
@@ -189,9 +198,9 @@ def take_readings_kernel(start, stop, indices, step_count, pose_at, truth, pose,
     # (GNSS; a mocap fix has none): a pair is drawn by its index, so the first three pairs
     # are the same either way, and a zero std adds nothing to the reading
     pose_draws = 10 if velocity_std + heading_std > 0 else 6
-    imu_noisy = gyro_std + accel_std + gyro_walk + accel_walk > 0
     for j in range(start, stop):
         i = indices[j]
+        gyro_std, accel_std = gyro_stds[i], accel_stds[i]
         step = step_count[i]
         slot = step % depth
         R = matrix_entries(truth.rotation[i])
@@ -208,18 +217,22 @@ def take_readings_kernel(start, stop, indices, step_count, pose_at, truth, pose,
         if step % pose.period == 0 or reset:
             if pose_noisy:
                 _normals(keys[i, POSE_KEY], step, pose_draws, g)
+            late = pose_ticks[i] > 0 and not reset
+            position = seen_position if late else now_position
+            velocity = seen_velocity if late else now_velocity
             for k in range(3):
                 std = vertical_std if k == 2 else position_std
-                row[POSITION + k] = pose_at.position[i, k] + std * g[k]
-                row[VELOCITY + k] = pose_at.velocity[i, k] + velocity_std * g[6 + k]
-            seen = matrix_entries(pose_at.rotation[i])
-            turned = mat_mul_tuple(seen, exp_tuple((attitude_std * g[3], attitude_std * g[4],
-                                                    attitude_std * g[5])))
+                row[POSITION + k] = position[i, k] + std * g[k]
+                row[VELOCITY + k] = velocity[i, k] + velocity_std * g[6 + k]
+            attitude = matrix_entries(seen_rotation[i] if late else now_rotation[i])
+            turned = mat_mul_tuple(attitude, exp_tuple((attitude_std * g[3],
+                                                        attitude_std * g[4],
+                                                        attitude_std * g[5])))
             for k in range(9):
                 row[ROTATION + k] = turned[k]
-            row[HEADING] = wrap_angle(heading_of(seen) + heading_std * g[9])
+            row[HEADING] = wrap_angle(heading_of(attitude) + heading_std * g[9])
         # the IMU, its biases walking first
-        if imu_noisy:
+        if gyro_std + accel_std + gyro_walk + accel_walk > 0:
             _normals(keys[i, IMU_KEY], step, 12, g)
         else:
             g[:] = 0.0

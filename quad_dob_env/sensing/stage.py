@@ -33,7 +33,7 @@ from quad_dob_env.sensing.sensing_pass import (
 )
 from quad_dob_env.sensing.stability import check_stability
 from quad_dob_env.threads import run_over_batch
-from quad_dob_env.variation import SensorNoise
+from quad_dob_env.variation import SensorNoise, range_bounds
 
 
 def delay_steps(latency: float, dt: float) -> int:
@@ -52,14 +52,21 @@ class SensingStage:
       ``ticks`` > 1, the pose's resolved on the grid of ``ticks`` intervals a step: its
       fix is taken where the step passes it, ``pose_tick``, the rest on the control grid), and
       the estimator (``quad_dob_env.sensing.estimator``) fusing them; ``vibration`` (gyro
-      [rad/s], accelerometer [m/s²], RMS per axis) adds to its IMU's white noise.
+      [rad/s], accelerometer [m/s²], RMS per axis) times ``vibration_scale`` adds to its
+      IMU's white noise, and ``unmodelled_pose_latency`` [s] delays its pose fix alone.
+
+    ``unmodelled_pose_latency`` and ``vibration_scale`` are each a number or a (low, high)
+    range drawn per episode (``start``), so the pose fix's delay and tick (``pose_delay``,
+    ``pose_tick``) and the IMU's white noise (``gyroscope_std``, ``accelerometer_std``) are
+    each vehicle's own, (N,) arrays the kernels read by vehicle.
     """
 
     def __init__(self, sensing: SensorSuite | SensorNoise | None, extra_latency: float,
                  truth: VehicleState, physics: tuple, vehicle: VehicleParams,
                  dt: float, hover: tuple[float, NDArray[np.float64]] | None = None,
                  vibration: tuple[float, float] = (0.0, 0.0), ticks: int = 1,
-                 unmodelled_pose_latency: float = 0.0) -> None:
+                 unmodelled_pose_latency: float | tuple[float, float] = 0.0,
+                 vibration_scale: float | tuple[float, float] = 1.0) -> None:
         n = truth.n
         self.sensing, self.dt, self.gravity = sensing, float(dt), float(vehicle.gravity)
         self.truth = truth
@@ -75,13 +82,24 @@ class SensingStage:
         self.keys = np.zeros((n, KEYS), dtype=np.uint64)
         self.true_bias = np.zeros((n, 6))
         self.estimating = isinstance(sensing, SensorSuite)
-        # the tick after which a step's pose fix is taken (0: its end), and the state there
-        # (the kernels write it: ``QuadrotorBatch``'s inner loop)
-        self.pose_tick = 0
+        # each vehicle's pose fix: its delay in steps, the tick after which a step's fix is
+        # taken (0: its end), and the state there (the kernels write it: ``QuadrotorBatch``'s
+        # inner loop); filled in place, the kernels' records hold these arrays
+        self.pose_delay = np.zeros(n, dtype=np.int64)
+        self.pose_tick = np.zeros(n, dtype=np.int64)
         self.pose_state = (truth.position, truth.velocity, truth.rotation)
+        # each vehicle's IMU white noise per reading, its vibration included
+        self.gyroscope_std, self.accelerometer_std = np.zeros(n), np.zeros(n)
+        # the ranges drawn per episode (None: a fixed value), and each vehicle's unmodelled
+        # pose latency [s] and vibration scale: its draw, else the fixed value
+        self._ranges = tuple(value if isinstance(value, tuple) else None
+                             for value in (unmodelled_pose_latency, vibration_scale))
+        (latency_low, latency_high), (scale_low, _) = (range_bounds(unmodelled_pose_latency),
+                                                       range_bounds(vibration_scale))
+        self.drawn = np.tile((latency_low, scale_low), (n, 1))
         self._fresh = False
         self._state_noise = StateNoise()
-        self._imu = ImuSettings()
+        self._imu = ImuSettings(self.gyroscope_std, self.accelerometer_std)
         self._rotors = RotorSettings(speed_std=0.0,
                                      thrust_coefficient=self.thrust_coefficient)
         if self.estimating:
@@ -89,46 +107,40 @@ class SensingStage:
             # a fix every so many steps: the nearest grid period not faster than the rate
             self.period = max(1, math.ceil(1.0 / (pose.rate * dt) - 1e-9))
             self._pose = PoseSettings(
-                kind=0 if pose.kind == "mocap" else 1, period=self.period,
+                tick=self.pose_tick, kind=0 if pose.kind == "mocap" else 1,
+                period=self.period,
                 position_std=pose.position_std, vertical_std=pose.vertical_std,
                 attitude_std=pose.attitude_std, velocity_std=pose.velocity_std,
                 heading_std=pose.heading_std)
             root = math.sqrt(dt)
-            # vibration (v3): white noise of its own RMS on every reading, the rotors' effect
-            # left by the autopilot's filters, added to the sensor's own in quadrature
-            gyro_vibration, accelerometer_vibration = vibration
+            self._imu_noise = (imu.gyroscope_noise_density / root,
+                               imu.accelerometer_noise_density / root)
+            self._vibration = vibration
+            self._shake(slice(None), scale_low)
             self._imu = ImuSettings(
-                gyroscope_std=math.hypot(imu.gyroscope_noise_density / root, gyro_vibration),
-                accelerometer_std=math.hypot(imu.accelerometer_noise_density / root,
-                                             accelerometer_vibration),
+                gyroscope_std=self.gyroscope_std, accelerometer_std=self.accelerometer_std,
                 gyroscope_walk=imu.gyroscope_bias_walk * root,
                 accelerometer_walk=imu.accelerometer_bias_walk * root,
                 gyroscope_initial_bias=imu.gyroscope_initial_bias,
                 accelerometer_initial_bias=imu.accelerometer_initial_bias)
             self._rotors = self._rotors._replace(speed_std=sensing.rotors.speed_std)
-
-            def pose_delay(unmodelled: float) -> tuple[int, int]:
-                """The fix's delay in steps, and the tick after which it is taken (0: the
-                step's end). With ``ticks`` > 1 the latency is resolved on the physics
-                grid: a fix read ``q`` steps late was taken ``r`` ticks before its step's
-                end."""
-                if ticks == 1:
-                    return delay_steps(pose.latency + unmodelled, dt) + extra, 0
-                late = delay_steps(pose.latency + extra_latency + unmodelled, dt / ticks)
-                return late // ticks, (ticks - late % ticks if late % ticks else 0)
-
-            told = pose_delay(0.0)[0]
+            self._pose_latency, self._extra_latency, self._extra, self._ticks = (
+                pose.latency, extra_latency, extra, ticks)
+            told = self.pose_delay_of(0.0)[0]
             # on ticks the IMU, on the control grid, is read no later than the pose (which
             # the estimator needs): v3's own latencies are whole steps for it
             imu_delay = delay_steps(imu.latency, dt) + extra
             if ticks > 1:
                 imu_delay = min(imu_delay, told)
-            late, self.pose_tick = pose_delay(unmodelled_pose_latency)
-            self.delays = (late, imu_delay)
+            # every vehicle's until it draws its own (the range's low end), and the deepest
+            # the delay lines must hold (the range's top: a delay grows with the latency)
+            self.pose_delay[:], self.pose_tick[:] = self.pose_delay_of(latency_low)
+            pose_depth = self.pose_delay_of(latency_high)[0]
+            self.imu_delay = imu_delay
             # the estimator compensates the lag it is told, not one the suite does not say
             self.lag = max(told - imu_delay, 0)
             self.rotor_delay = delay_steps(sensing.rotors.latency, dt) + extra
-            if self.delays[1] > self.delays[0]:
+            if imu_delay > self.pose_delay[0]:
                 raise ValueError(
                     f"sensing {sensing.name!r}: the IMU's latency {imu.latency:g} s is above "
                     f"the pose fix's {pose.latency:g} s; the estimator runs on the IMU and "
@@ -138,28 +150,30 @@ class SensingStage:
             self._gains = (gains.position_bandwidth, gains.attitude_bandwidth,
                            gains.velocity_bandwidth)
             check_stability(sensing.name, self._gains, dt, self.period, self.lag)
-        else:  # Scenario refuses an unmodelled pose latency without a pose fix
+        else:  # Scenario refuses an unmodelled pose latency (and vibration) without a suite
             self.period = 1
             self.lag = 0
-            self._pose = PoseSettings()
+            self._pose = PoseSettings(tick=self.pose_tick)
             state_delay = extra + (0 if sensing is None else int(sensing.delay_steps))
             if isinstance(sensing, SensorNoise):
                 self._state_noise = StateNoise(
                     position_std=float(sensing.position_std),
                     velocity_std=float(sensing.velocity_std),
                     attitude_std=float(sensing.attitude_std), rate_std=float(sensing.rate_std))
-            self.delays = (state_delay, state_delay)
+            self.pose_delay[:] = pose_depth = self.imu_delay = state_delay
             self.rotor_delay = state_delay
-        if self.pose_tick:
+        if self.estimating and ticks > 1:  # a vehicle may take its fix within a step
             self.pose_state = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3)))
         # the estimator integrates over the IMU's last two readings: one slot more
-        depth = max(*self.delays, self.rotor_delay) + 1 + int(self.estimating)
+        depth = max(pose_depth, self.imu_delay, self.rotor_delay) + 1 + int(self.estimating)
         history = (self.lag + self.period + 1) if self.estimating else 1
-        # what the filter reads each step: the pose's and IMU's delays and its told lag
-        self._filter_delays = (*self.delays, self.lag)
+        # what the filter reads each step: the pose's (each vehicle's) and IMU's delays and
+        # its told lag
+        self._filter_delays = (self.pose_delay, self.imu_delay, self.lag)
         check_memory(n * 8 * (depth * READING_WIDTH + history * HISTORY_WIDTH),
                      f"the sensing delay lines of {depth - 1:,} steps for {n:,} vehicles",
-                     "use a shorter latency (SensorNoise.delay_steps, extra_latency)")
+                     "use a shorter latency (SensorNoise.delay_steps, extra_latency, "
+                     "unmodelled_pose_latency)")
         self.ring = np.zeros((depth, n, READING_WIDTH))
         self.estimate_state = np.zeros((n, ESTIMATE_WIDTH))
         self.history = np.zeros((history, n, HISTORY_WIDTH))
@@ -179,7 +193,8 @@ class SensingStage:
             angular_velocity=truth.angular_velocity, thrust=thrust, force=force, mass=mass,
             rotor_thrusts=rotor_thrusts, hover_thrust=self._hover[0],
             hover_rotor_thrusts=self._hover[1]))
-        # the pose fix reads the state now at a reset, else where the step passed its latency
+        # the pose fix reads the state now at a reset and where its tick is 0, else where the
+        # step passed its latency
         self._pose_now = tuple(PoseState(position=truth.position, velocity=truth.velocity,
                                          rotation=truth.rotation))
         position, velocity, rotation = self.pose_state
@@ -190,14 +205,58 @@ class SensingStage:
         self._lines = tuple(ReadingLines(keys=self.keys, true_bias=self.true_bias,
                                          ring=self.ring))
 
+    def pose_delay_of(self, unmodelled: float) -> tuple[int, int]:
+        """A suite's pose fix's delay in steps with ``unmodelled`` [s] of latency on top,
+        and the tick after which it is taken (0: the step's end). With ``ticks`` > 1 the
+        latency is resolved on the physics grid: a fix read ``q`` steps late was taken
+        ``r`` ticks before its step's end."""
+        latency, ticks = self._pose_latency, self._ticks
+        if ticks == 1:
+            return delay_steps(latency + unmodelled, self.dt) + self._extra, 0
+        late = delay_steps(latency + self._extra_latency + unmodelled, self.dt / ticks)
+        return late // ticks, (ticks - late % ticks if late % ticks else 0)
+
+    def _shake(self, index: int | slice, scale: float) -> None:
+        """Vehicle ``index``'s IMU white noise with the vibration times ``scale``: (v3) white
+        noise of its own RMS on every reading, the rotors' effect left by the autopilot's
+        filters, added to the sensor's own in quadrature."""
+        (gyroscope, accelerometer), (gyro_vibration, accelerometer_vibration) = (
+            self._imu_noise, self._vibration)
+        self.gyroscope_std[index] = math.hypot(gyroscope, scale * gyro_vibration)
+        self.accelerometer_std[index] = math.hypot(accelerometer,
+                                                   scale * accelerometer_vibration)
+
     def start(self, index: int, stream: np.random.Generator | None) -> None:
-        """A new episode's sensor keys for vehicle ``index``, from ``stream``, the first
-        child spawned off its generator (None: the identity needs none): spawning draws
-        nothing from it, so the wind, gusts, starts and randomisation it gives are the same
-        with any sensing."""
+        """A new episode's sensor keys for vehicle ``index``, from ``stream``, the episode's
+        child of its generator (None: the identity needs none), and where a range is given
+        its unmodelled pose latency and vibration scale, from a stream spawned off that
+        child. The core calls this after the vehicle loop has spawned its own streams off
+        the same child: spawning draws nothing from it, so the wind, gusts, starts and
+        randomisation it gives are the same with any sensing, and a range switched on
+        changes no other draw."""
         if self.identity:
             return
         self.keys[index] = stream.integers(1, 2**63, size=KEYS, dtype=np.uint64)
+        if self._ranges == (None, None):
+            return
+        # one uniform per value, drawn whether it is a range or not: switching one range
+        # on changes not the other's draw
+        uniforms = stream.spawn(1)[0].random(2)
+        for k, bounds in enumerate(self._ranges):
+            if bounds is not None:
+                low, high = bounds
+                self.drawn[index, k] = low + (high - low) * uniforms[k]
+        latency, scale = self._ranges
+        if latency is not None:
+            self.pose_delay[index], self.pose_tick[index] = self.pose_delay_of(
+                self.drawn[index, 0])
+        if scale is not None:
+            self._shake(index, self.drawn[index, 1])
+
+    def sampled(self, index: int) -> dict[str, float]:
+        """What was drawn for vehicle ``index``'s episode (for ``info["sampled"]``)."""
+        return {name: float(self.drawn[index, k]) for k, name in enumerate(
+            ("unmodelled_pose_latency", "imu_vibration_scale")) if self._ranges[k] is not None}
 
     def measure(self, indices: NDArray[np.intp], step_count: NDArray[np.int64],
                 reset: bool) -> None:
@@ -208,8 +267,8 @@ class SensingStage:
             return
         truth, m = self.truth, self.measurement
         run_over_batch(take_readings_kernel, len(indices), indices, step_count,
-                       self._pose_now if reset else self._pose_seen, self._truth,
-                       *self._settings, self._lines, reset)
+                       self._pose_now, self._pose_seen, self._truth, *self._settings,
+                       self._lines, reset)
         if self.estimating:
             if reset:
                 start_estimates_kernel(indices, truth.position, truth.velocity,
@@ -219,7 +278,7 @@ class SensingStage:
                            self._gains, self.dt, self.gravity, self.estimate_state, self.history,
                            m.position, m.velocity, m.rotation, m.angular_velocity)
         run_over_batch(measurement_kernel, len(indices), indices, step_count, self.ring,
-                       self.delays[1], self.rotor_delay, not self.estimating, m.position,
+                       self.imu_delay, self.rotor_delay, not self.estimating, m.position,
                        m.velocity, m.rotation, m.angular_velocity, m.gyroscope,
                        m.accelerometer, m.rotor_speeds)
 
