@@ -100,9 +100,8 @@ def _row(table, k):
 @njit(cache=True)
 def inner_command(i, R, w, law, tick):
     """Vehicle i's thrust and moment at an inner tick of ``tick`` s, from the inner-rate
-    estimate (R row-major 9-tuple, Ω) and ``law``, an ``InnerLaw`` (or the plain tuple of
-    its fields: rebuilt here, at no cost)."""
-    law = InnerLaw(*law)
+    estimate (R row-major 9-tuple, Ω) and ``law``, an ``InnerLaw`` or a record with its
+    fields (a composition's law adds its own)."""
     gains = law.gains
     force = vector_at(law.desired_force, i)
     thrust = force[0] * R[2] + force[1] * R[5] + force[2] * R[8]  # f = F · R e3
@@ -187,8 +186,8 @@ def _matrix(stack, k):
 def inner_applied(i, rate_before, rate_after, requested, mixed, applied, law):
     """After a tick: the rotational observer advanced with the ``applied`` moment between
     the estimated rates ``rate_before`` and ``rate_after``; the PID's excess of its own
-    ``requested`` moment over what the mixer makes of that request (``mixed``)."""
-    law = InnerLaw(*law)
+    ``requested`` moment over what the mixer makes of that request (``mixed``); ``law`` as
+    ``inner_command`` takes it."""
     if law.code == LEE and law.has_observer:
         store_vector(law.torque_state, i, torque_observer_step(
             vector_at(law.torque_state, i), rate_before, rate_after, applied,
