@@ -31,8 +31,9 @@ The twelve benchmark options (``LOOP_FIELDS``) left None are what ``benchmark`` 
 it turns on), so one option given keeps its value under any benchmark and one factor is
 switched off in turn; v3's own are switched off with ``False`` (``gyro_cutoff``: 0).
 
-Ranges: ``unmodelled_pose_latency`` and ``imu_vibration_scale`` take a number or a (low, high)
-range, drawn uniformly per episode for each vehicle (the draws in ``info["sampled"]``).
+Ranges: ``motor_time_constant_scale``, ``unmodelled_pose_latency`` and
+``imu_vibration_scale`` take a number or a (low, high) range, drawn uniformly per episode for
+each vehicle (the draws in ``info["sampled"]``).
 
 Where the other options went, and why: ``motor_lag`` and the robustness margin's knobs
 (``motor_time_constant_scale``, ``extra_latency``, ``unmodelled_pose_latency``) are parts of
@@ -131,7 +132,7 @@ class LoopOptions:
     imu_vibration: tuple[float, float] | None = None
     pose_latency_on_ticks: bool | None = None
     motor_lag: bool = False
-    motor_time_constant_scale: float = 1.0
+    motor_time_constant_scale: float | tuple[float, float] = 1.0
     extra_latency: float = 0.0
     # a number, or a (low, high) range [s] drawn per episode for each vehicle
     unmodelled_pose_latency: float | tuple[float, float] = 0.0
@@ -180,9 +181,13 @@ class LoopOptions:
                 "(gyroscope [rad/s], accelerometer [m/s²]) RMS", strictly=False)
         if self.gyro_cutoff is not None and self.gyro_cutoff is not False:
             checked["gyro_cutoff"] = as_finite(self.gyro_cutoff, "LoopOptions.gyro_cutoff", 0.0)
-        checked["motor_time_constant_scale"] = as_finite(
-            self.motor_time_constant_scale, "LoopOptions.motor_time_constant_scale", 0.0,
-            strictly=True)
+        scale = value_or_range(self.motor_time_constant_scale,
+                               "LoopOptions.motor_time_constant_scale",
+                               "a factor on the rotors' time constants")
+        if range_bounds(scale)[0] <= 0.0:
+            raise ValueError(f"LoopOptions.motor_time_constant_scale must be above 0 (a motor "
+                             f"with no lag is motor_lag=False), got {scale!r}")
+        checked["motor_time_constant_scale"] = scale
         checked["extra_latency"] = as_finite(self.extra_latency, "LoopOptions.extra_latency",
                                              0.0)
         checked["unmodelled_pose_latency"] = value_or_range(
@@ -277,7 +282,7 @@ class LoopOptions:
                              "imu_vibration (or benchmark='v3')")
         if self.motor_time_constant_scale != 1.0 and not (self.motor_lag or self.speed_motors):
             raise ValueError(f"LoopOptions.motor_time_constant_scale = "
-                             f"{self.motor_time_constant_scale:g} scales the motor lag, but "
+                             f"{self.motor_time_constant_scale} scales the motor lag, but "
                              f"{flight} flies without it: set motor_lag=True (or "
                              "speed_motors=True) too")
         if self.rotor_thrust_mismatch and not (self.speed_motors or self.rotor_aerodynamics
@@ -330,14 +335,23 @@ class LoopOptions:
         """Inner-loop ticks per control step of ``dt`` [s] (1 without an inner loop)."""
         return 1 if self.inner_rate is None else round(self.inner_rate * dt)
 
-    def rotor_time_constants(self, vehicle: VehicleParams) -> tuple[float, float]:
-        """[s] the actuators' time constants as flown, scale applied: (spin-up, spin-down),
-        equal but for speed motors given ``motor_time_constants``; (0, 0) without a lag."""
+    def rotor_time_constants(self, vehicle: VehicleParams,
+                             scale: float | None = None) -> tuple[float, float]:
+        """[s] the actuators' time constants as flown, times ``scale`` (None: the record's
+        ``motor_time_constant_scale``, which must then be a number, not a range drawn per
+        episode): (spin-up, spin-down), equal but for speed motors given
+        ``motor_time_constants``; (0, 0) without a lag."""
         if not (self.motor_lag or self.speed_motors):
             return 0.0, 0.0
+        if scale is None:
+            scale = self.motor_time_constant_scale
+            if isinstance(scale, tuple):
+                raise ValueError(f"LoopOptions.motor_time_constant_scale {scale} is a range "
+                                 "drawn per episode: each vehicle's time constants are in "
+                                 "info['sampled'] (motor_time_constant_scale)")
         up, down = ((vehicle.motor_time_constant,) * 2 if self.motor_time_constants is None
                     else self.motor_time_constants)
-        return up * self.motor_time_constant_scale, down * self.motor_time_constant_scale
+        return up * scale, down * scale
 
 
 OPTION_NAMES = tuple(option.name for option in fields(LoopOptions) if option.init)

@@ -39,10 +39,16 @@ class VehicleLoop:
                                    scenario.loop.thrust_uncertainty,
                                    scenario.loop.rotor_aerodynamics, self.throttle)
         # each vehicle's lag and the rotors' κ, per-vehicle arrays set at a reset, so that an
-        # episode may draw its own (the margin's time-constant scale is in them)
-        up, down = scenario.rotor_time_constants
+        # episode may draw its own: the margin's time-constant scale is a number (in every
+        # vehicle's from the start) or a range drawn at each reset (``start``)
+        scale = scenario.loop.motor_time_constant_scale
+        self.time_constant_scales = scale if isinstance(scale, tuple) else None
+        self.unscaled_time_constants = scenario.loop.rotor_time_constants(vehicle, 1.0)
+        up, down = (self.unscaled_time_constants if self.time_constant_scales is not None
+                    else scenario.rotor_time_constants)
         self.time_constant = np.full(n, up)
         self.spin_down_time_constant = np.full(n, 0.0 if down == up else down)
+        self.time_constant_scale = np.ones(n)
         self.thrust_model_factor = np.full(
             n, 0.0 if self.throttle is None else self.throttle.thrust_model_factor)
         self.uncertain = scenario.loop.thrust_uncertainty
@@ -146,6 +152,13 @@ class VehicleLoop:
                 self.told_over_true[index] = 1.0 + stream.uniform(-bounds, bounds)
                 drawn = self.thrust_scale[index] if self.uncertain else 1.0
                 self.thrust_scale[index] = drawn / self.told_over_true[index, 2]
+        if self.time_constant_scales is not None:
+            # its own stream after the thrust path's, so a fixed scale draws nothing
+            scale = child.spawn(1)[0].uniform(*self.time_constant_scales)
+            up, down = self.unscaled_time_constants
+            self.time_constant_scale[index] = scale
+            self.time_constant[index] = up * scale
+            self.spin_down_time_constant[index] = 0.0 if down == up else down * scale
         if self.rotor_mismatch:
             # a stream of its own, spawned after the others, so switching the mismatch on
             # changes no other draw; rescaled to a mean of 1 (Molchanov et al. 2019)
@@ -167,11 +180,13 @@ class VehicleLoop:
     @property
     def needs_streams(self) -> bool:
         return (self.uncertain or self.throttle is not None or self.tolerance is not None
-                or bool(self.rotor_mismatch))
+                or self.time_constant_scales is not None or bool(self.rotor_mismatch))
 
     def sampled(self, index: int) -> dict[str, float]:
         """What was drawn for vehicle ``index`` (for ``info["sampled"]``)."""
         drawn = {}
+        if self.time_constant_scales is not None:
+            drawn["motor_time_constant_scale"] = float(self.time_constant_scale[index])
         if self.rotor_mismatch:
             drawn.update({f"rotor_{k}_thrust_factor": float(self.rotor_thrust_factor[index, k])
                           for k in range(4)})
