@@ -185,8 +185,8 @@ class LoopOptions:
                                "LoopOptions.motor_time_constant_scale",
                                "a factor on the rotors' time constants")
         if range_bounds(scale)[0] <= 0.0:
-            raise ValueError(f"LoopOptions.motor_time_constant_scale must be above 0 (a motor "
-                             f"with no lag is motor_lag=False), got {scale!r}")
+            raise ValueError(f"LoopOptions.motor_time_constant_scale must be > 0 (a motor with "
+                             f"no lag is motor_lag=False), got {scale!r}")
         checked["motor_time_constant_scale"] = scale
         checked["extra_latency"] = as_finite(self.extra_latency, "LoopOptions.extra_latency",
                                              0.0)
@@ -281,8 +281,10 @@ class LoopOptions:
                              f"scales the IMU's vibration, but {flight} has none: give "
                              "imu_vibration (or benchmark='v3')")
         if self.motor_time_constant_scale != 1.0 and not (self.motor_lag or self.speed_motors):
-            raise ValueError(f"LoopOptions.motor_time_constant_scale = "
-                             f"{self.motor_time_constant_scale} scales the motor lag, but "
+            scale = self.motor_time_constant_scale
+            shown = scale if isinstance(scale, tuple) else f"{scale:g}"
+            raise ValueError(f"LoopOptions.motor_time_constant_scale = {shown} scales the "
+                             f"motor lag, but "
                              f"{flight} flies without it: set motor_lag=True (or "
                              "speed_motors=True) too")
         if self.rotor_thrust_mismatch and not (self.speed_motors or self.rotor_aerodynamics

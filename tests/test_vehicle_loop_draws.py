@@ -69,7 +69,7 @@ def test_vehicles_of_one_batch_fly_their_own_lag():
 
 
 def test_a_scale_range_is_checked():
-    with pytest.raises(ValueError, match="above 0"):
+    with pytest.raises(ValueError, match="must be > 0"):
         LoopOptions(motor_time_constant_scale=(0.0, 1.0))
     with pytest.raises(ValueError, match="low <= high"):
         LoopOptions(motor_time_constant_scale=(2.0, 1.0))
