@@ -273,7 +273,7 @@ class StartArguments(NamedTuple):
     outputs: StepOutputs
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated, actions,
                         body, state, actuator, rotors, draws, forcing, episode, outputs):
     """After vehicle i's step of ``ticks`` ticks: what was applied (the ticks' mean output),
