@@ -3,14 +3,34 @@
 A key is drawn from the vehicle's own generator at reset; a compiled loop then makes the
 per-step noise of every vehicle at once, and each vehicle's noise still follows from its
 seed alone, whatever the batch (SplitMix64 hashing, Box–Muller).
+
+``named_stream``: a mechanism's own generator for an episode, fixed by its name, so that
+switching any other mechanism on or off never moves its draws.
 """
 
 from __future__ import annotations
 
 import math
+import zlib
 
 import numpy as np
 from numba import njit
+
+# above every index ``Generator.spawn`` hands out in practice, so a named stream never is a
+# spawned child
+NAMED_STREAM_OFFSET = 2**32
+
+
+def named_stream(parent: np.random.Generator, name: str) -> np.random.Generator:
+    """The generator of mechanism ``name`` under ``parent`` (an episode's child of a
+    vehicle's generator): the child whose spawn key extends ``parent``'s by a number fixed
+    by the name (its CRC-32 above ``NAMED_STREAM_OFFSET``), not by how many children were
+    spawned before it. Making it draws nothing from ``parent``."""
+    seed = parent.bit_generator.seed_seq
+    key = NAMED_STREAM_OFFSET + zlib.crc32(name.encode())
+    child = np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, key),
+                                   pool_size=seed.pool_size)
+    return np.random.Generator(type(parent.bit_generator)(child))
 
 
 @njit(cache=True, inline="always")

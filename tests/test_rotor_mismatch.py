@@ -101,3 +101,18 @@ def test_it_needs_the_rotors_own_model():
         make_scenario("hover-calm", rotor_thrust_mismatch=MISMATCH)
     with pytest.raises(ValueError, match=r"in \[0, 0.5\)"):
         LoopOptions(rotor_thrust_mismatch=0.7)
+
+
+def test_no_mechanism_moves_anothers_draw():
+    # each per-episode draw comes from a stream named for it (rng.named_stream), not the
+    # n-th child spawned: switching the mismatch on moves none of the ranges' draws
+    ranges = {"unmodelled_pose_latency": (0.0, 0.02), "imu_vibration_scale": (0.5, 1.5),
+              "motor_time_constant_scale": (0.8, 1.2)}
+    alone = gym.make("QuadDOB/Hover-v3", scenario_options=ranges)
+    both = gym.make("QuadDOB/Hover-v3",
+                    scenario_options={**ranges, "rotor_thrust_mismatch": MISMATCH})
+    for seed in (9, 10):
+        _, drawn_alone = alone.reset(seed=seed)
+        _, drawn_both = both.reset(seed=seed)
+        for key in ranges:
+            assert drawn_both["sampled"][key] == drawn_alone["sampled"][key], key

@@ -16,6 +16,7 @@ from quad_dob_env.dynamics import Actuator
 from quad_dob_env.dynamics.rotors import RotorDraws, RotorModel
 from quad_dob_env.envs.actions import MAX_RATE_COMMAND, RATE_GAIN
 from quad_dob_env.envs.ticks import InnerLoop, butterworth_coefficients
+from quad_dob_env.rng import named_stream
 from quad_dob_env.scenarios import Scenario
 
 # Per-episode true thrust coefficient over the nominal: air density from 0 °C to 30 °C at
@@ -153,17 +154,18 @@ class VehicleLoop:
                 drawn = self.thrust_scale[index] if self.uncertain else 1.0
                 self.thrust_scale[index] = drawn / self.told_over_true[index, 2]
         if self.time_constant_scales is not None:
-            # its own stream after the thrust path's, so a fixed scale draws nothing
-            scale = child.spawn(1)[0].uniform(*self.time_constant_scales)
+            # a stream of its own name: switching another mechanism on moves no draw here
+            scale = named_stream(child, "motor_time_constant_scale").uniform(
+                *self.time_constant_scales)
             up, down = self.unscaled_time_constants
             self.time_constant_scale[index] = scale
             self.time_constant[index] = up * scale
             self.spin_down_time_constant[index] = 0.0 if down == up else down * scale
         if self.rotor_mismatch:
-            # a stream of its own, spawned after the others, so switching the mismatch on
-            # changes no other draw; rescaled to a mean of 1 (Molchanov et al. 2019)
-            factors = 1.0 + child.spawn(1)[0].uniform(-self.rotor_mismatch,
-                                                      self.rotor_mismatch, 4)
+            # a stream of its own name, so switching the mismatch on changes no other draw;
+            # rescaled to a mean of 1 (Molchanov et al. 2019)
+            factors = 1.0 + named_stream(child, "rotor_thrust_mismatch").uniform(
+                -self.rotor_mismatch, self.rotor_mismatch, 4)
             self.rotor_thrust_factor[index] = factors * (4.0 / factors.sum())
 
     def told_inertia(self, inertia: NDArray) -> NDArray:

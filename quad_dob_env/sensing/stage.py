@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.memory import check_memory
 from quad_dob_env.params import VehicleParams
+from quad_dob_env.rng import named_stream
 from quad_dob_env.sensing.estimator import estimate_kernel, start_estimates_kernel
 from quad_dob_env.sensing.measurement import Measurement
 from quad_dob_env.sensing.models import SensorSuite
@@ -229,11 +230,10 @@ class SensingStage:
     def start(self, index: int, stream: np.random.Generator | None) -> None:
         """A new episode's sensor keys for vehicle ``index``, from ``stream``, the episode's
         child of its generator (None: the identity needs none), and where a range is given
-        its unmodelled pose latency and vibration scale, from a stream spawned off that
-        child. The core calls this after the vehicle loop has spawned its own streams off
-        the same child: spawning draws nothing from it, so the wind, gusts, starts and
-        randomisation it gives are the same with any sensing, and a range switched on
-        changes no other draw."""
+        its unmodelled pose latency and vibration scale, from the child's stream named for
+        them (``rng.named_stream``): making it draws nothing from the child, so the wind,
+        gusts, starts and randomisation it gives are the same with any sensing, and no
+        other mechanism switched on moves these draws."""
         if self.identity:
             return
         self.keys[index] = stream.integers(1, 2**63, size=KEYS, dtype=np.uint64)
@@ -241,7 +241,7 @@ class SensingStage:
             return
         # one uniform per value, drawn whether it is a range or not: switching one range
         # on changes not the other's draw
-        uniforms = stream.spawn(1)[0].random(2)
+        uniforms = named_stream(stream, "sensing_ranges").random(2)
         for k, bounds in enumerate(self._ranges):
             if bounds is not None:
                 low, high = bounds
