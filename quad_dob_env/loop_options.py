@@ -290,7 +290,8 @@ class LoopOptions:
         if self.rotor_thrust_mismatch and not (self.speed_motors or self.rotor_aerodynamics
                                                or self.thrust_uncertainty):
             raise ValueError(f"LoopOptions.rotor_thrust_mismatch acts on the rotors' own model, "
-                             f"but {flight} flies without it: set speed_motors=True (or "
+                             f"but {flight} flies without it: set speed_motors, "
+                             "rotor_aerodynamics or thrust_uncertainty to True (or "
                              "benchmark='v2' or 'v3')")
         if self.motor_time_constants is not None and not self.speed_motors:
             raise ValueError(f"LoopOptions.motor_time_constants {self.motor_time_constants} "

@@ -32,7 +32,6 @@ from quad_dob_env.feasibility import Feasibility, check_reference, refusal
 from quad_dob_env.loop_options import (
     DEFAULT_LOOP_OPTIONS,
     LOOP_KEYS,
-    OPTION_NAMES,
     LoopOptions,
     split_loop_keys,
 )
@@ -288,7 +287,11 @@ def _moved_into_the_loop(name: str, read: Callable[[LoopOptions], object],
     return property(deprecated, doc=f"Deprecated: read ``{replacement}``.")
 
 
-for _name in OPTION_NAMES:
+# the loop's options that were Scenario fields before the record (issue 52); options added
+# since were never read from a Scenario and get no shim
+FORMER_FIELDS = (*LOOP_FIELDS, "benchmark", "motor_lag", "motor_time_constant_scale",
+                 "extra_latency", "unmodelled_pose_latency")
+for _name in FORMER_FIELDS:
     setattr(Scenario, _name, _moved_into_the_loop(
         _name, operator.attrgetter(_name), f"scenario.loop.{_name}"))
 Scenario.sensors = _moved_into_the_loop(  # type: ignore[attr-defined]

@@ -23,7 +23,7 @@ from quad_dob_env.loop_options import (
     split_loop_keys,
 )
 from quad_dob_env.params import VEHICLES, get_vehicle
-from quad_dob_env.scenario import Scenario
+from quad_dob_env.scenario import FORMER_FIELDS, Scenario
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.sensing.models import SENSING_PRESETS
 from quad_dob_env.trajectories import Hover
@@ -31,7 +31,7 @@ from quad_dob_env.variation import SensorNoise
 
 RESOLUTIONS = Path(__file__).parent / "data" / "loop_resolutions.json"
 # the 18 scenario fields the record replaced: its 17 options and sensing's ``sensors``
-MOVED = (*OPTION_NAMES, "sensors")
+MOVED = (*FORMER_FIELDS, "sensors")
 
 
 def _plain(value: object) -> str:
@@ -226,6 +226,9 @@ def test_reading_a_moved_field_off_the_scenario_warns_and_names_its_place():
     for name in MOVED:
         with pytest.warns(DeprecationWarning, match=f"Scenario.{name} is deprecated"):
             getattr(scenario, name)
+    # options added to the record since were never Scenario fields: no shim, no warning
+    for name in set(OPTION_NAMES) - set(FORMER_FIELDS):
+        assert not hasattr(scenario, name), name
 
 
 # one id of each kind: v1 direct, v3 direct, v3 residual

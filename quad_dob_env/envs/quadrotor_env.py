@@ -110,11 +110,15 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     m/s); ``estimate``, a dict of what the policies read (``position``, ``velocity``,
     ``rotation``, ``angular_velocity``; the true state with ideal sensing). ``reset`` adds
     ``sampled``: what domain randomisation and random disturbances drew for this episode
-    (mass, inertia and drag scales, wind direction and intensity, impulse start).
+    (mass, inertia and drag scales, wind direction and intensity, impulse start), and the
+    vehicle loop's per-episode draws where they are on (``motor_time_constant_scale``,
+    ``rotor_0_thrust_factor`` to ``_3_``, ``unmodelled_pose_latency``, ``imu_vibration_scale``,
+    the thrust path's and the model tolerance's).
 
     ## Sensing
-    ``Scenario.sensing`` (``quad_dob_env.sensing``) sets what every policy reads: the
-    observation above, and a base controller's input in a residual env. ``ideal`` (the
+    ``LoopOptions.sensing`` (``scenario.loop.sensing``; ``quad_dob_env.sensing``) sets what
+    every policy reads: the observation above, and a base controller's input in a residual
+    env. ``ideal`` (the
     default) is the true state, v1's loop bit for bit; ``mocap`` and ``gnss-imu`` fly
     sensors with their datasheets' noise and latency through a state estimator; a
     ``SensorNoise`` (``sensors=``) adds Gaussian noise to the state, ``delay_steps`` late.
