@@ -45,11 +45,9 @@ class VehicleLoop:
         scale = scenario.loop.motor_time_constant_scale
         self.time_constant_scales = scale if isinstance(scale, tuple) else None
         self.unscaled_time_constants = scenario.loop.rotor_time_constants(vehicle, 1.0)
-        up, down = (self.unscaled_time_constants if self.time_constant_scales is not None
-                    else scenario.rotor_time_constants)
-        self.time_constant = np.full(n, up)
-        self.spin_down_time_constant = np.full(n, 0.0 if down == up else down)
+        self.time_constant, self.spin_down_time_constant = np.zeros(n), np.zeros(n)
         self.time_constant_scale = np.ones(n)
+        self._scale_time_constants(slice(None), 1.0 if self.time_constant_scales else scale)
         self.thrust_model_factor = np.full(
             n, 0.0 if self.throttle is None else self.throttle.thrust_model_factor)
         self.uncertain = scenario.loop.thrust_uncertainty
@@ -155,18 +153,22 @@ class VehicleLoop:
                 self.thrust_scale[index] = drawn / self.told_over_true[index, 2]
         if self.time_constant_scales is not None:
             # a stream of its own name: switching another mechanism on moves no draw here
-            scale = named_stream(child, "motor_time_constant_scale").uniform(
-                *self.time_constant_scales)
-            up, down = self.unscaled_time_constants
-            self.time_constant_scale[index] = scale
-            self.time_constant[index] = up * scale
-            self.spin_down_time_constant[index] = 0.0 if down == up else down * scale
+            self._scale_time_constants(index, named_stream(
+                child, "motor_time_constant_scale").uniform(*self.time_constant_scales))
         if self.rotor_mismatch:
             # a stream of its own name, so switching the mismatch on changes no other draw;
             # rescaled to a mean of 1 (Molchanov et al. 2019)
             factors = 1.0 + named_stream(child, "rotor_thrust_mismatch").uniform(
                 -self.rotor_mismatch, self.rotor_mismatch, 4)
             self.rotor_thrust_factor[index] = factors * (4.0 / factors.sum())
+
+    def _scale_time_constants(self, index: int | slice, scale: float) -> None:
+        """Vehicles ``index``'s lag: the unscaled time constants times ``scale``; the
+        spin-down's 0 where it is the spin-up's (one time constant both ways)."""
+        up, down = self.unscaled_time_constants
+        self.time_constant_scale[index] = scale
+        self.time_constant[index] = up * scale
+        self.spin_down_time_constant[index] = 0.0 if down == up else down * scale
 
     def told_inertia(self, inertia: NDArray) -> NDArray:
         """The inertia (N, 3, 3) an autopilot's rate loop is told for the vehicles' true
