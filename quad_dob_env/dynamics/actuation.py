@@ -24,27 +24,42 @@ class AppliedCommand(NamedTuple):
 ACTUATION_CODES = {"rotors": 0, "wrench": 1}
 
 
+def as_floats(vector: ArrayLike) -> tuple[float, ...]:
+    """A constant vector as the compiled kernels take it: a tuple of floats."""
+    return tuple(float(value) for value in np.asarray(vector, dtype=float).reshape(-1))
+
+
+def as_rows(matrix: ArrayLike) -> tuple[tuple[float, ...], ...]:
+    """A constant matrix as the compiled kernels take it: a tuple of rows, each a tuple of
+    floats, read as ``matrix[row][column]``. A tuple carries no reference count: an array
+    handed to an inlined per-vehicle function is counted in and out at every call, and on
+    two threads that count is a cache line both cores write (docs/speed.md)."""
+    return tuple(as_floats(row) for row in np.asarray(matrix, dtype=float))
+
+
 class ActuatorArrays(NamedTuple):
     """The actuators as the compiled step reads them (``Actuator.kernel_record``): the
-    mixer's limits, the maps from their output to the wrench and the rotors, and each
-    vehicle's output now (the lag is each vehicle's, ``rotors.RotorDraws``)."""
+    mixer's limits, the maps from their output to the wrench and the rotors (constants, as
+    tuples: ``as_rows``), and each vehicle's output now (the lag is each vehicle's,
+    ``rotors.RotorDraws``)."""
 
     code: int  # ACTUATION_CODES
-    mixer: NDArray  # (4, 4) [f, M] -> rotor thrusts
+    mixer: tuple  # 4 rows of 4: [f, M] -> rotor thrusts
     max_rotor_thrust: float  # [N]
     max_total_thrust: float  # [N]
-    moment_limit: NDArray  # (3,) [N m]
-    to_wrench: NDArray  # (4, 4) output -> [f, Mx, My, Mz]
-    to_rotors: NDArray  # (4, 4) output -> rotor thrusts
+    moment_limit: tuple  # 3 [N m]
+    to_wrench: tuple  # 4 rows of 4: output -> [f, Mx, My, Mz]
+    to_rotors: tuple  # 4 rows of 4: output -> rotor thrusts
     output: NDArray  # (N, 4) rotor thrusts, the wrench, or rotor speeds (speed motors)
 
 
 @njit(cache=True, inline="always")
 def _mat4_vec(matrix, a, b, c, d):
-    return (matrix[0, 0] * a + matrix[0, 1] * b + matrix[0, 2] * c + matrix[0, 3] * d,
-            matrix[1, 0] * a + matrix[1, 1] * b + matrix[1, 2] * c + matrix[1, 3] * d,
-            matrix[2, 0] * a + matrix[2, 1] * b + matrix[2, 2] * c + matrix[2, 3] * d,
-            matrix[3, 0] * a + matrix[3, 1] * b + matrix[3, 2] * c + matrix[3, 3] * d)
+    """A 4 x 4 matrix (``as_rows``) times (a, b, c, d)."""
+    return (matrix[0][0] * a + matrix[0][1] * b + matrix[0][2] * c + matrix[0][3] * d,
+            matrix[1][0] * a + matrix[1][1] * b + matrix[1][2] * c + matrix[1][3] * d,
+            matrix[2][0] * a + matrix[2][1] * b + matrix[2][2] * c + matrix[2][3] * d,
+            matrix[3][0] * a + matrix[3][1] * b + matrix[3][2] * c + matrix[3][3] * d)
 
 
 @njit(cache=True)
@@ -61,8 +76,8 @@ def actuate_vehicle(thrust, moment, actuation_code, mixer, max_rotor_thrust, max
     """
     if actuation_code == 0:
         base = _mat4_vec(mixer, thrust, moment[0], moment[1], 0.0)
-        yaw = (mixer[0, 3] * moment[2], mixer[1, 3] * moment[2], mixer[2, 3] * moment[2],
-               mixer[3, 3] * moment[2])
+        yaw = (mixer[0][3] * moment[2], mixer[1][3] * moment[2], mixer[2][3] * moment[2],
+               mixer[3][3] * moment[2])
         clipped_base = (min(max(base[0], 0.0), max_rotor_thrust),
                         min(max(base[1], 0.0), max_rotor_thrust),
                         min(max(base[2], 0.0), max_rotor_thrust),
@@ -143,17 +158,18 @@ class Actuator:
     def kernel_arguments(self) -> tuple:
         """The arguments ``actuate_vehicle`` takes after the command."""
         p = self.params
-        return (self.code, p.mixer_matrix, float(p.max_rotor_thrust), float(p.max_total_thrust),
-                self.moment_limit)
+        return (self.code, as_rows(p.mixer_matrix), float(p.max_rotor_thrust),
+                float(p.max_total_thrust), as_floats(self.moment_limit))
 
     def kernel_record(self, output: NDArray) -> ActuatorArrays:
         """The record the compiled step reads, with the batch's ``output`` array (N, 4),
         written in place."""
         p = self.params
         return ActuatorArrays(
-            code=self.code, mixer=p.mixer_matrix, max_rotor_thrust=float(p.max_rotor_thrust),
-            max_total_thrust=float(p.max_total_thrust), moment_limit=self.moment_limit,
-            to_wrench=self.to_wrench, to_rotors=self.to_rotors, output=output)
+            code=self.code, mixer=as_rows(p.mixer_matrix),
+            max_rotor_thrust=float(p.max_rotor_thrust),
+            max_total_thrust=float(p.max_total_thrust), moment_limit=as_floats(self.moment_limit),
+            to_wrench=as_rows(self.to_wrench), to_rotors=as_rows(self.to_rotors), output=output)
 
     def apply(self, thrust: ArrayLike, moment: ArrayLike) -> AppliedCommand:
         """What an instantaneous actuator produces for the commanded thrust and moment."""
@@ -162,6 +178,6 @@ class Actuator:
         moment = np.ascontiguousarray(np.broadcast_to(np.asarray(moment, float), (n, 3)))
         out = AppliedCommand(np.empty(n), np.empty((n, 3)), np.empty((n, 4)),
                              np.empty(n, dtype=np.bool_))
-        _actuate_batch(thrust, moment, *self.kernel_arguments(), self.to_wrench,
-                       self.to_rotors, *out)
+        _actuate_batch(thrust, moment, *self.kernel_arguments(), as_rows(self.to_wrench),
+                       as_rows(self.to_rotors), *out)
         return out

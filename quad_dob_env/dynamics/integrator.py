@@ -217,33 +217,27 @@ def actuator_wrench(start, command, factor, to_wrench):
     u1 = command[1] + (start[1] - command[1]) * factor
     u2 = command[2] + (start[2] - command[2]) * factor
     u3 = command[3] + (start[3] - command[3]) * factor
-    w = to_wrench
-    return (w[0, 0] * u0 + w[0, 1] * u1 + w[0, 2] * u2 + w[0, 3] * u3,
-            (w[1, 0] * u0 + w[1, 1] * u1 + w[1, 2] * u2 + w[1, 3] * u3,
-             w[2, 0] * u0 + w[2, 1] * u1 + w[2, 2] * u2 + w[2, 3] * u3,
-             w[3, 0] * u0 + w[3, 1] * u1 + w[3, 2] * u2 + w[3, 3] * u3))
+    w = to_wrench  # 4 rows of 4 (``actuation.as_rows``)
+    return (w[0][0] * u0 + w[0][1] * u1 + w[0][2] * u2 + w[0][3] * u3,
+            (w[1][0] * u0 + w[1][1] * u1 + w[1][2] * u2 + w[1][3] * u3,
+             w[2][0] * u0 + w[2][1] * u1 + w[2][2] * u2 + w[2][3] * u3,
+             w[3][0] * u0 + w[3][1] * u1 + w[3][2] * u2 + w[3][3] * u3))
 
 
 @njit(cache=True, inline="always")
-def _stage_inputs(start, command, time_constant, spin_down, to_wrench, forcing, row, i, grid,
-                  elapsed, rotors):
-    """Thrust, moment, rotor speeds, force, torque and wind at grid sample ``grid``,
-    ``elapsed`` s in (the rotor speeds are what the rotors' own model reads, when on;
-    ``spin_down``: their time constant when they slow, 0: ``time_constant``)."""
+def _stage_actuators(start, command, time_constant, spin_down, to_wrench, elapsed, rotors):
+    """Thrust, moment and rotor speeds ``elapsed`` s into the interval (the rotor speeds are
+    what the rotors' own model reads, when on; ``spin_down``: their time constant when they
+    slow, 0: ``time_constant``)."""
     if rotors.active:
         if rotors.speed_motors and spin_down > 0.0:  # spinning up and down unequally
             output = lagged_each(start, command, speed_lag_factors(
                 start, command, time_constant, spin_down, elapsed))
         else:
             output = lagged_output(start, command, lag_factor(elapsed, time_constant))
-        speeds = speeds_of_output(output, rotors)
-        f, m = 0.0, (0.0, 0.0, 0.0)
-    else:
-        speeds = (0.0, 0.0, 0.0, 0.0)
-        f, m = actuator_wrench(start, command, lag_factor(elapsed, time_constant), to_wrench)
-    return (f, m, speeds, sample(forcing.force, row, forcing.force_own, i, grid),
-            sample(forcing.torque, row, forcing.torque_own, i, grid),
-            sample(forcing.wind, row, forcing.wind_own, i, grid))
+        return 0.0, (0.0, 0.0, 0.0), speeds_of_output(output, rotors)
+    f, m = actuator_wrench(start, command, lag_factor(elapsed, time_constant), to_wrench)
+    return f, m, (0.0, 0.0, 0.0, 0.0)
 
 
 @njit(cache=True)
@@ -264,17 +258,28 @@ def advance_vehicle(i, state, start, command, time_constant, spin_down, to_wrenc
     """
     x, v, R, w = state
     h = dt / substeps
+    # the tables taken out of the record once: each taking counts a reference, and per
+    # stage that cost more than the stage's arithmetic (docs/speed.md)
+    force, torque, wind = forcing.force, forcing.torque, forcing.wind
+    force_own, torque_own, wind_own = forcing.force_own, forcing.torque_own, forcing.wind_own
     for s in range(substeps):
         t0 = s * h
         grid = first_sample + 2 * s
-        f1, m1, u1, d1, t1, w1 = _stage_inputs(start, command, time_constant, spin_down,
-                                               to_wrench, forcing, row, i, grid, t0, rotors)
-        f2, m2, u2, d2, t2, w2 = _stage_inputs(start, command, time_constant, spin_down,
-                                               to_wrench, forcing, row, i, grid + 1,
-                                               t0 + 0.5 * h, rotors)
-        f4, m4, u4, d4, t4, w4 = _stage_inputs(start, command, time_constant, spin_down,
-                                               to_wrench, forcing, row, i, grid + 2, t0 + h,
-                                               rotors)
+        f1, m1, u1 = _stage_actuators(start, command, time_constant, spin_down, to_wrench, t0,
+                                      rotors)
+        f2, m2, u2 = _stage_actuators(start, command, time_constant, spin_down, to_wrench,
+                                      t0 + 0.5 * h, rotors)
+        f4, m4, u4 = _stage_actuators(start, command, time_constant, spin_down, to_wrench,
+                                      t0 + h, rotors)
+        d1, t1, w1 = (sample(force, row, force_own, i, grid),
+                      sample(torque, row, torque_own, i, grid),
+                      sample(wind, row, wind_own, i, grid))
+        d2, t2, w2 = (sample(force, row, force_own, i, grid + 1),
+                      sample(torque, row, torque_own, i, grid + 1),
+                      sample(wind, row, wind_own, i, grid + 1))
+        d4, t4, w4 = (sample(force, row, force_own, i, grid + 2),
+                      sample(torque, row, torque_own, i, grid + 2),
+                      sample(wind, row, wind_own, i, grid + 2))
         a1, al1 = _accelerations(x, v, R, w, f1, m1, d1, t1, w1, body, law, u1, rotors,
                                  thrust_scales)
         x2, v2, om2 = _axpy(h / 2, v, x), _axpy(h / 2, a1, v), _axpy(h / 2, al1, w)

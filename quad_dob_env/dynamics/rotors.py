@@ -50,6 +50,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from quad_dob_env.dynamics.actuation import as_floats, as_rows
 from quad_dob_env.dynamics.throttle import ThrottleMap
 from quad_dob_env.params import VehicleParams
 
@@ -66,8 +67,8 @@ class RotorModel(NamedTuple):
     thrust_coefficient: float  # nominal k_F [N/(rad/s)²]
     drag_coefficient: float  # k_d [N/(rad/s · m/s)]
     inflow_coefficient: float  # k_z [N/(rad/s · m/s)]
-    positions: NDArray  # hubs in the body frame [m]
-    spin: NDArray  # the allocation's yaw signs times c_τ [m]
+    positions: tuple  # 4 hubs (x, y, z) in the body frame [m]
+    spin: tuple  # 4: the allocation's yaw signs times c_τ [m]
     radius: float  # R [m]
     edgewise_ratio: float  # a_μ
     axial_ratio: float  # a_λ
@@ -92,8 +93,8 @@ class RotorModel(NamedTuple):
             thrust_coefficient=float(vehicle.thrust_coefficient),
             drag_coefficient=float(vehicle.rotor_drag_coefficient),
             inflow_coefficient=float(vehicle.inflow_coefficient),
-            positions=np.ascontiguousarray(positions),
-            spin=np.ascontiguousarray(allocation[3]), radius=float(vehicle.rotor_radius),
+            positions=as_rows(positions), spin=as_floats(allocation[3]),
+            radius=float(vehicle.rotor_radius),
             edgewise_ratio=float(vehicle.inflow_quadratic[0]),
             axial_ratio=float(vehicle.inflow_quadratic[1]),
             throttle=throttle is not None,
@@ -119,6 +120,31 @@ class RotorDraws(NamedTuple):
     hover_throttle_drift: NDArray  # [1/s] its climb
     hover_estimate_factor: NDArray  # the autopilot's estimate over the truth, 1 + ε
     rotor_thrust_factor: NDArray  # (N, 4) each rotor's true k_F over the vehicle's
+
+
+class VehicleDraws(NamedTuple):
+    """Vehicle i's row of ``RotorDraws``, read once a step (``vehicle_draws``): numbers
+    only, so the per-tick functions it is handed to count no references."""
+
+    time_constant: float
+    spin_down_time_constant: float
+    thrust_model_factor: float
+    thrust_scale: float
+    sag_rate: float
+    hover_throttle: float
+    hover_throttle_drift: float
+    hover_estimate_factor: float
+    true_thrust_scales: tuple  # (4,) ``true_thrust_scales``
+
+
+@njit(cache=True, inline="always")
+def vehicle_draws(i, draws):
+    """Vehicle i's ``VehicleDraws`` from the batch's ``RotorDraws``."""
+    return VehicleDraws(draws.time_constant[i], draws.spin_down_time_constant[i],
+                        draws.thrust_model_factor[i], draws.thrust_scale[i],
+                        draws.sag_rate[i], draws.hover_throttle[i],
+                        draws.hover_throttle_drift[i], draws.hover_estimate_factor[i],
+                        true_thrust_scales(i, draws))
 
 
 @njit(cache=True, inline="always")
@@ -209,7 +235,7 @@ def rotor_wrench(speeds, v, rotation, omega, wind, thrust_scales, rotors):
             r[2] * a[0] + r[5] * a[1] + r[8] * a[2])
     fx = fy = fz = mx = my = mz = 0.0
     for k in range(4):
-        px, py, pz = positions[k, 0], positions[k, 1], positions[k, 2]
+        px, py, pz = positions[k]
         w = speeds[k]
         thrust = thrust_scales[k] * k_f * w * w
         torque = spin[k] * thrust  # the rotor's drag torque, ∝ ω² (inflow left out of it)
@@ -244,11 +270,11 @@ def nominal_wrench(speeds, rotors, allocation):
     k = rotors.thrust_coefficient
     t = (k * speeds[0] * speeds[0], k * speeds[1] * speeds[1], k * speeds[2] * speeds[2],
          k * speeds[3] * speeds[3])
-    a = allocation
-    return (a[0, 0] * t[0] + a[0, 1] * t[1] + a[0, 2] * t[2] + a[0, 3] * t[3],
-            (a[1, 0] * t[0] + a[1, 1] * t[1] + a[1, 2] * t[2] + a[1, 3] * t[3],
-             a[2, 0] * t[0] + a[2, 1] * t[1] + a[2, 2] * t[2] + a[2, 3] * t[3],
-             a[3, 0] * t[0] + a[3, 1] * t[1] + a[3, 2] * t[2] + a[3, 3] * t[3]), t)
+    a = allocation  # 4 rows of 4 (``actuation.as_rows``)
+    return (a[0][0] * t[0] + a[0][1] * t[1] + a[0][2] * t[2] + a[0][3] * t[3],
+            (a[1][0] * t[0] + a[1][1] * t[1] + a[1][2] * t[2] + a[1][3] * t[3],
+             a[2][0] * t[0] + a[2][1] * t[1] + a[2][2] * t[2] + a[2][3] * t[3],
+             a[3][0] * t[0] + a[3][1] * t[1] + a[3][2] * t[2] + a[3][3] * t[3]), t)
 
 
 @njit(cache=True, inline="always")

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_env.dynamics import Actuator
+from quad_dob_env.dynamics.actuation import as_floats, as_rows
 from quad_dob_env.envs.step_kernels import (
     action_from_command_batch,
     command_from_action_batch,
@@ -56,8 +57,10 @@ class ActionMap:
             scale_up = np.full(4, vehicle.max_rotor_thrust - per_rotor)
             scale_down = np.full(4, per_rotor)
         rotor_mode = action_mode == "rotor_thrusts"
-        self.forward = (rotor_mode, centre, scale_up, scale_down, vehicle.allocation_matrix)
-        self.inverse = (rotor_mode, centre, scale_up, scale_down, vehicle.mixer_matrix)
+        # constants as tuples (``as_rows``): they count no references in the kernels
+        shape = (as_floats(centre), as_floats(scale_up), as_floats(scale_down))
+        self.forward = (rotor_mode, *shape, as_rows(vehicle.allocation_matrix))
+        self.inverse = (rotor_mode, *shape, as_rows(vehicle.mixer_matrix))
 
     def flown(self, actions: NDArray, angular_velocity: NDArray, inertia: NDArray) -> NDArray:
         """The actions the compiled step takes: ``actions`` themselves, or with

@@ -35,6 +35,7 @@ from quad_dob_env.dynamics.rotors import (
     rotor_wrench,
     speeds_of_output,
     true_thrust_scales,
+    vehicle_draws,
 )
 from quad_dob_env.envs.termination import ATTITUDE_LOST, CRASHED, NON_FINITE_STATE, OUT_OF_BOUNDS
 from quad_dob_env.envs.ticks import (
@@ -43,8 +44,8 @@ from quad_dob_env.envs.ticks import (
     fly_tick,
     held_rate,
     inner_estimate,
-    keep_pose,
     rate_law,
+    store_vehicle_pose,
     thrust_path_at,
     tick_factors,
 )
@@ -61,18 +62,31 @@ def _command(actions, i, action_map):
     rotor_mode, centre = action_map.rotor_mode, action_map.centre
     scale_up, scale_down, allocation = (action_map.scale_up, action_map.scale_down,
                                         action_map.matrix)
-    s = [0.0, 0.0, 0.0, 0.0]
-    for k in range(4):
-        a = min(max(actions[i, k], -1.0), 1.0)  # out-of-range actions are clipped
-        s[k] = centre[k] + a * (scale_up[k] if a >= 0.0 else scale_down[k])
+    s = (_scaled(actions[i, 0], centre[0], scale_up[0], scale_down[0]),
+         _scaled(actions[i, 1], centre[1], scale_up[1], scale_down[1]),
+         _scaled(actions[i, 2], centre[2], scale_up[2], scale_down[2]),
+         _scaled(actions[i, 3], centre[3], scale_up[3], scale_down[3]))
     if rotor_mode:
         f = s[0] + s[1] + s[2] + s[3]
-        m = [0.0, 0.0, 0.0]
-        for row in range(3):
-            for k in range(4):
-                m[row] += allocation[row + 1, k] * s[k]
-        return f, (m[0], m[1], m[2])
+        m = (_row_sum(allocation, 1, s), _row_sum(allocation, 2, s), _row_sum(allocation, 3, s))
+        return f, m
     return s[0], (s[1], s[2], s[3])
+
+
+@njit(cache=True, inline="always")
+def _scaled(action, centre, scale_up, scale_down):
+    """One action entry clipped to [-1, 1] and scaled about its centre."""
+    a = min(max(action, -1.0), 1.0)  # out-of-range actions are clipped
+    return centre + a * (scale_up if a >= 0.0 else scale_down)
+
+
+@njit(cache=True, inline="always")
+def _row_sum(matrix, row, s):
+    """Row ``row`` of ``matrix`` times the 4-vector ``s``, summed from 0.0 in order."""
+    total = 0.0
+    for k in range(4):
+        total += matrix[row][k] * s[k]
+    return total
 
 
 @njit(cache=True)
@@ -95,8 +109,9 @@ def action_from_command_vehicle(i, thrust, moment, rotor_mode, centre, scale_up,
     wrench = (thrust, moment[0], moment[1], moment[2])
     for k in range(4):
         if rotor_mode:
-            value = (mixer[k, 0] * wrench[0] + mixer[k, 1] * wrench[1]
-                     + mixer[k, 2] * wrench[2] + mixer[k, 3] * wrench[3])
+            row = mixer[k]
+            value = (row[0] * wrench[0] + row[1] * wrench[1] + row[2] * wrench[2]
+                     + row[3] * wrench[3])
         else:
             value = wrench[k]
         offset = value - centre[k]
@@ -178,10 +193,10 @@ class ActionMapArrays(NamedTuple):
     """``ActionMap.forward`` (and ``.inverse``, with the mixer as ``matrix``) by field."""
 
     rotor_mode: bool  # actions are rotor thrusts, not thrust and moments
-    centre: NDArray  # (4,) what an action of 0 commands
-    scale_up: NDArray  # (4,) per unit of positive action
-    scale_down: NDArray  # (4,) per unit of negative action
-    matrix: NDArray  # (4, 4) the allocation (forward) or the mixer (inverse)
+    centre: tuple  # 4: what an action of 0 commands
+    scale_up: tuple  # 4: per unit of positive action
+    scale_down: tuple  # 4: per unit of negative action
+    matrix: tuple  # 4 rows of 4: the allocation (forward) or the mixer (inverse)
 
 
 class Episode(NamedTuple):
@@ -274,56 +289,66 @@ class StartArguments(NamedTuple):
 
 
 @njit(cache=True)
-def finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated, actions,
-                        body, state, actuator, rotors, draws, forcing, episode, outputs):
-    """After vehicle i's step of ``ticks`` ticks: what was applied (the ticks' mean output),
-    the end output, the last finite state, clock, observation, termination, reward, and the
-    true disturbance (external, extra lift, drag, the rotors' wrench beyond the nominal)."""
-    to_wrench = actuator.to_wrench
-    mean = (total[0] / ticks, total[1] / ticks, total[2] / ticks, total[3] / ticks)
-    outputs.saturated[i] = any_saturated
-    store_applied(i, mean, to_wrench, actuator.to_rotors, outputs.applied_thrust,
-                  outputs.applied_moment, outputs.rotor_thrusts)
-    for k in range(4):
-        actuator.output[i, k] = end[k]
-    last = forcing.force.shape[1] - 1
-    row = episode.step_count[i]
-    # the last finite state (where a step diverged: its start, or its last finite tick)
-    store_vehicle(i, state.position, state.velocity, state.rotation, state.angular_velocity,
-                  x, v, R, w)
-    episode.step_count[i] = row + 1
-    episode.reference_row[i] += 1  # time indexes the forcing tables, this the reference's
-    outputs.code[i], error = _sense(i, x, v, R, w, episode, outputs.obs)
-    if diverged:
-        outputs.code[i] = NON_FINITE_STATE
-    effort = 0.0
-    for k in range(4):
-        effort += min(actions[i, k] * actions[i, k], 1.0)
-    outputs.reward[i] = (np.exp(-error / episode.position_scale)
-                         - episode.effort_weight * effort / 4.0)
-    wind = sample(forcing.wind, row, forcing.wind_own, i, last)
-    drag_body = body_drag(v, R, wind, body.drag_linear, body.drag_quadratic)
-    multiplier = thrust_multiplier_scalar(x[2], episode.thrust_law)
-    if rotors.active:
-        speeds = speeds_of_output(end, rotors)
-        true_force, true_moment = rotor_wrench(speeds, v, R, w, wind,
-                                               true_thrust_scales(i, draws), rotors)
-        nominal_thrust, nominal_moment, _ = nominal_wrench(speeds, rotors, to_wrench)
-        extra = (drag_body[0] + true_force[0], drag_body[1] + true_force[1],
-                 drag_body[2] + true_force[2] * multiplier - nominal_thrust)
-        moment_error = (true_moment[0] - nominal_moment[0], true_moment[1] - nominal_moment[1],
-                        true_moment[2] - nominal_moment[2])
-    else:
-        thrust_now = actuator_wrench(end, end, 0.0, to_wrench)[0]
-        extra = (drag_body[0], drag_body[1], drag_body[2] + (multiplier - 1.0) * thrust_now)
-        moment_error = (0.0, 0.0, 0.0)
-    drag_world = mat_vec_tuple(R, extra)
-    external = sample(forcing.force, row, forcing.force_own, i, last)
-    torque = sample(forcing.torque, row, forcing.torque_own, i, last)
-    for k in range(3):
-        outputs.disturbance_force[i, k] = external[k] + drag_world[k]
-        outputs.disturbance_torque[i, k] = torque[k] + moment_error[k]
-        outputs.wind_velocity[i, k] = wind[k]
+def finish_vehicles(start, stop, actions, loop):
+    """After the ticks of vehicles ``start..stop-1`` (``fly_vehicles`` stored each one's
+    last finite state, end output, applied wrench, and ``NON_FINITE_STATE`` as the code of
+    those that diverged): clock, observation, termination, reward, and the true
+    disturbance (external, extra lift, drag, the rotors' wrench beyond the nominal). One
+    call a slice, every array taken out once: a call per vehicle counted a reference to
+    each of the ~45 arrays of the step's records in and out, half of v1's step."""
+    state, body, actuator, rotors = loop.state, loop.body, loop.actuator, loop.rotors
+    draws, forcing, episode, outputs = loop.draws, loop.forcing, loop.episode, loop.outputs
+    to_wrench, output = actuator.to_wrench, actuator.output
+    position, velocity = state.position, state.velocity
+    rotation, angular_velocity = state.rotation, state.angular_velocity
+    drag = body.drag
+    force, torque_table, wind_table = forcing.force, forcing.torque, forcing.wind
+    force_own, torque_own, wind_own = forcing.force_own, forcing.torque_own, forcing.wind_own
+    step_count, reference_row = episode.step_count, episode.reference_row
+    code, reward, obs = outputs.code, outputs.reward, outputs.obs
+    disturbance_force, disturbance_torque = outputs.disturbance_force, outputs.disturbance_torque
+    wind_velocity = outputs.wind_velocity
+    position_scale, effort_weight = episode.position_scale, episode.effort_weight
+    last = force.shape[1] - 1
+    for i in range(start, stop):
+        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
+        end = (output[i, 0], output[i, 1], output[i, 2], output[i, 3])
+        diverged = code[i] == NON_FINITE_STATE
+        row = step_count[i]
+        step_count[i] = row + 1
+        reference_row[i] += 1  # time indexes the forcing tables, this the reference's
+        code[i], error = _sense(i, x, v, R, w, episode, obs)
+        if diverged:
+            code[i] = NON_FINITE_STATE
+        effort = 0.0
+        for k in range(4):
+            effort += min(actions[i, k] * actions[i, k], 1.0)
+        reward[i] = np.exp(-error / position_scale) - effort_weight * effort / 4.0
+        wind = sample(wind_table, row, wind_own, i, last)
+        drag_body = body_drag(v, R, wind, (drag[i, 0], drag[i, 1], drag[i, 2]),
+                              (drag[i, 3], drag[i, 4], drag[i, 5]))
+        multiplier = thrust_multiplier_scalar(x[2], episode.thrust_law)
+        if rotors.active:
+            speeds = speeds_of_output(end, rotors)
+            true_force, true_moment = rotor_wrench(speeds, v, R, w, wind,
+                                                   true_thrust_scales(i, draws), rotors)
+            nominal_thrust, nominal_moment, _ = nominal_wrench(speeds, rotors, to_wrench)
+            extra = (drag_body[0] + true_force[0], drag_body[1] + true_force[1],
+                     drag_body[2] + true_force[2] * multiplier - nominal_thrust)
+            moment_error = (true_moment[0] - nominal_moment[0],
+                            true_moment[1] - nominal_moment[1],
+                            true_moment[2] - nominal_moment[2])
+        else:
+            thrust_now = actuator_wrench(end, end, 0.0, to_wrench)[0]
+            extra = (drag_body[0], drag_body[1], drag_body[2] + (multiplier - 1.0) * thrust_now)
+            moment_error = (0.0, 0.0, 0.0)
+        drag_world = mat_vec_tuple(R, extra)
+        external = sample(force, row, force_own, i, last)
+        torque = sample(torque_table, row, torque_own, i, last)
+        for k in range(3):
+            disturbance_force[i, k] = external[k] + drag_world[k]
+            disturbance_torque[i, k] = torque[k] + moment_error[k]
+            wind_velocity[i, k] = wind[k]
 
 
 @njit(cache=True, inline="always")
@@ -340,29 +365,38 @@ def fly_vehicles(start, stop, actions, loop, law_command, law_after_tick, law,
     updates the law's own state. ``law_command`` and ``law_after_tick`` are compiled
     functions, fixed where the caller is compiled, so numba specialises this loop per law:
     the env's held actions and rate law (``step_kernel``), a controller's attitude law
-    (``quad_dob_composition.attitude_loop``). ``law`` is the law's own record.
+    (``quad_dob_composition.attitude_loop``). ``law`` is the law's own record. Then
+    ``finish_vehicles`` scores the slice.
 
-    The step's records are taken out of ``loop`` once, here: taking a record out of another
-    takes a reference to every array in it, which per vehicle and tick cost 40 % of v1's
-    step."""
+    The step's records are taken out of ``loop`` once, here, and each vehicle's draws are
+    read once a step into numbers (``VehicleDraws``): taking a record out of another, or
+    handing one to an inlined function, counts a reference to every array in it, which per
+    vehicle and tick cost v1's step half its time (docs/speed.md)."""
     state, body_arrays, actuator = loop.state, loop.body, loop.actuator
     rotors, draws, inner, forcing = loop.rotors, loop.draws, loop.inner, loop.forcing
     episode, outputs = loop.episode, loop.outputs
     ticks, dt, substeps = inner.ticks, episode.dt, episode.substeps
     tick_dt = dt / ticks
-    time_constants = draws.time_constant
+    position, velocity = state.position, state.velocity
+    rotation, angular_velocity = state.rotation, state.angular_velocity
+    output, step_count, code = actuator.output, episode.step_count, outputs.code
+    to_wrench, to_rotors = actuator.to_wrench, actuator.to_rotors
+    applied_thrust, applied_moment = outputs.applied_thrust, outputs.applied_moment
+    rotor_thrusts, saturated = outputs.rotor_thrusts, outputs.saturated
+    pose_tick, pose_position = inner.pose_tick, inner.pose_position
+    pose_velocity, pose_rotation = inner.pose_velocity, inner.pose_rotation
     for i in range(start, stop):
-        mean_factor, end_factor = tick_factors(time_constants[i], tick_dt)
-        row = episode.step_count[i]
+        draw = vehicle_draws(i, draws)
+        mean_factor, end_factor = tick_factors(draw.time_constant, tick_dt)
+        row = step_count[i]
         body = vehicle_physics(i, body_arrays)
-        x, v, R, w = load_vehicle(i, state.position, state.velocity, state.rotation,
-                                  state.angular_velocity)
-        battery = thrust_path_at(i, row, dt, rotors, draws, body)
+        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
+        battery = thrust_path_at(row, dt, rotors, draw, body)
         r0, w0 = R, w
-        output = actuator.output
         end = (output[i, 0], output[i, 1], output[i, 2], output[i, 3])
         total = (0.0, 0.0, 0.0, 0.0)
         any_saturated, diverged = False, False
+        pose_at = pose_tick[i]
         seen_rotation, seen_rate = R, w
         if reads_estimate:
             seen_rotation, seen_rate = inner_estimate(i, R, w, inner, r0, w0)
@@ -372,7 +406,7 @@ def fly_vehicles(start, stop, actions, loop, law_command, law_after_tick, law,
                                                   tick_dt, law, inner, actuator)
             xn, vn, Rn, wn, next_end, mean, hit, _ = fly_tick(
                 i, (x, v, R, w), end, thrust, moment, battery, row, body, tick_dt,
-                2 * substeps * tick, mean_factor, end_factor, actuator, rotors, draws,
+                2 * substeps * tick, mean_factor, end_factor, actuator, rotors, draw,
                 forcing, episode)
             end = next_end
             total = (total[0] + mean[0], total[1] + mean[1], total[2] + mean[2],
@@ -382,15 +416,24 @@ def fly_vehicles(start, stop, actions, loop, law_command, law_after_tick, law,
                 diverged = True
                 break
             x, v, R, w = xn, vn, Rn, wn
-            keep_pose(i, tick + 1, x, v, R, inner)
+            if tick + 1 == pose_at:  # where the pose fix is taken within the step
+                store_vehicle_pose(i, x, v, R, pose_position, pose_velocity, pose_rotation)
             if reads_estimate:  # the gyro low-pass samples the tick's end
                 rotation_after, rate_after = inner_estimate(i, R, w, inner, r0, w0)
                 rate_after = filtered_rate(i, rate_after, inner)
                 law_after_tick(i, seen_rate, rate_after, request, mean, law, actuator)
                 seen_rotation, seen_rate = rotation_after, rate_after
-        finish_vehicle_step(i, x, v, R, w, diverged, end, total, ticks, any_saturated,
-                            actions, body, state, actuator, rotors, draws, forcing, episode,
-                            outputs)
+        # what was applied (the ticks' mean output), the end output and the last finite
+        # state (where a step diverged: its start, or its last finite tick)
+        saturated[i] = any_saturated
+        store_applied(i, (total[0] / ticks, total[1] / ticks, total[2] / ticks,
+                          total[3] / ticks), to_wrench, to_rotors, applied_thrust,
+                      applied_moment, rotor_thrusts)
+        for k in range(4):
+            output[i, k] = end[k]
+        store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
+        code[i] = NON_FINITE_STATE if diverged else 0  # finish_vehicles reads it
+    finish_vehicles(start, stop, actions, loop)
 
 
 @njit(cache=True, inline="always")

@@ -27,7 +27,6 @@ from quad_dob_env.dynamics.rotors import (
     mean_square_speeds,
     motor_target,
     speed_lag_factors,
-    true_thrust_scales,
 )
 from quad_dob_env.dynamics.throttle import rotor_thrusts_of, throttle_state
 from quad_dob_env.so3 import cross_tuple, mat_mul_tuple, mat_vec_tuple
@@ -128,17 +127,14 @@ def held_rate(i, rate, inner):
 
 
 @njit(cache=True, inline="always")
-def keep_pose(i, tick, x, v, R, inner):
-    """Vehicle i's state after tick ``tick`` (counted from 1) where its pose fix is taken
-    within the step (``inner.pose_tick[i]``; 0 for none)."""
-    if tick == inner.pose_tick[i]:
-        position, velocity, rotation = (inner.pose_position, inner.pose_velocity,
-                                        inner.pose_rotation)
-        for k in range(3):
-            position[i, k] = x[k]
-            velocity[i, k] = v[k]
-            for c in range(3):
-                rotation[i, k, c] = R[3 * k + c]
+def store_vehicle_pose(i, x, v, R, position, velocity, rotation):
+    """Vehicle i's state where its pose fix is taken within the step (after tick
+    ``InnerLoop.pose_tick[i]``), into the inner loop's ``pose_*`` arrays."""
+    for k in range(3):
+        position[i, k] = x[k]
+        velocity[i, k] = v[k]
+        for c in range(3):
+            rotation[i, k, c] = R[3 * k + c]
 
 
 @njit(cache=True, inline="always")
@@ -164,7 +160,7 @@ def rate_law(actions, i, thrust, R, w, inertia, inner):
 
 @njit(cache=True, inline="always")
 def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first_sample,
-             mean_factor, end_factor, actuator, rotors, draws, forcing, episode):
+             mean_factor, end_factor, actuator, rotors, draw, forcing, episode):
     """One inner tick (a whole control step without an inner loop) of vehicle i from
     ``state`` (x, v, R, Ω) and actuator output ``start``: the command (thrust, moment)
     through the mixer's limits and the battery, the motors and the physics (the step's
@@ -172,9 +168,10 @@ def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first
     new state, the actuator output at its end, the tick's mean output as rotor thrusts or
     the wrench (what the nominal model says was applied), whether a limit was hit and what
     the mixer made of the command. The records come one by one, taken out of the step's
-    record once a call: each taking of a record takes a reference to every array in it."""
-    time_constant = draws.time_constant[i]
-    spin_down = draws.spin_down_time_constant[i]
+    record once a call: each taking of a record takes a reference to every array in it;
+    ``draw`` is the vehicle's ``VehicleDraws``, numbers only."""
+    time_constant = draw.time_constant
+    spin_down = draw.spin_down_time_constant
     command, saturated = actuate_vehicle(thrust, moment, actuator.code, actuator.mixer,
                                          actuator.max_rotor_thrust, actuator.max_total_thrust,
                                          actuator.moment_limit)
@@ -182,10 +179,10 @@ def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first
     if rotors.active:
         if rotors.throttle:  # the throttle map (speed motors): ω_c = sqrt(T / (κ_s k_F))
             true_thrusts, ceiling = rotor_thrusts_of(command, per_newton, full,
-                                                     draws.thrust_model_factor[i],
+                                                     draw.thrust_model_factor,
                                                      rotors.autopilot_thrust_model_factor)
             saturated = saturated or ceiling
-            target = motor_target(true_thrusts, 1.0 / draws.thrust_scale[i], rotors)
+            target = motor_target(true_thrusts, 1.0 / draw.thrust_scale, rotors)
         else:
             target = motor_target(command, command_scale, rotors)
         if rotors.speed_motors:  # the nominal model's k_F times the mean of ω² over the tick
@@ -205,7 +202,7 @@ def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first
     xn, vn, Rn, wn = advance_vehicle(i, state, start, target, time_constant, spin_down,
                                      actuator.to_wrench, forcing, row, body, tick_dt,
                                      episode.substeps, episode.thrust_law, rotors,
-                                     true_thrust_scales(i, draws), first_sample)
+                                     draw.true_thrust_scales, first_sample)
     return xn, vn, Rn, wn, end, mean, saturated, command
 
 
@@ -220,19 +217,20 @@ def tick_factors(time_constant, tick_dt):
 
 
 @njit(cache=True, inline="always")
-def thrust_path_at(i, row, dt, rotors, draws, body):
-    """What the battery leaves vehicle i at step ``row`` (``body``: its ``RigidBody``), as
+def thrust_path_at(row, dt, rotors, draw, body):
+    """What the battery leaves a vehicle at step ``row`` (``draw``: its ``VehicleDraws``,
+    ``body``: its ``RigidBody``), as
     (thrust per command, throttle per believed newton, full-throttle thrust [N]): with the
     throttle map (``dynamics.throttle``) its last two at the true hover throttle
     ``t_h0 + r t``; else thrust uncertainty's ``(1 - sag_rate t)²`` (1 without it) first."""
     if rotors.throttle:
         per_newton, full = throttle_state(
-            draws.hover_throttle[i] + draws.hover_throttle_drift[i] * row * dt,
-            draws.hover_estimate_factor[i], 0.25 * body.mass * body.gravity,
-            rotors.believed_hover_rotor_thrust, draws.thrust_model_factor[i],
+            draw.hover_throttle + draw.hover_throttle_drift * row * dt,
+            draw.hover_estimate_factor, 0.25 * body.mass * body.gravity,
+            rotors.believed_hover_rotor_thrust, draw.thrust_model_factor,
             rotors.autopilot_thrust_model_factor)
         return 1.0, per_newton, full
     if not rotors.active:
         return 1.0, 0.0, 0.0
-    left = max(1.0 - draws.sag_rate[i] * row * dt, 0.0)  # an empty pack makes no thrust
+    left = max(1.0 - draw.sag_rate * row * dt, 0.0)  # an empty pack makes no thrust
     return left * left, 0.0, 0.0
