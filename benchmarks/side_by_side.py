@@ -1,18 +1,33 @@
-"""Throughput of the working tree beside named commits, interleaved in one run.
+"""Speed of the working tree beside named commits, interleaved in one run.
 
-Run by hand: ``python benchmarks/side_by_side.py --commits 5a52e7e --repeats 7``. Each
-commit is checked out in a git worktree under ``--workdir`` and imported from there through
-a folder of links named as the packages install (``quad_dob_env``, ``quad_dob_baselines``,
-``quad_dob_composition``, ``quad_dob_training``) put first on ``PYTHONPATH``, so the
-installed project is never touched. Every repeat of every case is a fresh process on a warm
-numba cache (one untimed process per version compiles first), run in the order A B C A B C
-..., so the machine's drift falls on every version alike. It prints each version's median
-env-steps/s and each version's ratio to the first (the working tree): median, min and max of
-the per-repeat ratios.
+Run by hand, e.g. ``python benchmarks/side_by_side.py --commits b48d628,5a52e7e``.
 
-The cases are the vector env of a residual id flown with a zero residual (the base in the
-loop) at N vehicles: ``TrackResidual-v1`` on ``paper-none`` and ``TrackResidual-v3`` on
-``dryden-helix-gusts`` by default.
+How each version is installed:
+- Each named commit is checked out in a git worktree under ``--workdir`` and installed there
+  on its own: a small virtual environment per commit, whose ``site-packages`` reaches this
+  interpreter's packages through a ``.pth`` line (numpy, numba, gymnasium, torch: one build
+  for every version), and ``pip install --no-deps -e`` of the worktree. The commit's own
+  ``pyproject.toml`` says under which names its folders install, so a commit that installs
+  its packages differently from today still imports as it did. The installed project of
+  this interpreter is never touched.
+- The working tree runs on this interpreter, which must have it installed (``make`` does).
+
+How it measures:
+- Every repeat of every case is a fresh process on a warm numba cache: one untimed process
+  per version compiles first.
+- The versions run in the order A B C A B C ..., so the machine's drift falls on every
+  version alike. A sequential run would not compare.
+- It prints each version's median rate and the ratio of the first version (the working tree,
+  or ``--against``) to each: the median, min and max of the per-repeat ratios, and whether
+  every repeat falls on one side of 1.
+
+The cases (``--cases``):
+- ``v1``, ``v1-4096``: ``TrackResidual-v1`` on ``paper-none``, N = 1024 and 4096, a zero
+  residual (the base, ``geometric-ndob:tuned``, in the loop).
+- ``v3``: ``TrackResidual-v3`` on ``dryden-helix-gusts``, N = 1024, a zero residual;
+  ``v1-windy``: ``TrackResidual-v1`` on the same scenario (v3's loop against v1's).
+- ``single-v1``, ``single-v3``: ``gym.make('QuadDOB/Track-v1')`` and
+  ``gym.make('QuadDOB/TrackResidual-v3')``, random actions, resets counted.
 """
 
 from __future__ import annotations
@@ -23,65 +38,93 @@ import os
 import statistics
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = {"quad_dob_env": "quad_dob_env", "quad_dob_baselines": "baselines",
-            "quad_dob_composition": "composition", "quad_dob_training": "training"}
-CASES = {"v1 paper-none": ("QuadDOB/TrackResidual-v1", "paper-none"),
-         "v3 dryden-helix-gusts": ("QuadDOB/TrackResidual-v3", "dryden-helix-gusts")}
+# case name -> (kind, env id, scenario, vehicles)
+CASES = {
+    "v1": ("vector", "QuadDOB/TrackResidual-v1", "paper-none", 1024),
+    "v1-4096": ("vector", "QuadDOB/TrackResidual-v1", "paper-none", 4096),
+    "v3": ("vector", "QuadDOB/TrackResidual-v3", "dryden-helix-gusts", 1024),
+    "v1-windy": ("vector", "QuadDOB/TrackResidual-v1", "dryden-helix-gusts", 1024),
+    "single-v1": ("single", "QuadDOB/Track-v1", "paper-none", 1),
+    "single-v3": ("single", "QuadDOB/TrackResidual-v3", "paper-none", 1),
+}
 
-# One measurement, run in a fresh process: env-steps per second of STEPS steps after three
-# that compile and warm up.
+# One measurement, in a fresh process: steps per second after a few that compile and warm
+# up. A vector case counts env-steps (N per step); a single env counts its steps, resets
+# included, with uniformly random actions.
 MEASURE = """
 import json, sys, time
 import gymnasium as gym
 import numpy as np
 import quad_dob_env
-env_id, scenario, n, steps = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
-env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point",
-                   scenario=scenario)
-env.reset(seed=0)
-actions = np.zeros((n, 4))
-for _ in range(3):
-    env.step(actions)
-start = time.perf_counter()
-for _ in range(steps):
-    env.step(actions)
-print(json.dumps({"rate": n * steps / (time.perf_counter() - start),
-                  "module": quad_dob_env.__file__}))
+kind, env_id, scenario = sys.argv[1], sys.argv[2], sys.argv[3]
+n, steps = int(sys.argv[4]), int(sys.argv[5])
+if kind == "vector":
+    env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point",
+                       scenario=scenario)
+    env.reset(seed=0)
+    actions = np.zeros((n, 4))
+    for _ in range(3):
+        env.step(actions)
+    start = time.perf_counter()
+    for _ in range(steps):
+        env.step(actions)
+    rate = n * steps / (time.perf_counter() - start)
+else:
+    env = gym.make(env_id, scenario=scenario)
+    env.reset(seed=0)
+    actions = np.random.default_rng(0).uniform(-1, 1, (steps + 200, 4)).astype(np.float32)
+    for action in actions[:200]:
+        env.step(action)
+    env.reset(seed=0)
+    start = time.perf_counter()
+    for action in actions[200:]:
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            env.reset()
+    rate = steps / (time.perf_counter() - start)
+print(json.dumps({"rate": rate, "module": quad_dob_env.__file__}))
 """
 
 
-def links_for(tree: Path, workdir: Path, name: str) -> Path:
-    """A folder of links that makes ``tree``'s folders import under the installed names."""
-    folder = workdir / f"links-{name}"
-    folder.mkdir(parents=True, exist_ok=True)
-    for installed, source in PACKAGES.items():
-        link = folder / installed
-        if link.is_symlink():
-            link.unlink()
-        link.symlink_to(tree / source)
-    return folder
+def run(command: list[str], **kwargs) -> subprocess.CompletedProcess:
+    """``command``, its output kept; a failure raises with the tail of what it printed."""
+    result = subprocess.run(command, capture_output=True, text=True, **kwargs)
+    if result.returncode:
+        raise RuntimeError(f"{' '.join(command)} failed:\n{result.stderr[-3000:]}")
+    return result
 
 
-def checkout(commit: str, workdir: Path) -> Path:
-    """A worktree of ``commit`` under ``workdir`` (made once, reused)."""
-    tree = workdir / f"tree-{commit}"
+def installed(commit: str, workdir: Path) -> Path:
+    """The python of ``commit``'s own environment: a worktree of it and an editable install
+    of that worktree (both made once, then reused)."""
+    tree, venv = workdir / f"tree-{commit}", workdir / f"venv-{commit}"
+    python = venv / "bin" / "python"
     if not tree.exists():
         print(f"checking out {commit} into {tree} ...", flush=True)
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree),
-                        commit], check=True, capture_output=True)
-    return tree
+        run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), commit])
+    if not (venv / ".installed").exists():
+        print(f"installing {commit} into {venv} ...", flush=True)
+        # no pip of its own: this interpreter's pip and setuptools come through the .pth
+        run([sys.executable, "-m", "venv", "--clear", "--without-pip", str(venv)])
+        site = Path(run([str(python), "-c", "import sysconfig; "
+                         "print(sysconfig.get_paths()['purelib'])"]).stdout.strip())
+        # this interpreter's packages (not its .pth files, so not its editable project)
+        (site / "shared-dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+        run([str(python), "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation",
+             "-e", str(tree)])
+        (venv / ".installed").touch()
+    return python
 
 
-def measure(links: Path, env_id: str, scenario: str, n: int, steps: int) -> dict:
-    environment = {**os.environ, "PYTHONPATH": str(links)}
-    result = subprocess.run([sys.executable, "-c", MEASURE, env_id, scenario, str(n),
-                             str(steps)], env=environment, capture_output=True, text=True,
-                            cwd=links)
-    if result.returncode:
-        raise RuntimeError(f"measurement failed under {links}:\n{result.stderr[-2000:]}")
+def measure(python: Path, case: str, steps: int, cwd: Path) -> dict:
+    kind, env_id, scenario, vehicles = CASES[case]
+    result = run([str(python), "-c", MEASURE, kind, env_id, scenario, str(vehicles),
+                  str(steps)], cwd=cwd, env={k: v for k, v in os.environ.items()
+                                             if k != "PYTHONPATH"})
     return json.loads(result.stdout.strip().splitlines()[-1])
 
 
@@ -89,40 +132,57 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--commits", default="5a52e7e",
                         help="comma-separated commits to set beside the working tree")
+    parser.add_argument("--against", default=None,
+                        help="a commit to put first instead of the working tree (the "
+                             "ratios divide its rate by each other's), e.g. a commit's "
+                             "parent in a bisection")
+    parser.add_argument("--no-working-tree", action="store_true",
+                        help="measure the named commits only")
     parser.add_argument("--repeats", type=int, default=7)
-    parser.add_argument("--vehicles", type=int, default=1024)
-    parser.add_argument("--steps", type=int, default=200)
-    parser.add_argument("--cases", default=",".join(CASES),
-                        help=f"comma-separated, of: {', '.join(CASES)}")
+    parser.add_argument("--steps", type=int, default=200,
+                        help="vector steps per repeat (a single env takes 100 times this)")
+    parser.add_argument("--cases", default="v1,v3", help=f"comma-separated, of: "
+                                                         f"{', '.join(CASES)}")
     parser.add_argument("--workdir", default="/tmp/quad-dob-side-by-side")
     args = parser.parse_args()
     workdir = Path(args.workdir)
-    versions = {"working tree": links_for(ROOT, workdir, "working-tree")}
-    for commit in filter(None, args.commits.split(",")):
-        versions[commit] = links_for(checkout(commit, workdir), workdir, commit)
+    workdir.mkdir(parents=True, exist_ok=True)
     cases = [case.strip() for case in args.cases.split(",")]
+    unknown = [case for case in cases if case not in CASES]
+    if unknown:
+        parser.error(f"unknown case(s) {unknown}; the cases are {', '.join(CASES)}")
+    versions: dict[str, Path] = {}
+    if args.against:
+        versions[args.against] = installed(args.against, workdir)
+    if not args.no_working_tree:
+        versions["working tree"] = Path(sys.executable)
+    for commit in filter(None, args.commits.split(",")):
+        if commit not in versions:
+            versions[commit] = installed(commit, workdir)
     for case in cases:
-        env_id, scenario = CASES[case]
-        print(f"\n## {case}: {env_id} on {scenario}, N = {args.vehicles}, "
-              f"{args.steps} steps, {args.repeats} interleaved repeats", flush=True)
-        for name, links in versions.items():  # compiles into each version's cache
-            module = measure(links, env_id, scenario, args.vehicles, 3)["module"]
+        kind, env_id, scenario, vehicles = CASES[case]
+        steps = args.steps * (100 if kind == "single" else 1)
+        print(f"\n## {case}: {env_id} on {scenario}, N = {vehicles}, {steps} steps, "
+              f"{args.repeats} interleaved repeats", flush=True)
+        for name, python in versions.items():  # compiles into each version's cache
+            module = measure(python, case, 3, workdir)["module"]
             print(f"compiled {name} ({module})", flush=True)
         rates: dict[str, list[float]] = {name: [] for name in versions}
         for repeat in range(args.repeats):
-            for name, links in versions.items():
-                rates[name].append(measure(links, env_id, scenario, args.vehicles,
-                                           args.steps)["rate"])
+            for name, python in versions.items():
+                rates[name].append(measure(python, case, steps, workdir)["rate"])
             print(f"repeat {repeat + 1}/{args.repeats}: " + ", ".join(
-                f"{name} {values[-1] / 1e3:,.0f}k" for name, values in rates.items()),
+                f"{name} {values[-1] / 1e3:,.1f}k" for name, values in rates.items()),
                 flush=True)
         first = next(iter(versions))
-        print("\n| version | env-steps/s (median) | ratio of working tree to it: median "
-              "[min, max] |\n|---|---|---|")
+        print(f"\n| version | steps/s (median) | ratio {first} / version: median [min, max] "
+              f"| all on one side of 1 |\n|---|---|---|---|")
         for name, values in rates.items():
             ratios = [a / b for a, b in zip(rates[first], values, strict=True)]
+            one_side = all(r > 1 for r in ratios) or all(r < 1 for r in ratios)
             print(f"| {name} | {statistics.median(values):,.0f} | "
-                  f"{statistics.median(ratios):.3f} [{min(ratios):.3f}, {max(ratios):.3f}] |")
+                  f"{statistics.median(ratios):.3f} [{min(ratios):.3f}, {max(ratios):.3f}] | "
+                  f"{'yes' if one_side else 'no'} |", flush=True)
 
 
 if __name__ == "__main__":
