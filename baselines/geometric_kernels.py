@@ -28,8 +28,12 @@ from quad_dob_env.so3 import (
     cross_tuple,
     mat_mul_tuple,
     mat_vec_tuple,
+    matrix_at,
     matrix_entries,
+    store_matrix,
+    store_vector,
     transpose_tuple,
+    vector_at,
 )
 
 
@@ -61,7 +65,7 @@ class GeometricLaw(NamedTuple):
 
 
 class GeometricOutputs(NamedTuple):
-    """What ``geometric_vehicle`` writes into row i: the command and the diagnostics."""
+    """What ``geometric_law`` gives, written into row i: the command and the diagnostics."""
 
     thrust: NDArray  # (N,) f
     moment: NDArray  # (N, 3) M
@@ -74,29 +78,9 @@ class GeometricOutputs(NamedTuple):
 
 
 @njit(cache=True, inline="always")
-def vector_at(array, i):
-    """Row i of an (N, 3) array as a 3-tuple."""
-    return (array[i, 0], array[i, 1], array[i, 2])
-
-
-@njit(cache=True, inline="always")
-def matrix_at(array, i):
-    """Matrix i of an (N, 3, 3) array as a row-major 9-tuple."""
-    r = array[i]
-    return (r[0, 0], r[0, 1], r[0, 2], r[1, 0], r[1, 1], r[1, 2], r[2, 0], r[2, 1], r[2, 2])
-
-
-@njit(cache=True, inline="always")
 def as_vector(array):
     """A 3-array as a 3-tuple."""
     return (array[0], array[1], array[2])
-
-
-@njit(cache=True, inline="always")
-def store_vector(array, i, value):
-    """Write the 3-tuple ``value`` into row i of an (N, 3) array."""
-    for k in range(3):
-        array[i, k] = value[k]
 
 
 @njit(cache=True)
@@ -179,56 +163,46 @@ def attitude_law(R, w, rd, rate_d, acceleration_d, inertia, kR, kOmega, torque_e
 # --- batch loops (one call per control step for the whole batch) ---------------------------
 
 @njit(cache=True, inline="always")
-def geometric_vehicle(i, x, v, R, w, reference, law, force_estimate, torque_estimate,
-                      acceleration_correction, outputs):
-    """``geometric_law`` for vehicle i (``reference`` a ``ReferenceVectors`` of 3-tuples,
-    ``law`` a ``GeometricLaw``, ``acceleration_correction`` its 3-tuple; ``force_estimate``
-    and ``torque_estimate`` (N, 3)), its outputs written to row i of ``outputs``, a
-    ``GeometricOutputs``."""
-    f, m, force, rd, rate_d, acceleration_d, e_r, e_w = geometric_law(
-        x, v, R, w, reference, law, vector_at(force_estimate, i), vector_at(torque_estimate, i),
-        acceleration_correction)
-    outputs.thrust[i] = f
-    store_vector(outputs.moment, i, m)
-    store_vector(outputs.desired_force, i, force)
-    for k in range(9):
-        outputs.desired_rotation[i, k // 3, k % 3] = rd[k]
-    store_vector(outputs.desired_rate, i, rate_d)
-    store_vector(outputs.desired_acceleration, i, acceleration_d)
-    store_vector(outputs.attitude_error, i, e_r)
-    store_vector(outputs.rate_error, i, e_w)
-
-
-@njit(cache=True, inline="always")
 def geometric_law_of(mass, gravity, inertia, gains):
     """A ``GeometricLaw`` from J (3, 3) and the gains (4, 3): kx, kv, kR, kΩ by row."""
     return GeometricLaw(mass, gravity, matrix_entries(inertia), as_vector(gains[0]),
                         as_vector(gains[1]), as_vector(gains[2]), as_vector(gains[3]))
 
 
-@njit(cache=True, inline="always")
-def reference_vectors_at(reference, i):
-    """Vehicle i's ``ReferenceVectors`` (3-tuples) from a batch's (of (N, 3) arrays)."""
-    return ReferenceVectors(vector_at(reference.position, i), vector_at(reference.velocity, i),
-                            vector_at(reference.acceleration, i), vector_at(reference.jerk, i),
-                            vector_at(reference.snap, i), vector_at(reference.heading, i),
-                            vector_at(reference.heading_rate, i),
-                            vector_at(reference.heading_acceleration, i))
-
-
 @njit(cache=True, nogil=True)
 def geometric_batch(start, stop, position, velocity, rotation, angular_velocity, reference,
                     law, force_estimate, torque_estimate, acceleration_correction, outputs):
-    """``geometric_vehicle`` for vehicles ``start..stop-1``: ``reference`` a ``ReferenceVectors``
+    """``geometric_law`` for vehicles ``start..stop-1``: ``reference`` a ``ReferenceVectors``
     of (N, 3) arrays, ``law`` a ``GeometricLaw``, ``outputs`` a ``GeometricOutputs``, each
     passed as a plain tuple."""
     reference, law = ReferenceVectors(*reference), GeometricLaw(*law)
     outputs = GeometricOutputs(*outputs)
+    # the arrays taken out once and read and written here in straight lines: an array
+    # handed to an inlined function with a branch or a loop counts a reference at every call
+    thrust, moment, desired_force = outputs.thrust, outputs.moment, outputs.desired_force
+    desired_rotation, desired_rate = outputs.desired_rotation, outputs.desired_rate
+    desired_acceleration = outputs.desired_acceleration
+    attitude_error, rate_error = outputs.attitude_error, outputs.rate_error
+    xd, vd, ad = reference.position, reference.velocity, reference.acceleration
+    jd, sd, bd = reference.jerk, reference.snap, reference.heading
+    bd_rate, bd_acceleration = reference.heading_rate, reference.heading_acceleration
     for i in range(start, stop):
-        geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i), matrix_at(rotation, i),
-                      vector_at(angular_velocity, i), reference_vectors_at(reference, i), law,
-                      force_estimate, torque_estimate, vector_at(acceleration_correction, i),
-                      outputs)
+        f, m, force, rd, rate_d, acceleration_d, e_r, e_w = geometric_law(
+            vector_at(position, i), vector_at(velocity, i), matrix_at(rotation, i),
+            vector_at(angular_velocity, i),
+            ReferenceVectors(vector_at(xd, i), vector_at(vd, i), vector_at(ad, i),
+                             vector_at(jd, i), vector_at(sd, i), vector_at(bd, i),
+                             vector_at(bd_rate, i), vector_at(bd_acceleration, i)),
+            law, vector_at(force_estimate, i), vector_at(torque_estimate, i),
+            vector_at(acceleration_correction, i))
+        thrust[i] = f
+        store_vector(moment, i, m)
+        store_vector(desired_force, i, force)
+        store_matrix(desired_rotation, i, rd)
+        store_vector(desired_rate, i, rate_d)
+        store_vector(desired_acceleration, i, acceleration_d)
+        store_vector(attitude_error, i, e_r)
+        store_vector(rate_error, i, e_w)
 
 
 @njit(cache=True, inline="always")
@@ -262,14 +236,27 @@ def observer_estimate_vehicle(i, velocity, angular_velocity, gain, km, z_force, 
                               force_estimate, torque_estimate):
     """``d̂x = zx + Ks' v``, ``d̂Ω = zΩ + Km' Ω`` for vehicle i (``km`` a 9-tuple); a fresh
     episode starts at z = -K' x, so its first estimate is zero."""
-    v, w = vector_at(velocity, i), vector_at(angular_velocity, i)
+    z_f, z_t, d_x, d_w = observer_estimate(vector_at(velocity, i),
+                                           vector_at(angular_velocity, i), gain, km, fresh[i],
+                                           vector_at(z_force, i), vector_at(z_torque, i))
+    store_vector(z_force, i, z_f)
+    store_vector(z_torque, i, z_t)
+    fresh[i] = False
+    store_vector(force_estimate, i, d_x)
+    store_vector(torque_estimate, i, d_w)
+
+
+@njit(cache=True, inline="always")
+def observer_estimate(v, w, gain, km, fresh, z_force, z_torque):
+    """``d̂x = zx + Ks' v``, ``d̂Ω = zΩ + Km' Ω`` from a vehicle's v, Ω and z (``km`` a
+    9-tuple); a ``fresh`` episode starts at z = -K' x, so its first estimate is zero.
+    Returns (zx, zΩ, d̂x, d̂Ω). Numbers in, numbers out: the callers read and write the
+    arrays in straight lines (an inlined function with array parameters and a branch counts
+    each array at every call)."""
     km_w = mat_vec_tuple(km, w)
-    if fresh[i]:
-        store_vector(z_force, i, (-gain * v[0], -gain * v[1], -gain * v[2]))
-        store_vector(z_torque, i, (-km_w[0], -km_w[1], -km_w[2]))
-        fresh[i] = False
-    store_vector(force_estimate, i, combine(1.0, vector_at(z_force, i), gain, v))
-    store_vector(torque_estimate, i, add(vector_at(z_torque, i), km_w))
+    z_f = (-gain * v[0], -gain * v[1], -gain * v[2]) if fresh else z_force
+    z_t = (-km_w[0], -km_w[1], -km_w[2]) if fresh else z_torque
+    return z_f, z_t, combine(1.0, z_f, gain, v), add(z_t, km_w)
 
 
 @njit(cache=True)
@@ -285,21 +272,35 @@ def observer_estimate_batch(velocity, angular_velocity, gain, rotational_gain, z
 def observer_advance_vehicle(i, start_velocity, start_body_z, start_angular_velocity, thrust,
                              moment, end_rotation, end_angular_velocity, mass, gravity, J,
                              gain, alpha, km, a_rot, z_force, z_torque, advance_torque):
-    """One forward-Euler step of vehicle i's z over a control step, with the thrust
+    """``observer_advance`` for vehicle i, read from and written to the batch's arrays in
+    straight lines."""
+    z_f, z_t = observer_advance(
+        vector_at(start_velocity, i), vector_at(start_body_z, i),
+        vector_at(start_angular_velocity, i), thrust[i], vector_at(moment, i),
+        (end_rotation[i, 0, 2], end_rotation[i, 1, 2], end_rotation[i, 2, 2]),
+        vector_at(end_angular_velocity, i), mass, gravity, J, gain, alpha, km, a_rot,
+        vector_at(z_force, i), vector_at(z_torque, i), advance_torque)
+    store_vector(z_force, i, z_f)
+    store_vector(z_torque, i, z_t)
+
+
+@njit(cache=True, inline="always")
+def observer_advance(v, body_z, w0, thrust, moment, end_body_z, w1, mass, gravity, J, gain,
+                     alpha, km, a_rot, z_force, z_torque, advance_torque):
+    """One forward-Euler step of a vehicle's z over a control step, with the thrust
     direction and the gyroscopic torque averaged over the step's two ends (unbiased to
     second order in dt); ``J``, ``km`` and ``a_rot`` are 9-tuples. Without
-    ``advance_torque`` zΩ is left to an inner loop, which advances it at its own rate."""
-    end_body_z = (end_rotation[i, 0, 2], end_rotation[i, 1, 2], end_rotation[i, 2, 2])
-    lift = combine(0.5 * thrust[i], vector_at(start_body_z, i), 0.5 * thrust[i], end_body_z)
-    v, z = vector_at(start_velocity, i), vector_at(z_force, i)
+    ``advance_torque`` zΩ is left to an inner loop, which advances it at its own rate.
+    Returns (zx, zΩ); numbers in, numbers out."""
+    lift = combine(0.5 * thrust, body_z, 0.5 * thrust, end_body_z)
+    z = z_force
     # żx = -(Ks/m)(zx + Ks v - m g e3 + f R e3)
-    store_vector(z_force, i, (z[0] - alpha * (z[0] + gain * v[0] + lift[0]),
-                     z[1] - alpha * (z[1] + gain * v[1] + lift[1]),
-                     z[2] - alpha * (z[2] + gain * v[2] - mass * gravity + lift[2])))
-    if advance_torque:
-        store_vector(z_torque, i, torque_observer_step(
-            vector_at(z_torque, i), vector_at(start_angular_velocity, i),
-            vector_at(end_angular_velocity, i), vector_at(moment, i), J, km, a_rot))
+    z_f = (z[0] - alpha * (z[0] + gain * v[0] + lift[0]),
+           z[1] - alpha * (z[1] + gain * v[1] + lift[1]),
+           z[2] - alpha * (z[2] + gain * v[2] - mass * gravity + lift[2]))
+    if not advance_torque:
+        return z_f, z_torque
+    return z_f, torque_observer_step(z_torque, w0, w1, moment, J, km, a_rot)
 
 
 @njit(cache=True, inline="always")

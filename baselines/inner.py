@@ -92,59 +92,119 @@ def held_torque_estimate(torque_estimate: NDArray) -> tuple:
     return np.zeros((3, 3)), np.zeros((3, 3)), torque_estimate
 
 
+class InnerConstants(NamedTuple):
+    """An ``InnerLaw``'s constants as numbers (``inner_constants``), read once a call:
+    numbers count no references where arrays would, per vehicle and tick."""
+
+    code: int
+    gains: tuple  # 5 rows of 3, as ``InnerLaw.gains``
+    inertia: tuple  # J, row-major 9-tuple
+    has_observer: bool
+    observer_gain: tuple  # Km', row-major 9-tuple
+    observer_alpha: tuple  # I - e^{-Km J⁻¹ T}, row-major 9-tuple
+
+
+class VehicleInner(NamedTuple):
+    """Vehicle i's part of an ``InnerLaw`` over one control step, as numbers
+    (``vehicle_inner``): the targets held over the step and the law's own state, which
+    the ticks carry as values and ``store_vehicle_inner`` writes back once."""
+
+    desired_force: tuple  # F
+    desired_rotation: tuple  # Rd, row-major
+    desired_rate: tuple  # Ωd
+    desired_acceleration: tuple  # Ω̇d
+    torque_state: tuple  # zΩ
+    integral: tuple  # PID rate integral
+    previous_error: tuple  # PID rate error of the last tick
+    fresh: bool  # PID: no last tick yet
+    excess: tuple  # PID: requested minus mixed moment, last tick
+
+
 @njit(cache=True, inline="always")
 def _row(table, k):
     return (table[k, 0], table[k, 1], table[k, 2])
 
 
+@njit(cache=True, inline="always")
+def inner_constants(law):
+    """``law``'s (an ``InnerLaw`` or a record with its fields) ``InnerConstants``."""
+    gains, stack = law.gains, law.observer_gains
+    return InnerConstants(law.code, (_row(gains, 0), _row(gains, 1), _row(gains, 2),
+                                     _row(gains, 3), _row(gains, 4)),
+                          matrix_entries(law.inertia), law.has_observer,
+                          matrix_at(stack, OBSERVER_GAIN), matrix_at(stack, OBSERVER_ALPHA))
+
+
+@njit(cache=True, inline="always")
+def vehicle_inner(i, law):
+    """Vehicle i's ``VehicleInner`` from ``law``'s arrays (straight-line reads)."""
+    return VehicleInner(vector_at(law.desired_force, i), matrix_at(law.desired_rotation, i),
+                        vector_at(law.desired_rate, i), vector_at(law.desired_acceleration, i),
+                        vector_at(law.torque_state, i), vector_at(law.integral, i),
+                        vector_at(law.previous_error, i), law.fresh[i],
+                        vector_at(law.excess, i))
+
+
+@njit(cache=True, inline="always")
+def store_vehicle_inner(i, law, vehicle):
+    """Write the law's own state of ``vehicle`` (a ``VehicleInner``) back into row i of
+    ``law``'s arrays (straight-line writes; a law that kept no state writes back what it
+    read)."""
+    store_vector(law.torque_state, i, vehicle.torque_state)
+    store_vector(law.integral, i, vehicle.integral)
+    store_vector(law.previous_error, i, vehicle.previous_error)
+    law.fresh[i] = vehicle.fresh
+    store_vector(law.excess, i, vehicle.excess)
+
+
 @njit(cache=True)
-def inner_command(i, R, w, law, tick):
-    """Vehicle i's thrust and moment at an inner tick of ``tick`` s, from the inner-rate
-    estimate (R row-major 9-tuple, Ω) and ``law``, an ``InnerLaw`` or a record with its
-    fields (a composition's law adds its own)."""
-    gains = law.gains
-    force = vector_at(law.desired_force, i)
+def inner_command(R, w, constants, vehicle, tick):
+    """A vehicle's thrust and moment at an inner tick of ``tick`` s, from the inner-rate
+    estimate (R row-major 9-tuple, Ω), the law's ``InnerConstants`` and the vehicle's
+    ``VehicleInner``; returns them and the ``VehicleInner`` after the tick's command (the
+    PID's integrator and last error move here). Numbers in, numbers out."""
+    gains = constants.gains
+    force = vehicle.desired_force
     thrust = force[0] * R[2] + force[1] * R[5] + force[2] * R[8]  # f = F · R e3
-    rd = matrix_at(law.desired_rotation, i)
-    rate_d = vector_at(law.desired_rate, i)
-    acceleration_d = vector_at(law.desired_acceleration, i)
-    J = matrix_entries(law.inertia)
+    rd, rate_d = vehicle.desired_rotation, vehicle.desired_rate
+    acceleration_d = vehicle.desired_acceleration
+    J = constants.inertia
     gyroscopic = cross_tuple(w, mat_vec_tuple(J, w))
-    if law.code == LEE:
+    if constants.code == LEE:
         torque_estimate = (0.0, 0.0, 0.0)
-        if law.has_observer:  # d̂Ω = zΩ + Km' Ω
-            km_w = mat_vec_tuple(_matrix(law.observer_gains, OBSERVER_GAIN), w)
-            z = vector_at(law.torque_state, i)
+        if constants.has_observer:  # d̂Ω = zΩ + Km' Ω
+            km_w = mat_vec_tuple(constants.observer_gain, w)
+            z = vehicle.torque_state
             torque_estimate = (z[0] + km_w[0], z[1] + km_w[1], z[2] + km_w[2])
-        moment, _, _ = attitude_law(R, w, rd, rate_d, acceleration_d, J, _row(gains, 0),
-                                    _row(gains, 1), torque_estimate)
-        return thrust, moment
+        moment, _, _ = attitude_law(R, w, rd, rate_d, acceleration_d, J, gains[0], gains[1],
+                                    torque_estimate)
+        return thrust, moment, vehicle
     attitude_error, rate_error, r_t_rd = attitude_errors(R, w, rd, rate_d)
     rate_body = mat_vec_tuple(r_t_rd, rate_d)
     acceleration_body = mat_vec_tuple(r_t_rd, acceleration_d)
-    if law.code == PID:
-        kp_attitude, kp, ki, kd, limit = (_row(gains, 0), _row(gains, 1), _row(gains, 2),
-                                          _row(gains, 3), _row(gains, 4))
-        integral, excess = law.integral, law.excess
+    if constants.code == PID:
+        kp_attitude, kp, ki, kd, limit = gains
         # ω_cmd = RᵀRd Ωd - K_att eR, e_ω = Ω - ω_cmd
         command = combine(1.0, rate_body, -kp_attitude[0], attitude_error)
         error = combine(1.0, w, -1.0, command)
         pushed = mat_vec_tuple(J, error)
-        last = vector_at(law.previous_error, i) if not law.fresh[i] else error
-        acceleration = (
-            _pid_axis(i, 0, error, pushed, last, acceleration_body, kp, ki, kd, limit,
-                      integral, excess, tick),
-            _pid_axis(i, 1, error, pushed, last, acceleration_body, kp, ki, kd, limit,
-                      integral, excess, tick),
-            _pid_axis(i, 2, error, pushed, last, acceleration_body, kp, ki, kd, limit,
-                      integral, excess, tick))
-        store_vector(law.previous_error, i, error)
-        law.fresh[i] = False
-        torque = mat_vec_tuple(J, acceleration)
+        last = vehicle.previous_error if not vehicle.fresh else error
+        integral, excess = vehicle.integral, vehicle.excess
+        axis0 = _pid_axis(0, error, pushed, last, acceleration_body, kp, ki, kd, limit,
+                          integral, excess, tick)
+        axis1 = _pid_axis(1, error, pushed, last, acceleration_body, kp, ki, kd, limit,
+                          integral, excess, tick)
+        axis2 = _pid_axis(2, error, pushed, last, acceleration_body, kp, ki, kd, limit,
+                          integral, excess, tick)
+        torque = mat_vec_tuple(J, (axis0[0], axis1[0], axis2[0]))
+        v = vehicle
+        after = VehicleInner(v.desired_force, v.desired_rotation, v.desired_rate,
+                             v.desired_acceleration, v.torque_state,
+                             (axis0[1], axis1[1], axis2[1]), error, False, v.excess)
         return thrust, (gyroscopic[0] + torque[0], gyroscopic[1] + torque[1],
-                        gyroscopic[2] + torque[2])
+                        gyroscopic[2] + torque[2]), after
     # SMC: s_R = eΩ + λ_R eR, M = Ω × JΩ - J(hat(Ω) RᵀRd Ωd - RᵀRd Ω̇d) - J(λ_R eΩ + η_R sat)
-    lam, eta, boundary = gains[0, 0], gains[1, 0], gains[2, 0]
+    lam, eta, boundary = gains[0][0], gains[1][0], gains[2][0]
     spin = cross_tuple(w, rate_body)
     shaped = (_smc_axis(0, spin, acceleration_body, rate_error, attitude_error, lam, eta,
                         boundary),
@@ -154,19 +214,20 @@ def inner_command(i, R, w, law, tick):
                         boundary))
     torque = mat_vec_tuple(J, shaped)
     return thrust, (gyroscopic[0] - torque[0], gyroscopic[1] - torque[1],
-                    gyroscopic[2] - torque[2])
+                    gyroscopic[2] - torque[2]), vehicle
 
 
 @njit(cache=True, inline="always")
-def _pid_axis(i, k, error, pushed, last, acceleration_body, kp, ki, kd, limit, integral,
+def _pid_axis(k, error, pushed, last, acceleration_body, kp, ki, kd, limit, integral,
               excess, tick):
-    """Axis k of the PID's rate law: its integrator stepped, then its angular acceleration.
-    Per axis, not a list: a list is a heap allocation per call."""
+    """Axis k of the PID's rate law: its integrator stepped, then its angular acceleration;
+    returns both."""
+    stepped = integral[k]
     # an axis waits while the mixer clipped its moment and integrating pushes further
-    if not excess[i, k] * -pushed[k] > 0.0:
-        integral[i, k] = min(max(integral[i, k] + error[k] * tick, -limit[0]), limit[0])
-    return (acceleration_body[k] - kp[0] * error[k] - ki[0] * integral[i, k]
-            - kd[0] * (error[k] - last[k]) / tick)
+    if not excess[k] * -pushed[k] > 0.0:
+        stepped = min(max(integral[k] + error[k] * tick, -limit[0]), limit[0])
+    return (acceleration_body[k] - kp[0] * error[k] - ki[0] * stepped
+            - kd[0] * (error[k] - last[k]) / tick), stepped
 
 
 @njit(cache=True, inline="always")
@@ -177,23 +238,31 @@ def _smc_axis(k, spin, acceleration_body, rate_error, attitude_error, lam, eta, 
     return spin[k] - acceleration_body[k] + lam * rate_error[k] + eta * saturated
 
 
-@njit(cache=True, inline="always")
-def _matrix(stack, k):
-    return matrix_entries(stack[k])
-
-
 @njit(cache=True)
-def inner_applied(i, rate_before, rate_after, requested, mixed, applied, law):
+def inner_applied(rate_before, rate_after, requested, mixed, applied, constants, vehicle):
     """After a tick: the rotational observer advanced with the ``applied`` moment between
     the estimated rates ``rate_before`` and ``rate_after``; the PID's excess of its own
-    ``requested`` moment over what the mixer makes of that request (``mixed``); ``law`` as
-    ``inner_command`` takes it."""
-    if law.code == LEE and law.has_observer:
-        store_vector(law.torque_state, i, torque_observer_step(
-            vector_at(law.torque_state, i), rate_before, rate_after, applied,
-            matrix_entries(law.inertia), _matrix(law.observer_gains, OBSERVER_GAIN),
-            _matrix(law.observer_gains, OBSERVER_ALPHA)))
-    elif law.code == PID:
-        for k in range(3):
-            difference = requested[k] - mixed[k]
-            law.excess[i, k] = difference if abs(difference) >= 1e-9 else 0.0
+    ``requested`` moment over what the mixer makes of that request (``mixed``). Returns the
+    vehicle's ``VehicleInner`` after it."""
+    v = vehicle  # a NamedTuple in compiled code has no _replace: built again
+    if constants.code == LEE and constants.has_observer:
+        z = torque_observer_step(v.torque_state, rate_before, rate_after, applied,
+                                 constants.inertia, constants.observer_gain,
+                                 constants.observer_alpha)
+        return VehicleInner(v.desired_force, v.desired_rotation, v.desired_rate,
+                            v.desired_acceleration, z, v.integral, v.previous_error, v.fresh,
+                            v.excess)
+    if constants.code == PID:
+        excess = (_excess(requested[0], mixed[0]), _excess(requested[1], mixed[1]),
+                  _excess(requested[2], mixed[2]))
+        return VehicleInner(v.desired_force, v.desired_rotation, v.desired_rate,
+                            v.desired_acceleration, v.torque_state, v.integral,
+                            v.previous_error, v.fresh, excess)
+    return v
+
+
+@njit(cache=True, inline="always")
+def _excess(requested, mixed):
+    """The requested minus the mixed moment on an axis, below 1e-9 none."""
+    difference = requested - mixed
+    return difference if abs(difference) >= 1e-9 else 0.0

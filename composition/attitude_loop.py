@@ -26,46 +26,94 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from quad_dob_baselines.inner import PID, InnerLaw, inner_applied, inner_command
+from quad_dob_baselines.inner import (
+    PID,
+    InnerConstants,
+    InnerLaw,
+    VehicleInner,
+    inner_applied,
+    inner_command,
+    inner_constants,
+    store_vehicle_inner,
+    vehicle_inner,
+)
 from quad_dob_env.dynamics import actuate_vehicle, actuator_wrench
 from quad_dob_env.envs.step_kernels import fly_vehicles, kernel_tuples, named_step
 from quad_dob_env.threads import run_over_batch
 
 # The law ``fly_vehicles`` flies at every tick here: a controller's ``InnerLaw``, its fields
-# flat, and ``addition`` (N, 4), the residual's thrust and moment added to its command. Flat,
-# not an InnerLaw inside a record: taking a record out of another takes a reference to each
-# of its arrays, per vehicle and tick (it cost the v3 step 30 %).
+# flat, and ``addition`` (N, 4), the residual's thrust and moment added to its command.
 AttitudeLaw = NamedTuple("AttitudeLaw", [*((name, Any) for name in InnerLaw._fields),
                                          ("addition", NDArray)])
 
 
+class AttitudeConstants(NamedTuple):
+    """The attitude law's constants as numbers, once a call: the law's own and the moment
+    limits of the action space."""
+
+    inner: InnerConstants
+    moment_limit: tuple  # (3,) [N m]
+
+
+class VehicleAttitude(NamedTuple):
+    """Vehicle i's part of the attitude law over a step, as numbers: the law's
+    (``VehicleInner``) and the residual's addition (thrust, moment)."""
+
+    inner: VehicleInner
+    addition: tuple  # (4,)
+
+
 @njit(cache=True, inline="always")
-def attitude_command(i, actions, rotation, rate, body, tick_dt, law, inner, actuator):
+def attitude_constants(law, inner):
+    """``law``'s ``AttitudeConstants`` (``inner``: the core's ``InnerLoop``)."""
+    return AttitudeConstants(inner_constants(law), inner.moment_limit)
+
+
+@njit(cache=True, inline="always")
+def attitude_start(i, law):
+    """Vehicle i's ``VehicleAttitude`` from ``law``'s arrays."""
+    addition = law.addition
+    return VehicleAttitude(vehicle_inner(i, law), (addition[i, 0], addition[i, 1],
+                                                    addition[i, 2], addition[i, 3]))
+
+
+@njit(cache=True, inline="always")
+def attitude_command(action, rotation, rate, body, tick_dt, constants, vehicle, mixing):
     """The controller's attitude law at the tick, plus the residual's part, within the
     limits a command in the action space has; the law's own request is kept for its
     update."""
-    own_thrust, own_moment = inner_command(i, rotation, rate, law, tick_dt)
-    addition, limit = law.addition, inner.moment_limit
-    thrust = min(max(own_thrust + addition[i, 0], 0.0), actuator.max_total_thrust)
-    moment = (min(max(own_moment[0] + addition[i, 1], -limit[0]), limit[0]),
-              min(max(own_moment[1] + addition[i, 2], -limit[1]), limit[1]),
-              min(max(own_moment[2] + addition[i, 3], -limit[2]), limit[2]))
-    return thrust, moment, (own_thrust, own_moment[0], own_moment[1], own_moment[2])
+    own_thrust, own_moment, law_after = inner_command(rotation, rate, constants.inner,
+                                                      vehicle.inner, tick_dt)
+    addition, limit = vehicle.addition, constants.moment_limit
+    thrust = min(max(own_thrust + addition[0], 0.0), mixing.max_total_thrust)
+    moment = (min(max(own_moment[0] + addition[1], -limit[0]), limit[0]),
+              min(max(own_moment[1] + addition[2], -limit[1]), limit[1]),
+              min(max(own_moment[2] + addition[3], -limit[2]), limit[2]))
+    return (thrust, moment, (own_thrust, own_moment[0], own_moment[1], own_moment[2]),
+            VehicleAttitude(law_after, addition))
 
 
 @njit(cache=True, inline="always")
-def attitude_after_tick(i, rate_before, rate_after, request, mean, law, actuator):
+def attitude_after_tick(rate_before, rate_after, request, mean, constants, vehicle, mixing):
     """The law's own update after a tick: what the mixer makes of its request (the PID's
     anti-windup), what the motors gave (the rotational observer)."""
     own_thrust, own_moment = request[0], (request[1], request[2], request[3])
     mixed_moment = own_moment
-    if law.code == PID:
-        mixed, _ = actuate_vehicle(own_thrust, own_moment, actuator.code, actuator.mixer,
-                                   actuator.max_rotor_thrust, actuator.max_total_thrust,
-                                   actuator.moment_limit)
-        mixed_moment = actuator_wrench(mixed, mixed, 0.0, actuator.to_wrench)[1]
-    inner_applied(i, rate_before, rate_after, own_moment, mixed_moment,
-                  actuator_wrench(mean, mean, 0.0, actuator.to_wrench)[1], law)
+    if constants.inner.code == PID:
+        mixed, _ = actuate_vehicle(own_thrust, own_moment, mixing.code, mixing.mixer,
+                                   mixing.max_rotor_thrust, mixing.max_total_thrust,
+                                   mixing.moment_limit)
+        mixed_moment = actuator_wrench(mixed, mixed, 0.0, mixing.to_wrench)[1]
+    law_after = inner_applied(rate_before, rate_after, own_moment, mixed_moment,
+                              actuator_wrench(mean, mean, 0.0, mixing.to_wrench)[1],
+                              constants.inner, vehicle.inner)
+    return VehicleAttitude(law_after, vehicle.addition)
+
+
+@njit(cache=True, inline="always")
+def attitude_end(i, law, vehicle):
+    """The law's own state written back."""
+    store_vehicle_inner(i, law, vehicle.inner)
 
 
 @njit(cache=True, nogil=True)
@@ -79,8 +127,9 @@ def attitude_loop_kernel(start, stop, actions, addition, inner_law, action_map, 
     only enter the reward's effort term."""
     loop = named_step(action_map, state, body, actuator, rotors, draws, inner, forcing,
                       episode, outputs)
-    fly_vehicles(start, stop, actions, loop, attitude_command, attitude_after_tick,
-                 AttitudeLaw(*inner_law, addition), True)
+    fly_vehicles(start, stop, actions, loop, AttitudeLaw(*inner_law, addition),
+                 attitude_constants, attitude_start, attitude_command, attitude_after_tick,
+                 attitude_end, True)
 
 
 class AttitudeLoop:

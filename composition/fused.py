@@ -26,23 +26,21 @@ from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_baselines.geometric_kernels import (
-    GeometricOutputs,
+    geometric_law,
     geometric_law_of,
-    geometric_vehicle,
-    matrix_at,
-    observer_advance_vehicle,
-    observer_estimate_vehicle,
+    observer_advance,
+    observer_estimate,
     reference_at,
-    store_vector,
-    vector_at,
 )
+from quad_dob_env.dynamics import load_vehicle
 from quad_dob_env.envs.step_kernels import kernel_tuples, step_kernel
 from quad_dob_env.residual.residual_kernels import (
     residual_command_kernel,
-    residual_observation_vehicle,
+    residual_observation,
     residual_reward_kernel,
+    store_residual_observation,
 )
-from quad_dob_env.so3 import matrix_entries
+from quad_dob_env.so3 import matrix_entries, store_matrix, store_vector, vector_at
 from quad_dob_env.threads import run_over_batch
 
 if TYPE_CHECKING:
@@ -110,39 +108,53 @@ def plan_kernel(indices, plan):
     observation for the coming step, from its state now (``plan``: a ``PlanArguments`` as a
     plain tuple)."""
     plan = PlanArguments(*plan)
-    rotor_mode, centre, scale_up, scale_down, mixer = plan.inverse
     law = geometric_law_of(plan.mass, plan.gravity, plan.inertia, plan.gains)
-    outputs = GeometricOutputs(plan.thrust, plan.moment, plan.desired_force,
-                               plan.desired_rotation, plan.desired_rate,
-                               plan.desired_acceleration, plan.attitude_error, plan.rate_error)
     km = matrix_entries(plan.observer_rotational_gain)  # a 9-tuple, as the equations take it
-    # every field taken out once, before the vehicles: taking an array out of a record
-    # takes a reference to it, a cost per vehicle inside the loop
+    # every array taken out once, before the vehicles, and read and written here in
+    # straight lines; the equations take numbers: an array handed to an inlined function
+    # with a branch or a loop counts a reference in and out at every call
     position, velocity = plan.position, plan.velocity
     rotation, angular_velocity = plan.rotation, plan.angular_velocity
     force_estimate, torque_estimate = plan.force_estimate, plan.torque_estimate
     has_observer, observer_gain = plan.has_observer, plan.observer_gain
     z_force, z_torque, fresh = plan.z_force, plan.z_torque, plan.fresh
     reference, reference_row = plan.reference, plan.reference_row
-    thrust, moment, estimate_scale = plan.thrust, plan.moment, plan.estimate_scale
+    thrust, moment, desired_force = plan.thrust, plan.moment, plan.desired_force
+    desired_rotation, desired_rate = plan.desired_rotation, plan.desired_rate
+    desired_acceleration = plan.desired_acceleration
+    attitude_error, rate_error = plan.attitude_error, plan.rate_error
     base_action, body_errors, extra = plan.base_action, plan.body_errors, plan.extra
+    es = plan.estimate_scale
+    scale = (es[0], es[1], es[2], es[3], es[4], es[5])
+    inverse = plan.inverse
     for i in indices:
+        x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
+        d_x, d_w = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if has_observer:
-            observer_estimate_vehicle(i, velocity, angular_velocity, observer_gain, km,
-                                      z_force, z_torque, fresh, force_estimate,
-                                      torque_estimate)
-        else:
-            store_vector(force_estimate, i, (0.0, 0.0, 0.0))
-            store_vector(torque_estimate, i, (0.0, 0.0, 0.0))
+            z_f, z_t, d_x, d_w = observer_estimate(v, w, observer_gain, km, fresh[i],
+                                                   vector_at(z_force, i),
+                                                   vector_at(z_torque, i))
+            store_vector(z_force, i, z_f)
+            store_vector(z_torque, i, z_t)
+            fresh[i] = False
+        store_vector(force_estimate, i, d_x)
+        store_vector(torque_estimate, i, d_w)
         row = reference_row[i]
-        geometric_vehicle(i, vector_at(position, i), vector_at(velocity, i),
-                          matrix_at(rotation, i), vector_at(angular_velocity, i),
-                          reference_at(reference, row), law, force_estimate,
-                          torque_estimate, (0.0, 0.0, 0.0), outputs)
-        residual_observation_vehicle(i, thrust, moment, force_estimate, torque_estimate,
-                                     estimate_scale, position, velocity, rotation, reference,
-                                     row, rotor_mode, centre, scale_up, scale_down, mixer,
-                                     base_action, body_errors, extra)
+        f, m, force, rd, rate_d, acceleration_d, e_r, e_w = geometric_law(
+            x, v, R, w, reference_at(reference, row), law, d_x, d_w, (0.0, 0.0, 0.0))
+        thrust[i] = f
+        store_vector(moment, i, m)
+        store_vector(desired_force, i, force)
+        store_matrix(desired_rotation, i, rd)
+        store_vector(desired_rate, i, rate_d)
+        store_vector(desired_acceleration, i, acceleration_d)
+        store_vector(attitude_error, i, e_r)
+        store_vector(rate_error, i, e_w)
+        observed = residual_observation(
+            f, m, d_x, d_w, scale, x, v, R, (reference[row, 0, 0], reference[row, 0, 1],
+                                             reference[row, 0, 2]),
+            (reference[row, 1, 0], reference[row, 1, 1], reference[row, 1, 2]), inverse)
+        store_residual_observation(i, observed, base_action, body_errors, extra)
 
 
 @njit(cache=True, inline="always")
@@ -177,11 +189,14 @@ def reward_and_observer_update(start, stop, update, plan):
                                                update.alpha)
         z_force, z_torque = plan.z_force, plan.z_torque
         for i in range(start, stop):
-            observer_advance_vehicle(i, velocity_before, body_z_before, rate_before,
-                                     applied_thrust, applied_moment, rotation,
-                                     angular_velocity, mass, gravity, inertia_entries,
-                                     observer_gain, alpha, km, alpha_entries, z_force,
-                                     z_torque, True)
+            z_f, z_t = observer_advance(
+                vector_at(velocity_before, i), vector_at(body_z_before, i),
+                vector_at(rate_before, i), applied_thrust[i], vector_at(applied_moment, i),
+                (rotation[i, 0, 2], rotation[i, 1, 2], rotation[i, 2, 2]),
+                vector_at(angular_velocity, i), mass, gravity, inertia_entries, observer_gain,
+                alpha, km, alpha_entries, vector_at(z_force, i), vector_at(z_torque, i), True)
+            store_vector(z_force, i, z_f)
+            store_vector(z_torque, i, z_t)
 
 
 @njit(cache=True, nogil=True)

@@ -151,3 +151,38 @@ def _exp_batch(phi: NDArray, out: NDArray) -> None:
         r = exp_tuple((phi[i, 0], phi[i, 1], phi[i, 2]))
         for k in range(9):
             out[i, k // 3, k % 3] = r[k]
+
+
+# --- a batch's rows as tuples, and back: straight-line, since an inlined function with
+# an array parameter and a branch or a loop counts the array in and out at every call
+
+@njit(cache=True, inline="always")
+def vector_at(array, i):
+    """Row i of an (N, 3) array as a 3-tuple."""
+    return (array[i, 0], array[i, 1], array[i, 2])
+
+
+@njit(cache=True, inline="always")
+def matrix_at(array, i):
+    """Matrix i of an (N, 3, 3) array as a row-major 9-tuple (indexed in full: ``array[i]``
+    would make a view, which counts a reference)."""
+    return (array[i, 0, 0], array[i, 0, 1], array[i, 0, 2], array[i, 1, 0], array[i, 1, 1],
+            array[i, 1, 2], array[i, 2, 0], array[i, 2, 1], array[i, 2, 2])
+
+
+@njit(cache=True, inline="always")
+def store_vector(array, i, value):
+    """Write the 3-tuple ``value`` into row i of an (N, 3) array. Straight-line, no loop: an
+    inlined function with an array parameter and one block has its reference count pruned,
+    one with a loop counts the array in and out at every call (docs/speed.md)."""
+    array[i, 0] = value[0]
+    array[i, 1] = value[1]
+    array[i, 2] = value[2]
+
+
+@njit(cache=True, inline="always")
+def store_matrix(array, i, value):
+    """Write the row-major 9-tuple ``value`` into matrix i of an (N, 3, 3) array."""
+    array[i, 0, 0], array[i, 0, 1], array[i, 0, 2] = value[0], value[1], value[2]
+    array[i, 1, 0], array[i, 1, 1], array[i, 1, 2] = value[3], value[4], value[5]
+    array[i, 2, 0], array[i, 2, 1], array[i, 2, 2] = value[6], value[7], value[8]

@@ -194,7 +194,7 @@ def test_unknown_controller_and_bad_gains_are_named():
 
 
 def test_the_geometric_law_record_from_arrays_is_the_one_built_by_keyword():
-    # what a compiled caller holding J (3, 3) and a (4, 3) gains table hands geometric_vehicle
+    # what a compiled caller holding J (3, 3) and a (4, 3) gains table hands geometric_law
     from quad_dob_baselines.geometric_kernels import GeometricLaw, geometric_law_of
 
     controller = GeometricController(kR=[8.0, 8.5, 9.0])

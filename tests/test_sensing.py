@@ -13,7 +13,7 @@ from quad_dob_baselines import make_controller
 from quad_dob_composition import ResidualVectorEnv
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.envs import QuadrotorBatch, QuadrotorEnv, QuadrotorVectorEnv
-from quad_dob_env.residual.residual_kernels import body_frame_errors_vehicle
+from quad_dob_env.residual.residual_kernels import body_frame_errors
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.sensing import (
     SENSING_PRESETS,
@@ -172,8 +172,9 @@ def _observation_from(core, state) -> np.ndarray:
     ref = core.reference
     errors = np.empty((core.n, 6))
     for i in range(core.n):
-        body_frame_errors_vehicle(i, state.position, state.velocity, state.rotation,
-                                  ref.position[i], ref.velocity[i], errors)
+        errors[i] = body_frame_errors(
+            tuple(state.position[i]), tuple(state.velocity[i]),
+            tuple(state.rotation[i].reshape(9)), tuple(ref.position[i]), tuple(ref.velocity[i]))
     env_part = np.concatenate([state.position - ref.position, state.velocity - ref.velocity,
                                state.rotation.reshape(-1, 9), state.angular_velocity,
                                ref.acceleration, ref.heading], axis=1)

@@ -53,6 +53,27 @@ class ActuatorArrays(NamedTuple):
     output: NDArray  # (N, 4) rotor thrusts, the wrench, or rotor speeds (speed motors)
 
 
+class Mixing(NamedTuple):
+    """``ActuatorArrays``' constants, without the batch's ``output`` array: what the
+    per-vehicle functions take (``mixing_of``), numbers and tuples only."""
+
+    code: int
+    mixer: tuple
+    max_rotor_thrust: float
+    max_total_thrust: float
+    moment_limit: tuple
+    to_wrench: tuple
+    to_rotors: tuple
+
+
+@njit(cache=True, inline="always")
+def mixing_of(actuator):
+    """``actuator``'s (an ``ActuatorArrays``) ``Mixing``."""
+    return Mixing(actuator.code, actuator.mixer, actuator.max_rotor_thrust,
+                  actuator.max_total_thrust, actuator.moment_limit, actuator.to_wrench,
+                  actuator.to_rotors)
+
+
 @njit(cache=True, inline="always")
 def _mat4_vec(matrix, a, b, c, d):
     """A 4 x 4 matrix (``as_rows``) times (a, b, c, d)."""
@@ -104,11 +125,10 @@ def store_applied(i, output, to_wrench, to_rotors, out_thrust, out_moment, out_r
     """Write the wrench and rotor thrusts of actuator output ``output`` for vehicle i."""
     wrench = _mat4_vec(to_wrench, output[0], output[1], output[2], output[3])
     rotors = _mat4_vec(to_rotors, output[0], output[1], output[2], output[3])
-    out_thrust[i] = wrench[0]
-    for k in range(3):
-        out_moment[i, k] = wrench[k + 1]
-    for k in range(4):
-        out_rotors[i, k] = rotors[k]
+    out_thrust[i] = wrench[0]  # straight-line: a loop here would count each array per call
+    out_moment[i, 0], out_moment[i, 1], out_moment[i, 2] = wrench[1], wrench[2], wrench[3]
+    out_rotors[i, 0], out_rotors[i, 1] = rotors[0], rotors[1]
+    out_rotors[i, 2], out_rotors[i, 3] = rotors[2], rotors[3]
 
 
 @njit(cache=True)

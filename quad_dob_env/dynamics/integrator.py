@@ -179,22 +179,27 @@ def _weighted(h, w1, w2, w3, w4, a, b, c, d):
 
 @njit(cache=True, inline="always")
 def load_vehicle(i, position, velocity, rotation, angular_velocity):
-    """Vehicle ``i``'s state as tuples (x, v, R row-major, Ω)."""
-    r = rotation[i]
+    """Vehicle ``i``'s state as tuples (x, v, R row-major, Ω). Straight-line reads, no view
+    (``rotation[i]`` would count a reference)."""
     return ((position[i, 0], position[i, 1], position[i, 2]),
             (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
-            (r[0, 0], r[0, 1], r[0, 2], r[1, 0], r[1, 1], r[1, 2], r[2, 0], r[2, 1], r[2, 2]),
+            (rotation[i, 0, 0], rotation[i, 0, 1], rotation[i, 0, 2], rotation[i, 1, 0],
+             rotation[i, 1, 1], rotation[i, 1, 2], rotation[i, 2, 0], rotation[i, 2, 1],
+             rotation[i, 2, 2]),
             (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2]))
 
 
 @njit(cache=True, inline="always")
 def store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w):
-    for k in range(3):
-        position[i, k] = x[k]
-        velocity[i, k] = v[k]
-        angular_velocity[i, k] = w[k]
-    for k in range(9):
-        rotation[i, k // 3, k % 3] = R[k]
+    """Write vehicle ``i``'s state (x, v, R row-major, Ω), straight-line: an inlined
+    function with an array parameter and a loop counts the array in and out at every
+    call."""
+    position[i, 0], position[i, 1], position[i, 2] = x[0], x[1], x[2]
+    velocity[i, 0], velocity[i, 1], velocity[i, 2] = v[0], v[1], v[2]
+    angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2] = w[0], w[1], w[2]
+    rotation[i, 0, 0], rotation[i, 0, 1], rotation[i, 0, 2] = R[0], R[1], R[2]
+    rotation[i, 1, 0], rotation[i, 1, 1], rotation[i, 1, 2] = R[3], R[4], R[5]
+    rotation[i, 2, 0], rotation[i, 2, 1], rotation[i, 2, 2] = R[6], R[7], R[8]
 
 
 @njit(cache=True, inline="always")
@@ -240,10 +245,27 @@ def _stage_actuators(start, command, time_constant, spin_down, to_wrench, elapse
     return f, m, (0.0, 0.0, 0.0, 0.0)
 
 
+@njit(cache=True, inline="always")
+def store_samples(out, g, force, torque, wind):
+    """Row g of a tick's forcing samples (``advance_vehicle``'s ``samples``): force,
+    torque and wind, 3-tuples, written straight-line."""
+    out[g, 0], out[g, 1], out[g, 2] = force[0], force[1], force[2]
+    out[g, 3], out[g, 4], out[g, 5] = torque[0], torque[1], torque[2]
+    out[g, 6], out[g, 7], out[g, 8] = wind[0], wind[1], wind[2]
+
+
+@njit(cache=True, inline="always")
+def _samples_at(samples, g):
+    """Row g of ``samples`` as (force, torque, wind), 3-tuples."""
+    return ((samples[g, 0], samples[g, 1], samples[g, 2]),
+            (samples[g, 3], samples[g, 4], samples[g, 5]),
+            (samples[g, 6], samples[g, 7], samples[g, 8]))
+
+
 @njit(cache=True)
-def advance_vehicle(i, state, start, command, time_constant, spin_down, to_wrench, forcing,
-                    row, body, dt, substeps, law, rotors, thrust_scales, first_sample):
-    """Vehicle i from ``state`` (x, v, R, Ω) over ``dt`` in ``substeps`` CF4 steps; returns
+def advance_vehicle(state, start, command, time_constant, spin_down, to_wrench, samples,
+                    body, dt, substeps, law, rotors, thrust_scales):
+    """A vehicle from ``state`` (x, v, R, Ω) over ``dt`` in ``substeps`` CF4 steps; returns
     the new (x, v, R, Ω).
 
     Actuators: their output (rotor thrusts, the wrench, or with speed motors the rotor
@@ -252,34 +274,25 @@ def advance_vehicle(i, state, start, command, time_constant, spin_down, to_wrenc
     ``spin_down`` where it is above 0); ``to_wrench`` maps it to (f, M), or
     with the rotors' own model on (``rotors``, ``quad_dob_env.dynamics.rotors``) their
     speeds give the wrench with the air's effect and each rotor's ``thrust_scales``.
-    ``forcing``: force, torque and wind velocity on the substep grid (a ``Forcing``); this
-    interval's samples start at ``first_sample`` (an inner loop flies a control step as
-    several such intervals). ``body``: the vehicle's ``RigidBody``.
+    ``samples``: force, torque and wind velocity on the interval's grid ``t0 + k h / 2``
+    (``2 substeps + 1`` rows of 9, ``store_samples``), sampled by the caller from the
+    ``Forcing`` tables: one array here, where the six tables cost a reference count each
+    per call. ``body``: the vehicle's ``RigidBody``.
     """
     x, v, R, w = state
     h = dt / substeps
-    # the tables taken out of the record once: each taking counts a reference, and per
-    # stage that cost more than the stage's arithmetic (docs/speed.md)
-    force, torque, wind = forcing.force, forcing.torque, forcing.wind
-    force_own, torque_own, wind_own = forcing.force_own, forcing.torque_own, forcing.wind_own
     for s in range(substeps):
         t0 = s * h
-        grid = first_sample + 2 * s
+        grid = 2 * s
         f1, m1, u1 = _stage_actuators(start, command, time_constant, spin_down, to_wrench, t0,
                                       rotors)
         f2, m2, u2 = _stage_actuators(start, command, time_constant, spin_down, to_wrench,
                                       t0 + 0.5 * h, rotors)
         f4, m4, u4 = _stage_actuators(start, command, time_constant, spin_down, to_wrench,
                                       t0 + h, rotors)
-        d1, t1, w1 = (sample(force, row, force_own, i, grid),
-                      sample(torque, row, torque_own, i, grid),
-                      sample(wind, row, wind_own, i, grid))
-        d2, t2, w2 = (sample(force, row, force_own, i, grid + 1),
-                      sample(torque, row, torque_own, i, grid + 1),
-                      sample(wind, row, wind_own, i, grid + 1))
-        d4, t4, w4 = (sample(force, row, force_own, i, grid + 2),
-                      sample(torque, row, torque_own, i, grid + 2),
-                      sample(wind, row, wind_own, i, grid + 2))
+        d1, t1, w1 = _samples_at(samples, grid)
+        d2, t2, w2 = _samples_at(samples, grid + 1)
+        d4, t4, w4 = _samples_at(samples, grid + 2)
         a1, al1 = _accelerations(x, v, R, w, f1, m1, d1, t1, w1, body, law, u1, rotors,
                                  thrust_scales)
         x2, v2, om2 = _axpy(h / 2, v, x), _axpy(h / 2, a1, v), _axpy(h / 2, al1, w)

@@ -28,6 +28,8 @@ from quad_dob_env.dynamics import (
     thrust_multiplier_scalar,
     vehicle_physics,
 )
+from quad_dob_env.dynamics.actuation import mixing_of
+from quad_dob_env.dynamics.integrator import store_samples
 from quad_dob_env.dynamics.rotors import (
     RotorDraws,
     RotorModel,
@@ -39,12 +41,16 @@ from quad_dob_env.dynamics.rotors import (
 )
 from quad_dob_env.envs.termination import ATTITUDE_LOST, CRASHED, NON_FINITE_STATE, OUT_OF_BOUNDS
 from quad_dob_env.envs.ticks import (
+    EstimateError,
     InnerLoop,
+    estimate_error,
+    estimated,
     filtered_rate,
     fly_tick,
-    held_rate,
-    inner_estimate,
+    gyro_state_at,
     rate_law,
+    rate_law_of,
+    store_gyro,
     store_vehicle_pose,
     thrust_path_at,
     tick_factors,
@@ -56,16 +62,16 @@ OBSERVATION_BOUND = float(np.finfo(np.float32).max)
 
 
 @njit(cache=True, inline="always")
-def _command(actions, i, action_map):
-    """Normalised action -> commanded thrust and moment (``action_map``: an
+def _command(action, action_map):
+    """Normalised action (a 4-tuple) -> commanded thrust and moment (``action_map``: an
     ``ActionMapArrays`` of ``ActionMap.forward``); 0 maps to hover."""
     rotor_mode, centre = action_map.rotor_mode, action_map.centre
     scale_up, scale_down, allocation = (action_map.scale_up, action_map.scale_down,
                                         action_map.matrix)
-    s = (_scaled(actions[i, 0], centre[0], scale_up[0], scale_down[0]),
-         _scaled(actions[i, 1], centre[1], scale_up[1], scale_down[1]),
-         _scaled(actions[i, 2], centre[2], scale_up[2], scale_down[2]),
-         _scaled(actions[i, 3], centre[3], scale_up[3], scale_down[3]))
+    s = (_scaled(action[0], centre[0], scale_up[0], scale_down[0]),
+         _scaled(action[1], centre[1], scale_up[1], scale_down[1]),
+         _scaled(action[2], centre[2], scale_up[2], scale_down[2]),
+         _scaled(action[3], centre[3], scale_up[3], scale_down[3]))
     if rotor_mode:
         f = s[0] + s[1] + s[2] + s[3]
         m = (_row_sum(allocation, 1, s), _row_sum(allocation, 2, s), _row_sum(allocation, 3, s))
@@ -95,28 +101,46 @@ def command_from_action_batch(actions, forward, thrust, moment):
     (``forward``: ``ActionMap.forward`` as a plain tuple)."""
     action_map = ActionMapArrays(*forward)
     for i in range(actions.shape[0]):
-        thrust[i], commanded = _command(actions, i, action_map)
+        thrust[i], commanded = _command((actions[i, 0], actions[i, 1], actions[i, 2],
+                                         actions[i, 3]), action_map)
         for k in range(3):
             moment[i, k] = commanded[k]
 
 
 @njit(cache=True, inline="always")
+def action_of_command(thrust, moment, rotor_mode, centre, scale_up, scale_down, mixer):
+    """The inverse of ``_command``: the normalised action (4-tuple) that commands ``thrust``
+    and ``moment`` (3-tuple), clipped to [-1, 1] (beyond the limits it saturates); the
+    action map's inverse comes unpacked, its constants as tuples."""
+    wrench = (thrust, moment[0], moment[1], moment[2])
+    return (_action_entry(0, wrench, rotor_mode, centre, scale_up, scale_down, mixer),
+            _action_entry(1, wrench, rotor_mode, centre, scale_up, scale_down, mixer),
+            _action_entry(2, wrench, rotor_mode, centre, scale_up, scale_down, mixer),
+            _action_entry(3, wrench, rotor_mode, centre, scale_up, scale_down, mixer))
+
+
+@njit(cache=True, inline="always")
+def _action_entry(k, wrench, rotor_mode, centre, scale_up, scale_down, mixer):
+    """Entry k of ``action_of_command``."""
+    if rotor_mode:
+        row = mixer[k]
+        value = (row[0] * wrench[0] + row[1] * wrench[1] + row[2] * wrench[2]
+                 + row[3] * wrench[3])
+    else:
+        value = wrench[k]
+    offset = value - centre[k]
+    action = offset / (scale_up[k] if offset >= 0.0 else scale_down[k])
+    return min(max(action, -1.0), 1.0)
+
+
+@njit(cache=True, inline="always")
 def action_from_command_vehicle(i, thrust, moment, rotor_mode, centre, scale_up, scale_down,
                                 mixer, out):
-    """The inverse of ``_command`` for one vehicle: ``out[i]`` = the normalised action that
-    commands ``thrust`` and ``moment`` (3-tuple), clipped to [-1, 1] (beyond the limits it
-    saturates)."""
-    wrench = (thrust, moment[0], moment[1], moment[2])
-    for k in range(4):
-        if rotor_mode:
-            row = mixer[k]
-            value = (row[0] * wrench[0] + row[1] * wrench[1] + row[2] * wrench[2]
-                     + row[3] * wrench[3])
-        else:
-            value = wrench[k]
-        offset = value - centre[k]
-        action = offset / (scale_up[k] if offset >= 0.0 else scale_down[k])
-        out[i, k] = min(max(action, -1.0), 1.0)
+    """``out[i]`` = ``action_of_command``'s action (straight-line stores: an inlined
+    function with an array parameter and a loop counts the array at every call)."""
+    action = action_of_command(thrust, moment, rotor_mode, centre, scale_up, scale_down,
+                               mixer)
+    out[i, 0], out[i, 1], out[i, 2], out[i, 3] = action[0], action[1], action[2], action[3]
 
 
 @njit(cache=True)
@@ -352,31 +376,41 @@ def finish_vehicles(start, stop, actions, loop):
 
 
 @njit(cache=True, inline="always")
-def fly_vehicles(start, stop, actions, loop, law_command, law_after_tick, law,
-                 reads_estimate):
+def fly_vehicles(start, stop, actions, loop, law, law_constants, law_start, law_command,
+                 law_after_tick, law_end, reads_estimate):
     """One control step of vehicles ``start..stop-1``: the one loop over an inner loop's
     ticks (``loop.inner.ticks``; 1 without one), for every law.
 
-    Each tick ``law_command(i, actions, rotation, rate, body, tick_dt, law, inner,
-    actuator)`` forms the command (thrust, moment, and a 4-tuple the law keeps for its
-    update) from the inner-rate estimate; then ``fly_tick`` flies mixer -> battery ->
-    motors -> physics; with ``reads_estimate`` the gyro low-pass samples the tick's end and
-    ``law_after_tick(i, rate_before, rate_after, request, mean_output, law, actuator)``
-    updates the law's own state. ``law_command`` and ``law_after_tick`` are compiled
-    functions, fixed where the caller is compiled, so numba specialises this loop per law:
-    the env's held actions and rate law (``step_kernel``), a controller's attitude law
-    (``quad_dob_composition.attitude_loop``). ``law`` is the law's own record. Then
-    ``finish_vehicles`` scores the slice.
+    A law is its record ``law`` and five compiled functions, fixed where the caller is
+    compiled, so numba specialises this loop per law (the env's held actions and rate law,
+    ``step_kernel``; a controller's attitude law, ``quad_dob_composition.attitude_loop``):
 
-    The step's records are taken out of ``loop`` once, here, and each vehicle's draws are
-    read once a step into numbers (``VehicleDraws``): taking a record out of another, or
-    handing one to an inlined function, counts a reference to every array in it, which per
-    vehicle and tick cost v1's step half its time (docs/speed.md)."""
+    - ``law_constants(law, inner)``: its constants as numbers, once a call;
+    - ``law_start(i, law)``: vehicle i's part of it, as numbers, once a step;
+    - ``law_command(action, rotation, rate, body, tick_dt, constants, vehicle, mixing)``
+      each tick, from the inner-rate estimate: thrust, moment, a 4-tuple it keeps for its
+      update, and the vehicle's part after it;
+    - ``law_after_tick(rate_before, rate_after, request, mean_output, constants, vehicle,
+      mixing)`` after each tick when ``reads_estimate`` (the gyro low-pass samples the
+      tick's end): the vehicle's part after it;
+    - ``law_end(i, law, vehicle)``: its state written back, once a step.
+
+    Then ``fly_tick`` flies mixer -> battery -> motors -> physics, and ``finish_vehicles``
+    scores the slice.
+
+    Every array is taken out of the records once a call and read or written here, in
+    straight lines; what the per-vehicle functions take are numbers and tuples. An array
+    handed to an inlined function with a branch or a loop is counted in and out at every
+    call (an atomic add on a cache line both cores share), and that counting was half of
+    v1's step (docs/speed.md)."""
     state, body_arrays, actuator = loop.state, loop.body, loop.actuator
     rotors, draws, inner, forcing = loop.rotors, loop.draws, loop.inner, loop.forcing
     episode, outputs = loop.episode, loop.outputs
     ticks, dt, substeps = inner.ticks, episode.dt, episode.substeps
+    thrust_law = episode.thrust_law
     tick_dt = dt / ticks
+    mixing = mixing_of(actuator)
+    constants = law_constants(law, inner)
     position, velocity = state.position, state.velocity
     rotation, angular_velocity = state.rotation, state.angular_velocity
     output, step_count, code = actuator.output, episode.step_count, outputs.code
@@ -385,29 +419,52 @@ def fly_vehicles(start, stop, actions, loop, law_command, law_after_tick, law,
     rotor_thrusts, saturated = outputs.rotor_thrusts, outputs.saturated
     pose_tick, pose_position = inner.pose_tick, inner.pose_position
     pose_velocity, pose_rotation = inner.pose_velocity, inner.pose_rotation
+    has_estimate, gyro_filter = inner.has_estimate, inner.gyro_filter
+    estimate_rotation, estimate_rate = inner.estimate_rotation, inner.estimate_rate
+    gyro_coefficients = inner.gyro_coefficients
+    gyro_state, gyro_output = inner.gyro_state, inner.gyro_output
+    force, torque, wind = forcing.force, forcing.torque, forcing.wind
+    force_own, torque_own, wind_own = forcing.force_own, forcing.torque_own, forcing.wind_own
+    samples = np.empty((2 * substeps + 1, 9))  # a tick's forcing (advance_vehicle)
     for i in range(start, stop):
         draw = vehicle_draws(i, draws)
         mean_factor, end_factor = tick_factors(draw.time_constant, tick_dt)
         row = step_count[i]
         body = vehicle_physics(i, body_arrays)
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
+        action = (actions[i, 0], actions[i, 1], actions[i, 2], actions[i, 3])
         battery = thrust_path_at(row, dt, rotors, draw, body)
-        r0, w0 = R, w
+        # the estimate's error and the gyro low-pass, read only where the law reads them
+        estimating = reads_estimate and has_estimate
+        error = (estimate_error(i, estimate_rotation, estimate_rate, R, w) if estimating
+                 else EstimateError(R, w, w))
+        filtering = reads_estimate and gyro_filter
+        filter_state = (gyro_state_at(i, gyro_state) if filtering
+                        else (0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+        filter_output = ((gyro_output[i, 0], gyro_output[i, 1], gyro_output[i, 2])
+                         if filtering else w)
+        vehicle = law_start(i, law)
         end = (output[i, 0], output[i, 1], output[i, 2], output[i, 3])
         total = (0.0, 0.0, 0.0, 0.0)
         any_saturated, diverged = False, False
         pose_at = pose_tick[i]
         seen_rotation, seen_rate = R, w
         if reads_estimate:
-            seen_rotation, seen_rate = inner_estimate(i, R, w, inner, r0, w0)
-            seen_rate = held_rate(i, seen_rate, inner)  # the gyro low-pass's, when on
+            seen_rotation, seen_rate = estimated(R, w, has_estimate, error)
+            if gyro_filter:  # what the gyro low-pass last gave
+                seen_rate = filter_output
         for tick in range(ticks):
-            thrust, moment, request = law_command(i, actions, seen_rotation, seen_rate, body,
-                                                  tick_dt, law, inner, actuator)
+            thrust, moment, request, vehicle = law_command(action, seen_rotation, seen_rate,
+                                                           body, tick_dt, constants, vehicle,
+                                                           mixing)
+            first = 2 * substeps * tick
+            for g in range(2 * substeps + 1):
+                store_samples(samples, g, sample(force, row, force_own, i, first + g),
+                              sample(torque, row, torque_own, i, first + g),
+                              sample(wind, row, wind_own, i, first + g))
             xn, vn, Rn, wn, next_end, mean, hit, _ = fly_tick(
-                i, (x, v, R, w), end, thrust, moment, battery, row, body, tick_dt,
-                2 * substeps * tick, mean_factor, end_factor, actuator, rotors, draw,
-                forcing, episode)
+                (x, v, R, w), end, thrust, moment, battery, body, tick_dt, mean_factor,
+                end_factor, mixing, rotors, draw, samples, substeps, thrust_law)
             end = next_end
             total = (total[0] + mean[0], total[1] + mean[1], total[2] + mean[2],
                      total[3] + mean[3])
@@ -419,36 +476,69 @@ def fly_vehicles(start, stop, actions, loop, law_command, law_after_tick, law,
             if tick + 1 == pose_at:  # where the pose fix is taken within the step
                 store_vehicle_pose(i, x, v, R, pose_position, pose_velocity, pose_rotation)
             if reads_estimate:  # the gyro low-pass samples the tick's end
-                rotation_after, rate_after = inner_estimate(i, R, w, inner, r0, w0)
-                rate_after = filtered_rate(i, rate_after, inner)
-                law_after_tick(i, seen_rate, rate_after, request, mean, law, actuator)
+                rotation_after, rate_after = estimated(R, w, has_estimate, error)
+                if gyro_filter:
+                    rate_after, filter_state = filtered_rate(rate_after, gyro_coefficients,
+                                                             filter_state)
+                    filter_output = rate_after
+                vehicle = law_after_tick(seen_rate, rate_after, request, mean, constants,
+                                         vehicle, mixing)
                 seen_rotation, seen_rate = rotation_after, rate_after
+        law_end(i, law, vehicle)
+        if filtering:
+            store_gyro(i, filter_state, filter_output, gyro_state, gyro_output)
         # what was applied (the ticks' mean output), the end output and the last finite
         # state (where a step diverged: its start, or its last finite tick)
         saturated[i] = any_saturated
         store_applied(i, (total[0] / ticks, total[1] / ticks, total[2] / ticks,
                           total[3] / ticks), to_wrench, to_rotors, applied_thrust,
                       applied_moment, rotor_thrusts)
-        for k in range(4):
-            output[i, k] = end[k]
+        output[i, 0], output[i, 1], output[i, 2], output[i, 3] = end[0], end[1], end[2], end[3]
         store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
         code[i] = NON_FINITE_STATE if diverged else 0  # finish_vehicles reads it
     finish_vehicles(start, stop, actions, loop)
 
 
-@njit(cache=True, inline="always")
-def env_law_command(i, actions, rotation, rate, body, tick_dt, action_map, inner, actuator):
-    """The env's own law: the actions' command held over the step, or with
-    ``thrust_rates``' inner loop its rate law at the tick."""
-    thrust, moment = _command(actions, i, action_map)
-    if inner.rate_law:
-        thrust, moment = rate_law(actions, i, thrust, rotation, rate, body.inertia, inner)
-    return thrust, moment, (0.0, 0.0, 0.0, 0.0)
+class EnvLaw(NamedTuple):
+    """The env's own law (``step_kernel``): the actions' command held over the step, or
+    ``thrust_rates``' rate law at every tick."""
+
+    action_map: ActionMapArrays  # ``ActionMap.forward``, tuples
+    told_inertia: NDArray  # (N,) the rate loop's inertia over the truth
 
 
 @njit(cache=True, inline="always")
-def env_law_after_tick(i, rate_before, rate_after, request, mean, action_map, actuator):
+def env_law_constants(law, inner):
+    """The env law's constants: the action map and the rate law (``RateLaw``)."""
+    return law.action_map, rate_law_of(inner)
+
+
+@njit(cache=True, inline="always")
+def env_law_start(i, law):
+    """Vehicle i's part of the env law: its told inertia's factor."""
+    return law.told_inertia[i]
+
+
+@njit(cache=True, inline="always")
+def env_law_command(action, rotation, rate, body, tick_dt, constants, told, mixing):
+    """The actions' command, or with ``thrust_rates``' inner loop its rate law at the
+    tick on the inner estimate."""
+    action_map, rates = constants
+    thrust, moment = _command(action, action_map)
+    if rates.active:
+        thrust, moment = rate_law(action, thrust, rotation, rate, body.inertia, rates, told)
+    return thrust, moment, (0.0, 0.0, 0.0, 0.0), told
+
+
+@njit(cache=True, inline="always")
+def env_law_after_tick(rate_before, rate_after, request, mean, constants, told, mixing):
     """The env's own law keeps no state."""
+    return told
+
+
+@njit(cache=True, inline="always")
+def env_law_end(i, law, told):
+    """Nothing to write back."""
 
 
 @njit(cache=True, nogil=True)
@@ -463,8 +553,9 @@ def step_kernel(start, stop, actions, action_map, state, body, actuator, rotors,
     estimate; other actions are held over the step."""
     loop = named_step(action_map, state, body, actuator, rotors, draws, inner, forcing,
                       episode, outputs)
-    fly_vehicles(start, stop, actions, loop, env_law_command, env_law_after_tick,
-                 loop.action_map, loop.inner.rate_law)
+    fly_vehicles(start, stop, actions, loop, EnvLaw(loop.action_map, loop.inner.told_inertia),
+                 env_law_constants, env_law_start, env_law_command, env_law_after_tick,
+                 env_law_end, loop.inner.rate_law)
 
 
 @njit(cache=True)

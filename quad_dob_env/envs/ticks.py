@@ -41,7 +41,7 @@ class InnerLoop(NamedTuple):
     rate_law: bool  # thrust_rates' rate loop flies at every tick
     rate_gain: float  # [1/s] its k_ω
     max_rate: float  # [rad/s] the rate an action of 1 commands
-    moment_limit: NDArray  # (3,) [N m] its moments' limits
+    moment_limit: tuple  # (3,) [N m] its moments' limits
     has_estimate: bool  # the inner loop reads an estimate, not the truth
     estimate_rotation: NDArray  # (N, 3, 3) R̂ at the step's start
     estimate_rate: NDArray  # (N, 3) Ω̂ at the step's start
@@ -58,14 +58,37 @@ class InnerLoop(NamedTuple):
     told_inertia: NDArray  # (N,) the rate loop's inertia over the truth (model tolerance)
 
 
+class RateLaw(NamedTuple):
+    """``thrust_rates``' rate loop as numbers (``InnerLoop``'s fields, read once a call)."""
+
+    active: bool  # it flies at every tick
+    gain: float  # [1/s] k_ω
+    max_rate: float  # [rad/s] the rate an action of 1 commands
+    moment_limit: tuple  # (3,) [N m]
+
+
 @njit(cache=True, inline="always")
-def inner_estimate(i, R, w, inner, start_rotation, start_rate):
-    """The attitude and rates an inner loop reads now: the truth's, moved by the estimate's
-    error at the step's start (``inner``'s estimate arrays; none: the truth itself). The
-    error is held over the step: the gyroscope's noise is drawn at the control rate."""
-    if not inner.has_estimate:
-        return R, w
-    e, r0, w0 = inner.estimate_rotation, start_rotation, start_rate
+def rate_law_of(inner):
+    """``inner``'s ``RateLaw``."""
+    return RateLaw(inner.rate_law, inner.rate_gain, inner.max_rate, inner.moment_limit)
+
+
+class EstimateError(NamedTuple):
+    """What moves a vehicle's inner-rate estimate off the truth over a step, as numbers
+    (``estimate_error``): ``E = R̂₀ R₀ᵀ`` and the rates at the step's start, the
+    estimate's and the truth's. The error is held over the step: the gyroscope's noise is
+    drawn at the control rate."""
+
+    rotation: tuple  # E, row-major
+    estimated_rate: tuple  # Ω̂₀
+    true_rate: tuple  # Ω₀
+
+
+@njit(cache=True, inline="always")
+def estimate_error(i, estimate_rotation, estimate_rate, r0, w0):
+    """Vehicle i's ``EstimateError`` from the estimate at the step's start
+    (``InnerLoop.estimate_rotation``, ``estimate_rate``) and the truth's ``r0``, ``w0``."""
+    e = estimate_rotation
     # E = R̂₀ R₀ᵀ, the world-frame error of the estimate at the step's start
     error = (e[i, 0, 0] * r0[0] + e[i, 0, 1] * r0[1] + e[i, 0, 2] * r0[2],
              e[i, 0, 0] * r0[3] + e[i, 0, 1] * r0[4] + e[i, 0, 2] * r0[5],
@@ -76,9 +99,19 @@ def inner_estimate(i, R, w, inner, start_rotation, start_rate):
              e[i, 2, 0] * r0[0] + e[i, 2, 1] * r0[1] + e[i, 2, 2] * r0[2],
              e[i, 2, 0] * r0[3] + e[i, 2, 1] * r0[4] + e[i, 2, 2] * r0[5],
              e[i, 2, 0] * r0[6] + e[i, 2, 1] * r0[7] + e[i, 2, 2] * r0[8])
-    rates = inner.estimate_rate
-    return (mat_mul_tuple(error, R),
-            (w[0] + rates[i, 0] - w0[0], w[1] + rates[i, 1] - w0[1], w[2] + rates[i, 2] - w0[2]))
+    return EstimateError(error, (estimate_rate[i, 0], estimate_rate[i, 1],
+                                 estimate_rate[i, 2]), w0)
+
+
+@njit(cache=True, inline="always")
+def estimated(R, w, has_estimate, error):
+    """The attitude and rates an inner loop reads now: the truth's, moved by the
+    estimate's ``error`` (an ``EstimateError``) when it reads an estimate."""
+    if not has_estimate:
+        return R, w
+    rates, w0 = error.estimated_rate, error.true_rate
+    return (mat_mul_tuple(error.rotation, R),
+            (w[0] + rates[0] - w0[0], w[1] + rates[1] - w0[1], w[2] + rates[2] - w0[2]))
 
 
 def butterworth_coefficients(cutoff: float, rate: float) -> tuple[float, ...]:
@@ -93,64 +126,65 @@ def butterworth_coefficients(cutoff: float, rate: float) -> tuple[float, ...]:
 
 
 @njit(cache=True, inline="always")
-def _filtered_axis(i, k, x, coefficients, state, output):
-    """Axis k of the gyro low-pass stepped once with input ``x``, in transposed direct
-    form II; returns its output."""
+def _filtered_axis(x, coefficients, s0, s1):
+    """One axis of the gyro low-pass stepped once with input ``x`` from its state (s0,
+    s1), in transposed direct form II; returns its output and next state."""
     b0, b1, b2, a1, a2 = coefficients
-    y = b0 * x + state[i, k, 0]
-    state[i, k, 0] = b1 * x - a1 * y + state[i, k, 1]
-    state[i, k, 1] = b2 * x - a2 * y
-    output[i, k] = y
-    return y
+    y = b0 * x + s0
+    return y, b1 * x - a1 * y + s1, b2 * x - a2 * y
 
 
 @njit(cache=True, inline="always")
-def filtered_rate(i, rate, inner):
-    """The gyro low-pass (``inner.gyro_*``) stepped once with vehicle i's ``rate``; returns
-    its output (the input itself when off). Tuples, not a list: a list is a heap allocation
-    per call."""
-    if not inner.gyro_filter:
-        return rate
-    coefficients, state, output = inner.gyro_coefficients, inner.gyro_state, inner.gyro_output
-    return (_filtered_axis(i, 0, rate[0], coefficients, state, output),
-            _filtered_axis(i, 1, rate[1], coefficients, state, output),
-            _filtered_axis(i, 2, rate[2], coefficients, state, output))
+def filtered_rate(rate, coefficients, state):
+    """The gyro low-pass stepped once with ``rate``, from its ``state`` (a 6-tuple: each
+    axis's two values); returns its output and next state. Tuples, not a list: a list is
+    a heap allocation per call."""
+    y0, a0, b0 = _filtered_axis(rate[0], coefficients, state[0], state[1])
+    y1, a1, b1 = _filtered_axis(rate[1], coefficients, state[2], state[3])
+    y2, a2, b2 = _filtered_axis(rate[2], coefficients, state[4], state[5])
+    return (y0, y1, y2), (a0, b0, a1, b1, a2, b2)
 
 
 @njit(cache=True, inline="always")
-def held_rate(i, rate, inner):
-    """What the gyro low-pass last gave vehicle i (``rate`` itself when off)."""
-    if not inner.gyro_filter:
-        return rate
-    output = inner.gyro_output
-    return (output[i, 0], output[i, 1], output[i, 2])
+def gyro_state_at(i, state):
+    """Vehicle i's gyro low-pass state as a 6-tuple (``InnerLoop.gyro_state``, (N, 3, 2))."""
+    return (state[i, 0, 0], state[i, 0, 1], state[i, 1, 0], state[i, 1, 1], state[i, 2, 0],
+            state[i, 2, 1])
+
+
+@njit(cache=True, inline="always")
+def store_gyro(i, filtered, output, state, output_array):
+    """Write vehicle i's gyro low-pass ``state`` (6-tuple) and its last ``output``."""
+    state[i, 0, 0], state[i, 0, 1], state[i, 1, 0] = filtered[0], filtered[1], filtered[2]
+    state[i, 1, 1], state[i, 2, 0], state[i, 2, 1] = filtered[3], filtered[4], filtered[5]
+    output_array[i, 0], output_array[i, 1], output_array[i, 2] = output[0], output[1], output[2]
 
 
 @njit(cache=True, inline="always")
 def store_vehicle_pose(i, x, v, R, position, velocity, rotation):
     """Vehicle i's state where its pose fix is taken within the step (after tick
     ``InnerLoop.pose_tick[i]``), into the inner loop's ``pose_*`` arrays."""
-    for k in range(3):
-        position[i, k] = x[k]
-        velocity[i, k] = v[k]
-        for c in range(3):
-            rotation[i, k, c] = R[3 * k + c]
+    position[i, 0], position[i, 1], position[i, 2] = x[0], x[1], x[2]
+    velocity[i, 0], velocity[i, 1], velocity[i, 2] = v[0], v[1], v[2]
+    rotation[i, 0, 0], rotation[i, 0, 1], rotation[i, 0, 2] = R[0], R[1], R[2]
+    rotation[i, 1, 0], rotation[i, 1, 1], rotation[i, 1, 2] = R[3], R[4], R[5]
+    rotation[i, 2, 0], rotation[i, 2, 1], rotation[i, 2, 2] = R[6], R[7], R[8]
 
 
 @njit(cache=True, inline="always")
-def rate_law(actions, i, thrust, R, w, inertia, inner):
+def rate_law(action, thrust, R, w, inertia, rates, told):
     """``thrust_rates``' inner loop: ``M = J k_ω (ω_cmd - ω) + ω × J ω`` (Lee et al. 2010,
-    eq. 16's rate and gyroscopic terms), ``ω_cmd = a₁..₃ · max_rate``, each moment clipped
-    to its limit as the action map would; J is the inertia the autopilot is told, the
-    vehicle's ``inertia`` times ``inner.told_inertia[i]``."""
-    gain, max_rate, limit = inner.rate_gain, inner.max_rate, inner.moment_limit
-    told = inner.told_inertia[i]  # the controller's inertia over the truth (v3's tolerance)
+    eq. 16's rate and gyroscopic terms), ``ω_cmd = a₁..₃ · max_rate`` (``action`` a
+    4-tuple), each moment clipped to its limit as the action map would (``rates`` a
+    ``RateLaw``); J is the inertia the autopilot is told, the vehicle's ``inertia`` times
+    ``told`` (its ``InnerLoop.told_inertia``)."""
+    gain, max_rate, limit = rates.gain, rates.max_rate, rates.moment_limit
     inertia = (inertia[0] * told, inertia[1] * told, inertia[2] * told, inertia[3] * told,
                inertia[4] * told, inertia[5] * told, inertia[6] * told, inertia[7] * told,
                inertia[8] * told)
-    error = (min(max(actions[i, 1], -1.0), 1.0) * max_rate - w[0],
-             min(max(actions[i, 2], -1.0), 1.0) * max_rate - w[1],
-             min(max(actions[i, 3], -1.0), 1.0) * max_rate - w[2])
+    error = (min(max(action[1], -1.0), 1.0) * max_rate - w[0],
+             min(max(action[2], -1.0), 1.0) * max_rate - w[1],
+             min(max(action[3], -1.0), 1.0) * max_rate - w[2])
     torque = mat_vec_tuple(inertia, (gain * error[0], gain * error[1], gain * error[2]))
     spin = cross_tuple(w, mat_vec_tuple(inertia, w))
     return thrust, (min(max(torque[0] + spin[0], -limit[0]), limit[0]),
@@ -159,22 +193,22 @@ def rate_law(actions, i, thrust, R, w, inertia, inner):
 
 
 @njit(cache=True, inline="always")
-def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first_sample,
-             mean_factor, end_factor, actuator, rotors, draw, forcing, episode):
-    """One inner tick (a whole control step without an inner loop) of vehicle i from
+def fly_tick(state, start, thrust, moment, battery, body, tick_dt, mean_factor, end_factor,
+             mixing, rotors, draw, samples, substeps, thrust_law):
+    """One inner tick (a whole control step without an inner loop) of a vehicle from
     ``state`` (x, v, R, Ω) and actuator output ``start``: the command (thrust, moment)
-    through the mixer's limits and the battery, the motors and the physics (the step's
-    records, ``StepArguments``' fields; ``body``: the vehicle's ``RigidBody``). Returns the
-    new state, the actuator output at its end, the tick's mean output as rotor thrusts or
-    the wrench (what the nominal model says was applied), whether a limit was hit and what
-    the mixer made of the command. The records come one by one, taken out of the step's
-    record once a call: each taking of a record takes a reference to every array in it;
-    ``draw`` is the vehicle's ``VehicleDraws``, numbers only."""
+    through the mixer's limits (``mixing``, an ``actuation.Mixing``) and the battery, the
+    motors and the physics (``body``: the vehicle's ``RigidBody``, ``draw`` its
+    ``VehicleDraws``, ``samples`` the forcing on the tick's grid, ``forcing_samples``).
+    Returns the new state, the actuator output at its end, the tick's mean output as rotor
+    thrusts or the wrench (what the nominal model says was applied), whether a limit was
+    hit and what the mixer made of the command. Numbers in, but for ``samples``: an array
+    handed to an inlined function is counted in and out at every call."""
     time_constant = draw.time_constant
     spin_down = draw.spin_down_time_constant
-    command, saturated = actuate_vehicle(thrust, moment, actuator.code, actuator.mixer,
-                                         actuator.max_rotor_thrust, actuator.max_total_thrust,
-                                         actuator.moment_limit)
+    command, saturated = actuate_vehicle(thrust, moment, mixing.code, mixing.mixer,
+                                         mixing.max_rotor_thrust, mixing.max_total_thrust,
+                                         mixing.moment_limit)
     command_scale, per_newton, full = battery
     if rotors.active:
         if rotors.throttle:  # the throttle map (speed motors): ω_c = sqrt(T / (κ_s k_F))
@@ -199,10 +233,9 @@ def fly_tick(i, state, start, thrust, moment, battery, row, body, tick_dt, first
                                                            spin_down, tick_dt))
     else:
         end = lagged_output(start, target, end_factor)
-    xn, vn, Rn, wn = advance_vehicle(i, state, start, target, time_constant, spin_down,
-                                     actuator.to_wrench, forcing, row, body, tick_dt,
-                                     episode.substeps, episode.thrust_law, rotors,
-                                     draw.true_thrust_scales, first_sample)
+    xn, vn, Rn, wn = advance_vehicle(state, start, target, time_constant, spin_down,
+                                     mixing.to_wrench, samples, body, tick_dt, substeps,
+                                     thrust_law, rotors, draw.true_thrust_scales)
     return xn, vn, Rn, wn, end, mean, saturated, command
 
 

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_env.dynamics import Actuator
+from quad_dob_env.dynamics.actuation import as_floats
 from quad_dob_env.dynamics.rotors import RotorDraws, RotorModel
 from quad_dob_env.envs.actions import MAX_RATE_COMMAND, RATE_GAIN
 from quad_dob_env.envs.ticks import InnerLoop, butterworth_coefficients
@@ -85,7 +86,7 @@ class VehicleLoop:
         self.inner = InnerLoop(
             ticks=self.ticks, rate_law=self.rates, rate_gain=RATE_GAIN,
             max_rate=MAX_RATE_COMMAND,
-            moment_limit=np.array(actuator.moment_limit, dtype=float),
+            moment_limit=as_floats(actuator.moment_limit),
             has_estimate=bool(has_estimate and self.active), estimate_rotation=rotation,
             estimate_rate=rate, gyro_filter=self.gyro_filter,
             gyro_coefficients=self._gyro_coefficients, gyro_state=self.gyro_state,

@@ -1,5 +1,5 @@
 """The residual's observation entries, after the env's own: what ``ResidualCommand`` and
-the compiled ``residual_observation_vehicle`` write, named (``quad_dob_env.envs.observation``
+the compiled ``residual_observation`` write, named (``quad_dob_env.envs.observation``
 puts them in the env's table and gives them columns).
 
 Imports only the entry record; a test holds each entry to the columns the

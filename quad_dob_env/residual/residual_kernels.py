@@ -4,20 +4,26 @@ over the batch, ``quad_dob_composition.fused``'s single pass per vehicle."""
 
 from numba import njit
 
-from quad_dob_env.envs.step_kernels import action_from_command_vehicle
+from quad_dob_env.envs.step_kernels import action_from_command_vehicle, action_of_command
+from quad_dob_env.so3 import matrix_at, vector_at
 
 
 @njit(cache=True, inline="always")
-def body_frame_errors_vehicle(i, position, velocity, rotation, reference_position,
-                              reference_velocity, out):
-    """``out[i] = [Rᵀ(x - x_d), Rᵀ(v - v_d)]``, for the residual's observation."""
-    for k in range(3):
-        position_error, velocity_error = 0.0, 0.0
-        for j in range(3):
-            position_error += rotation[i, j, k] * (position[i, j] - reference_position[j])
-            velocity_error += rotation[i, j, k] * (velocity[i, j] - reference_velocity[j])
-        out[i, k] = position_error
-        out[i, 3 + k] = velocity_error
+def body_frame_errors(x, v, R, reference_position, reference_velocity):
+    """``[Rᵀ(x - x_d), Rᵀ(v - v_d)]`` for the residual's observation (R row-major), each
+    sum from 0.0 over the world axes in order."""
+    return (_body_axis(0, x, R, reference_position), _body_axis(1, x, R, reference_position),
+            _body_axis(2, x, R, reference_position), _body_axis(0, v, R, reference_velocity),
+            _body_axis(1, v, R, reference_velocity), _body_axis(2, v, R, reference_velocity))
+
+
+@njit(cache=True, inline="always")
+def _body_axis(k, value, R, reference):
+    """Body axis k of ``Rᵀ(value - reference)``."""
+    total = 0.0
+    for j in range(3):
+        total += R[3 * j + k] * (value[j] - reference[j])
+    return total
 
 
 @njit(cache=True)
@@ -55,39 +61,70 @@ def residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, ra
 
 
 @njit(cache=True, inline="always")
-def residual_observation_vehicle(i, base_thrust, base_moment, force_estimate, torque_estimate,
-                                 estimate_scale, position, velocity, rotation, reference,
-                                 row_index, rotor_mode, centre, scale_up, scale_down, mixer,
-                                 base_action, body_errors, extra):
-    """Vehicle i's 16 extra observation entries (table in ``quad_dob_env.residual``); the action
-    map's inverse comes unpacked (``ActionMap.inverse``)."""
-    action_from_command_vehicle(i, base_thrust[i], (base_moment[i, 0], base_moment[i, 1],
-                                                    base_moment[i, 2]),
-                                rotor_mode, centre, scale_up, scale_down, mixer, base_action)
-    body_frame_errors_vehicle(i, position, velocity, rotation, reference[row_index, 0],
-                              reference[row_index, 1], body_errors)
-    for k in range(4):
-        extra[i, k] = base_action[i, k]
-    for k in range(3):
-        extra[i, 4 + k] = min(max(force_estimate[i, k] * estimate_scale[k], -1e3), 1e3)
-        extra[i, 7 + k] = min(max(torque_estimate[i, k] * estimate_scale[3 + k], -1e3), 1e3)
-    for k in range(6):
-        extra[i, 10 + k] = min(max(body_errors[i, k], -1e3), 1e3)
+def residual_observation(thrust, moment, force_estimate, torque_estimate, scale, x, v, R,
+                         reference_position, reference_velocity, inverse):
+    """A vehicle's 16 extra observation entries (table in ``quad_dob_env.residual``) as a
+    tuple, and the base's action and body-frame errors they hold: numbers in, numbers out
+    (``scale`` the 6 estimate scales, ``inverse`` the action map's, tuples)."""
+    rotor_mode, centre, scale_up, scale_down, mixer = inverse
+    action = action_of_command(thrust, moment, rotor_mode, centre, scale_up, scale_down, mixer)
+    errors = body_frame_errors(x, v, R, reference_position, reference_velocity)
+    extra = (action[0], action[1], action[2], action[3],
+             _bounded(force_estimate[0] * scale[0]), _bounded(force_estimate[1] * scale[1]),
+             _bounded(force_estimate[2] * scale[2]), _bounded(torque_estimate[0] * scale[3]),
+             _bounded(torque_estimate[1] * scale[4]), _bounded(torque_estimate[2] * scale[5]),
+             _bounded(errors[0]), _bounded(errors[1]), _bounded(errors[2]),
+             _bounded(errors[3]), _bounded(errors[4]), _bounded(errors[5]))
+    return extra, action, errors
+
+
+@njit(cache=True, inline="always")
+def store_residual_observation(i, observed, base_action, body_errors, extra):
+    """Row i of the extra observation, the base's action and the body-frame errors
+    (``residual_observation``'s three tuples), written straight-line."""
+    entries, action, errors = observed
+    base_action[i, 0], base_action[i, 1] = action[0], action[1]
+    base_action[i, 2], base_action[i, 3] = action[2], action[3]
+    body_errors[i, 0], body_errors[i, 1], body_errors[i, 2] = errors[0], errors[1], errors[2]
+    body_errors[i, 3], body_errors[i, 4], body_errors[i, 5] = errors[3], errors[4], errors[5]
+    extra[i, 0], extra[i, 1], extra[i, 2], extra[i, 3] = (entries[0], entries[1], entries[2],
+                                                          entries[3])
+    extra[i, 4], extra[i, 5], extra[i, 6], extra[i, 7] = (entries[4], entries[5], entries[6],
+                                                          entries[7])
+    extra[i, 8], extra[i, 9], extra[i, 10], extra[i, 11] = (entries[8], entries[9],
+                                                            entries[10], entries[11])
+    extra[i, 12], extra[i, 13], extra[i, 14], extra[i, 15] = (entries[12], entries[13],
+                                                              entries[14], entries[15])
+
+
+@njit(cache=True, inline="always")
+def _bounded(value):
+    """An extra observation entry held within ±1e3."""
+    return min(max(value, -1e3), 1e3)
 
 
 @njit(cache=True)
 def residual_observation_kernel(base_thrust, base_moment, force_estimate, torque_estimate,
                                 estimate_scale, position, velocity, rotation, reference,
                                 reference_row, inverse, base_action, body_errors, extra):
-    """``residual_observation_vehicle`` for every vehicle, at its own reference row
-    (the separate stages' way to the same entries the fused pass writes)."""
-    rotor_mode, centre, scale_up, scale_down, mixer = inverse
+    """``residual_observation`` for every vehicle, at its own reference row (the separate
+    stages' way to the same entries the fused pass writes)."""
+    scale = (estimate_scale[0], estimate_scale[1], estimate_scale[2], estimate_scale[3],
+             estimate_scale[4], estimate_scale[5])
     for i in range(base_thrust.shape[0]):
-        residual_observation_vehicle(i, base_thrust, base_moment, force_estimate,
-                                     torque_estimate, estimate_scale, position, velocity,
-                                     rotation, reference, reference_row[i], rotor_mode, centre,
-                                     scale_up, scale_down, mixer, base_action, body_errors,
-                                     extra)
+        row = reference_row[i]
+        observed = residual_observation(
+            base_thrust[i], vector_at(base_moment, i), vector_at(force_estimate, i),
+            vector_at(torque_estimate, i), scale, vector_at(position, i),
+            vector_at(velocity, i), matrix_at(rotation, i), reference_vector(reference, row, 0),
+            reference_vector(reference, row, 1), inverse)
+        store_residual_observation(i, observed, base_action, body_errors, extra)
+
+
+@njit(cache=True, inline="always")
+def reference_vector(table, row, k):
+    """Vector k of a reference table's row (rows, 8, 3) as a 3-tuple."""
+    return (table[row, k, 0], table[row, k, 1], table[row, k, 2])
 
 
 @njit(cache=True)
