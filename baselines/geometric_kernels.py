@@ -177,12 +177,8 @@ def geometric_batch(start, stop, position, velocity, rotation, angular_velocity,
     passed as a plain tuple."""
     reference, law = ReferenceVectors(*reference), GeometricLaw(*law)
     outputs = GeometricOutputs(*outputs)
-    # the arrays taken out once and read and written here in straight lines: an array
-    # handed to an inlined function with a branch or a loop counts a reference at every call
-    thrust, moment, desired_force = outputs.thrust, outputs.moment, outputs.desired_force
-    desired_rotation, desired_rate = outputs.desired_rotation, outputs.desired_rate
-    desired_acceleration = outputs.desired_acceleration
-    attitude_error, rate_error = outputs.attitude_error, outputs.rate_error
+    # the arrays taken out once and read and written in straight lines: an array handed to
+    # an inlined function with a branch or a loop counts a reference at every call
     xd, vd, ad = reference.position, reference.velocity, reference.acceleration
     jd, sd, bd = reference.jerk, reference.snap, reference.heading
     bd_rate, bd_acceleration = reference.heading_rate, reference.heading_acceleration
@@ -195,14 +191,21 @@ def geometric_batch(start, stop, position, velocity, rotation, angular_velocity,
                              vector_at(bd_rate, i), vector_at(bd_acceleration, i)),
             law, vector_at(force_estimate, i), vector_at(torque_estimate, i),
             vector_at(acceleration_correction, i))
-        thrust[i] = f
-        store_vector(moment, i, m)
-        store_vector(desired_force, i, force)
-        store_matrix(desired_rotation, i, rd)
-        store_vector(desired_rate, i, rate_d)
-        store_vector(desired_acceleration, i, acceleration_d)
-        store_vector(attitude_error, i, e_r)
-        store_vector(rate_error, i, e_w)
+        store_geometric(i, f, m, force, rd, rate_d, acceleration_d, e_r, e_w, outputs)
+
+
+@njit(cache=True, inline="always")
+def store_geometric(i, f, m, force, rd, rate_d, acceleration_d, e_r, e_w, outputs):
+    """``geometric_law``'s results written into row i of ``outputs`` (a
+    ``GeometricOutputs``), straight-line."""
+    outputs.thrust[i] = f
+    store_vector(outputs.moment, i, m)
+    store_vector(outputs.desired_force, i, force)
+    store_matrix(outputs.desired_rotation, i, rd)
+    store_vector(outputs.desired_rate, i, rate_d)
+    store_vector(outputs.desired_acceleration, i, acceleration_d)
+    store_vector(outputs.attitude_error, i, e_r)
+    store_vector(outputs.rate_error, i, e_w)
 
 
 @njit(cache=True, inline="always")

@@ -26,11 +26,13 @@ from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_baselines.geometric_kernels import (
+    GeometricOutputs,
     geometric_law,
     geometric_law_of,
     observer_advance,
     observer_estimate,
     reference_at,
+    store_geometric,
 )
 from quad_dob_env.dynamics import load_vehicle
 from quad_dob_env.envs.step_kernels import kernel_tuples, step_kernel
@@ -40,7 +42,7 @@ from quad_dob_env.residual.residual_kernels import (
     residual_reward_kernel,
     store_residual_observation,
 )
-from quad_dob_env.so3 import matrix_entries, store_matrix, store_vector, vector_at
+from quad_dob_env.so3 import matrix_entries, store_vector, vector_at
 from quad_dob_env.threads import run_over_batch
 
 if TYPE_CHECKING:
@@ -119,10 +121,9 @@ def plan_kernel(indices, plan):
     has_observer, observer_gain = plan.has_observer, plan.observer_gain
     z_force, z_torque, fresh = plan.z_force, plan.z_torque, plan.fresh
     reference, reference_row = plan.reference, plan.reference_row
-    thrust, moment, desired_force = plan.thrust, plan.moment, plan.desired_force
-    desired_rotation, desired_rate = plan.desired_rotation, plan.desired_rate
-    desired_acceleration = plan.desired_acceleration
-    attitude_error, rate_error = plan.attitude_error, plan.rate_error
+    outputs = GeometricOutputs(plan.thrust, plan.moment, plan.desired_force,
+                               plan.desired_rotation, plan.desired_rate,
+                               plan.desired_acceleration, plan.attitude_error, plan.rate_error)
     base_action, body_errors, extra = plan.base_action, plan.body_errors, plan.extra
     es = plan.estimate_scale
     scale = (es[0], es[1], es[2], es[3], es[4], es[5])
@@ -142,14 +143,7 @@ def plan_kernel(indices, plan):
         row = reference_row[i]
         f, m, force, rd, rate_d, acceleration_d, e_r, e_w = geometric_law(
             x, v, R, w, reference_at(reference, row), law, d_x, d_w, (0.0, 0.0, 0.0))
-        thrust[i] = f
-        store_vector(moment, i, m)
-        store_vector(desired_force, i, force)
-        store_matrix(desired_rotation, i, rd)
-        store_vector(desired_rate, i, rate_d)
-        store_vector(desired_acceleration, i, acceleration_d)
-        store_vector(attitude_error, i, e_r)
-        store_vector(rate_error, i, e_w)
+        store_geometric(i, f, m, force, rd, rate_d, acceleration_d, e_r, e_w, outputs)
         observed = residual_observation(
             f, m, d_x, d_w, scale, x, v, R, (reference[row, 0, 0], reference[row, 0, 1],
                                              reference[row, 0, 2]),
