@@ -12,8 +12,10 @@ then for every tick, per vehicle, the env's one tick loop
     + the residual's addition -> mixer -> motors -> physics -> the law's own update
     (rotational observer, PID integrator)
 
-with the law given here (``attitude_command``, ``attitude_after_tick``), so there is one
-loop over ticks and one source for every equation; this module holds none. Vehicle ``i``
+with the law given here (``attitude_constants``, ``attitude_start``, ``attitude_command``,
+``attitude_after_tick``, ``attitude_end``: the law's part of each vehicle travels through
+the ticks as numbers), so there is one loop over ticks and one source for every equation;
+this module holds none. Vehicle ``i``
 of the core is row ``rows.start + i`` of the controller's batch (``training.rollout``
 flies several N = 1 cores as one batch).
 """
