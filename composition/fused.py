@@ -140,14 +140,12 @@ def plan_kernel(indices, plan):
             fresh[i] = False
         store_vector(force_estimate, i, d_x)
         store_vector(torque_estimate, i, d_w)
-        row = reference_row[i]
+        target = reference_at(reference, reference_row[i])  # read once, for both
         f, m, force, rd, rate_d, acceleration_d, e_r, e_w = geometric_law(
-            x, v, R, w, reference_at(reference, row), law, d_x, d_w, (0.0, 0.0, 0.0))
+            x, v, R, w, target, law, d_x, d_w, (0.0, 0.0, 0.0))
         store_geometric(i, f, m, force, rd, rate_d, acceleration_d, e_r, e_w, outputs)
-        observed = residual_observation(
-            f, m, d_x, d_w, scale, x, v, R, (reference[row, 0, 0], reference[row, 0, 1],
-                                             reference[row, 0, 2]),
-            (reference[row, 1, 0], reference[row, 1, 1], reference[row, 1, 2]), inverse)
+        observed = residual_observation(f, m, d_x, d_w, scale, x, v, R, target.position,
+                                        target.velocity, inverse)
         store_residual_observation(i, observed, base_action, body_errors, extra)
 
 
