@@ -44,7 +44,7 @@ from quad_dob_env.envs.step_kernels import (
     StepArguments,
     StepOutputs,
     kernel_tuples,
-    observation_kernel,
+    measured_finish_kernel,
     start_kernel,
     step_kernel,
 )
@@ -355,15 +355,27 @@ class QuadrotorBatch:
         observation of it."""
         self._measure(self._all, reset=False)
 
+    def finish_arguments(self, indices: NDArray[np.intp] | None = None,
+                         reset: bool = False) -> tuple:
+        """What ``measured_finish_kernel`` takes after its slice, for vehicles ``indices``
+        (default: all) after a step or at their ``reset``: a compiled pass that calls it
+        for its slice replaces ``finish_step``. Sensing other than the identity only (it
+        measures nothing there)."""
+        m = self.sensing.measurement
+        observe = (m.position, m.velocity, m.rotation, m.angular_velocity,
+                   self._reference_table, self.reference_row, self._rotation_mode, self.obs)
+        return (self._all if indices is None else indices, self.step_count, reset,
+                tuple(self.sensing.measure_arguments), observe)
+
     def _measure(self, indices: NDArray[np.intp], reset: bool) -> None:
         sensing = self.sensing
-        sensing.measure(indices, self.step_count, reset)
         if sensing.identity:
+            sensing.measure(indices, self.step_count, reset)
             return
-        m = sensing.measurement
-        observation_kernel(indices, m.position, m.velocity, m.rotation, m.angular_velocity,
-                           self._reference_table, self.reference_row, self._rotation_mode,
-                           self.obs)
+        if reset:
+            sensing.start_estimates(indices)
+        run_over_batch(measured_finish_kernel, len(indices),
+                       *self.finish_arguments(indices, reset))
 
     @property
     def measurement(self) -> Measurement:

@@ -55,6 +55,7 @@ from quad_dob_env.envs.ticks import (
     thrust_path_at,
     tick_factors,
 )
+from quad_dob_env.sensing.stage import measure_kernel
 from quad_dob_env.so3 import mat_vec_tuple
 
 # Observations are clamped to float32's range, so a huge but finite state never becomes inf.
@@ -211,6 +212,16 @@ def observation_kernel(indices, position, velocity, rotation, angular_velocity, 
     for i in indices:
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
         observe_vehicle(i, x, v, R, w, reference, reference_row[i], rotation_mode, obs)
+
+
+@njit(cache=True, nogil=True)
+def measured_finish_kernel(start, stop, indices, step_count, reset, measure, observe):
+    """After the physics of vehicles ``indices[start:stop]``, with sensing other than the
+    identity: the sensing stage's pass (``sensing.measure_kernel``, ``measure`` its
+    ``MeasureArguments``) and the observations of what it measured (``observe``:
+    ``observation_kernel``'s arguments after its vehicles)."""
+    measure_kernel(start, stop, indices, step_count, reset, *measure)
+    observation_kernel(indices[start:stop], *observe)
 
 
 class ActionMapArrays(NamedTuple):

@@ -5,8 +5,10 @@ each reset; what it writes is ``measurement``, the one record controllers read."
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_env.dynamics import VehicleState
@@ -35,6 +37,31 @@ from quad_dob_env.sensing.sensing_pass import (
 from quad_dob_env.sensing.stability import check_stability
 from quad_dob_env.threads import run_over_batch
 from quad_dob_env.variation import SensorNoise, range_bounds
+
+
+class MeasureArguments(NamedTuple):
+    """What ``measure_kernel`` takes after its vehicles, step counts and reset flag: built
+    once a batch (its arrays are the batch's own), passed as plain tuples."""
+
+    readings: tuple  # ``take_readings_kernel``'s from ``pose_now`` to ``lines``
+    estimating: bool  # a suite's estimator runs
+    # ``estimate_kernel``'s from ``ring`` to ``out_rates`` (zeros' gains without an
+    # estimator: never read, but typed alike)
+    estimate: tuple
+    measurement: tuple  # ``measurement_kernel``'s from ``ring`` to ``rotor_speeds``
+
+
+@njit(cache=True, nogil=True)
+def measure_kernel(start, stop, indices, step_count, reset, readings, estimating, estimate,
+                   measurement):
+    """The stage's one compiled pass for vehicles ``indices[start:stop]``: their readings,
+    the estimator's step (``predict`` but at a reset) and the measurement. Each vehicle's
+    three only touch its own rows, so a slice runs them one after the other, with one
+    hand-over to the threads instead of three."""
+    take_readings_kernel(start, stop, indices, step_count, *readings, reset)
+    if estimating:
+        estimate_kernel(start, stop, indices, step_count, not reset, *estimate)
+    measurement_kernel(start, stop, indices, step_count, *measurement)
 
 
 def delay_steps(latency: float, dt: float) -> int:
@@ -152,6 +179,7 @@ class SensingStage:
                            gains.velocity_bandwidth)
             check_stability(sensing.name, self._gains, dt, self.period, self.lag)
         else:  # Scenario refuses an unmodelled pose latency (and vibration) without a suite
+            self._gains = (0.0, 0.0, 0.0)  # no estimator: typed alike, never read
             self.period = 1
             self.lag = 0
             self._pose = PoseSettings(tick=self.pose_tick)
@@ -205,6 +233,17 @@ class SensingStage:
                           tuple(self._state_noise))
         self._lines = tuple(ReadingLines(keys=self.keys, true_bias=self.true_bias,
                                          ring=self.ring))
+        m = self.measurement
+        self.measure_arguments = MeasureArguments(
+            readings=(self._pose_now, self._pose_seen, self._truth, *self._settings,
+                      self._lines),
+            estimating=self.estimating,
+            estimate=(self.ring, self._filter_delays, self.period, self._pose.kind,
+                      self._gains, self.dt, self.gravity, self.estimate_state, self.history,
+                      m.position, m.velocity, m.rotation, m.angular_velocity),
+            measurement=(self.ring, self.imu_delay, self.rotor_delay, not self.estimating,
+                         m.position, m.velocity, m.rotation, m.angular_velocity, m.gyroscope,
+                         m.accelerometer, m.rotor_speeds))
 
     def pose_delay_of(self, unmodelled: float) -> tuple[int, int]:
         """A suite's pose fix's delay in steps with ``unmodelled`` [s] of latency on top,
@@ -265,22 +304,18 @@ class SensingStage:
         self._fresh = False  # the identity's IMU readings are for the state before
         if self.identity:
             return
-        truth, m = self.truth, self.measurement
-        run_over_batch(take_readings_kernel, len(indices), indices, step_count,
-                       self._pose_now, self._pose_seen, self._truth, *self._settings,
-                       self._lines, reset)
+        if reset:
+            self.start_estimates(indices)
+        run_over_batch(measure_kernel, len(indices), indices, step_count, reset,
+                       *self.measure_arguments)
+
+    def start_estimates(self, indices: NDArray[np.intp]) -> None:
+        """At a reset of vehicles ``indices``, before their readings: the estimator starts on
+        the true state (nothing without one). ``measure_kernel`` with ``reset`` follows."""
         if self.estimating:
-            if reset:
-                start_estimates_kernel(indices, truth.position, truth.velocity,
-                                       truth.rotation, self.estimate_state, self.history)
-            run_over_batch(estimate_kernel, len(indices), indices, step_count, not reset,
-                           self.ring, self._filter_delays, self.period, self._pose.kind,
-                           self._gains, self.dt, self.gravity, self.estimate_state, self.history,
-                           m.position, m.velocity, m.rotation, m.angular_velocity)
-        run_over_batch(measurement_kernel, len(indices), indices, step_count, self.ring,
-                       self.imu_delay, self.rotor_delay, not self.estimating, m.position,
-                       m.velocity, m.rotation, m.angular_velocity, m.gyroscope,
-                       m.accelerometer, m.rotor_speeds)
+            truth = self.truth
+            start_estimates_kernel(indices, truth.position, truth.velocity, truth.rotation,
+                                   self.estimate_state, self.history)
 
     def refresh_ideal(self) -> None:
         """The identity's IMU and rotor readings for the state now (``measurement`` holds
