@@ -5,7 +5,8 @@ simulator (``quad_dob_env``) and the controllers (``quad_dob_baselines``); the f
 
 - ``bases``: a base controller by name (or object) for a vehicle, and the compiled pass
   that runs the geometric controller inside a residual step (``fused_pass_for``).
-- ``fused``: that pass (residual, command, physics, observer, the next base command, the
+- ``fused``: that pass (residual, command, physics or the attitude law's ticks, sensors and
+  estimator, observer, the next base command, the
   extra observation and reward, per vehicle).
 - ``attitude_loop``: ``AttitudeLoop``, a controller's attitude law (``quad_dob_baselines
   .inner``) at a scenario's inner rate inside the env's step, installed on a core by

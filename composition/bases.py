@@ -17,11 +17,13 @@ def make_base(base: Any, vehicle: VehicleParams, benchmark: str = "v1") -> Any:
     return make_controller(base, vehicle, benchmark) if isinstance(base, str) else base
 
 
-def fused_pass_for(controller: Any) -> Callable[[Any], FusedResidualStep] | None:
+def fused_pass_for(controller: Any) -> Callable[[Any], FusedResidualStep | None] | None:
     """The one compiled pass per step for the geometric controller (with or without its
-    observer); None for any other, which then runs as separate stages. In that pass the
+    observer); None for any other, which then runs as separate stages, as does a loop
+    the pass does not fly (``FusedResidualStep.flies``: the factory returns None). In that pass the
     controller's ``diagnostics`` and the observer's estimates are overwritten in place
     every step: copy what you keep."""
     if type(controller) is not GeometricController:  # a subclass may change the law
         return None
-    return lambda residual: FusedResidualStep(controller, residual)
+    return lambda residual: (FusedResidualStep(controller, residual)
+                             if FusedResidualStep.flies(residual.core) else None)

@@ -1,25 +1,34 @@
-"""The geometric (+NDOB) base, the residual and the physics in one compiled pass.
+"""The geometric (+NDOB) base, the residual and the vehicle's loop in one compiled pass.
 
 ``ResidualCommand`` drives any controller through ``compute`` and ``applied``: a handful of
 batch calls and array operations per step, ~250 µs of Python whatever N is, which at
 N = 256 cost more than the vehicles themselves. For the geometric controller it is handed
 this pass instead (``quad_dob_composition.bases.fused_pass_for``): one call per step, cut
-into one slice per core, runs for each vehicle
+into one slice per core, runs for each vehicle, in v1's loop (ideal sensing, no inner loop)
 
     residual -> command -> physics step -> observer update -> observer estimate ->
-    geometric law for the next step -> extra observation and reward.
+    geometric law for the next step -> extra observation and reward,
+
+and in a loop with sensors and an inner loop (Benchmark v2, v3)
+
+    residual -> command -> at each tick: the attitude law on the inner-rate estimate + the
+    residual -> mixer, motors, physics -> readings -> estimator -> measurement and
+    observation -> observer update and reward -> observer estimate -> geometric law's outer
+    part for the next step -> extra observation.
 
 It calls the same per-vehicle functions as the separate stages
-(``quad_dob_env.envs.step_kernels`` and ``quad_dob_baselines.geometric_kernels``), so there
-is still one source for every equation; a test holds it to the separate stages to 1e-12 through
-autoresets. It reads the controller, the observer and the core through their public faces
-only (``position_gains``, ``kernel_state()``, ``reference_table``, ``step_arguments()``).
-From 256 vehicles its slices run on threads at once (``quad_dob_env.threads``).
+(``quad_dob_env.envs.step_kernels``, ``quad_dob_env.sensing`` and
+``quad_dob_baselines.geometric_kernels``), so there is still one source for every equation;
+a test holds it to the separate stages to 1e-12 through autoresets, in v1, v2 and v3. It
+reads the controller, the observer and the core through their public faces only
+(``position_gains``, ``kernel_state()``, ``inner_gains``, ``inner_law()``,
+``reference_table``, ``step_arguments()``, ``finish_arguments()``). From 256 vehicles its
+slices run on threads at once (``quad_dob_env.threads``).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -34,8 +43,9 @@ from quad_dob_baselines.geometric_kernels import (
     reference_at,
     store_geometric,
 )
+from quad_dob_composition.attitude_loop import attitude_loop_kernel
 from quad_dob_env.dynamics import load_vehicle
-from quad_dob_env.envs.step_kernels import kernel_tuples, step_kernel
+from quad_dob_env.envs.step_kernels import kernel_tuples, measured_finish_kernel, step_kernel
 from quad_dob_env.residual.residual_kernels import (
     residual_command_kernel,
     residual_observation,
@@ -102,6 +112,9 @@ class UpdateArguments(NamedTuple):
     rewards: NDArray
     applied_thrust: NDArray
     applied_moment: NDArray
+    # the observer's zΩ advances here, at the control rate; False with an inner loop, whose
+    # attitude law advances it every tick
+    advance_torque: bool
 
 
 @njit(cache=True)
@@ -180,13 +193,15 @@ def reward_and_observer_update(start, stop, update, plan):
         mass, gravity, observer_gain, alpha = (plan.mass, plan.gravity, plan.observer_gain,
                                                update.alpha)
         z_force, z_torque = plan.z_force, plan.z_torque
+        advance_torque = update.advance_torque
         for i in range(start, stop):
             z_f, z_t = observer_advance(
                 vector_at(velocity_before, i), vector_at(body_z_before, i),
                 vector_at(rate_before, i), applied_thrust[i], vector_at(applied_moment, i),
                 (rotation[i, 0, 2], rotation[i, 1, 2], rotation[i, 2, 2]),
                 vector_at(angular_velocity, i), mass, gravity, inertia_entries, observer_gain,
-                alpha, km, alpha_entries, vector_at(z_force, i), vector_at(z_torque, i), True)
+                alpha, km, alpha_entries, vector_at(z_force, i), vector_at(z_torque, i),
+                advance_torque)
             store_vector(z_force, i, z_f)
             store_vector(z_torque, i, z_t)
 
@@ -206,8 +221,40 @@ def fused_residual_kernel(start, stop, command, actions, vehicles, update, plan)
     plan_kernel(np.arange(start, stop), plan)
 
 
+@njit(cache=True, inline="always")
+def store_addition(start, stop, clipped, residual_range, addition):
+    """What the attitude law adds at every tick: the clipped residual times its range."""
+    for i in range(start, stop):
+        for k in range(4):
+            addition[i, k] = clipped[i, k] * residual_range[k]
+
+
+@njit(cache=True, nogil=True)
+def fused_attitude_kernel(start, stop, command, actions, attitude, vehicles, finish, update,
+                          plan):
+    """One residual step of vehicles ``start..stop-1`` in a loop with an inner loop and
+    sensors (Benchmark v2 and v3): the residual's command, the base's attitude law at every
+    tick plus the residual (``attitude``: the ``addition`` array and the ``InnerLaw``,
+    ``attitude_loop_kernel``), the sensors, estimator and observation
+    (``measured_finish_kernel``, ``finish`` the core's ``finish_arguments``), the reward and
+    the observer's update, then the plan on the new estimate. Each stage touches only the
+    slice's own rows, so one slice runs them one after the other."""
+    residual_command_kernel(start, stop, *command)
+    update_record, plan_record = UpdateArguments(*update), PlanArguments(*plan)
+    addition, inner_law = attitude
+    store_addition(start, stop, update_record.clipped, command[1], addition)
+    remember_state(start, stop, update_record, plan_record)
+    attitude_loop_kernel(start, stop, actions, addition, inner_law, *vehicles)
+    measured_finish_kernel(start, stop, *finish)
+    reward_and_observer_update(start, stop, update_record, plan_record)
+    plan_kernel(np.arange(start, stop), plan)
+
+
 class FusedResidualStep:
-    """``fused_residual_kernel`` for a ``ResidualCommand`` whose base is ``controller``.
+    """One compiled pass per step for a ``ResidualCommand`` whose base is ``controller``:
+    ``fused_residual_kernel`` in v1's loop (ideal sensing, no inner loop),
+    ``fused_attitude_kernel`` in a loop with an inner loop and sensors (v2, v3);
+    ``flies(core)`` says whether a core's loop is one of the two.
 
     Every step runs on the same arrays, so the kernel's arguments are gathered once (again
     only after a full reset or when the core's tables grew): the residual is copied in, and
@@ -218,11 +265,14 @@ class FusedResidualStep:
 
     def __init__(self, controller: GeometricController, residual: ResidualCommand) -> None:
         self.controller, self.residual = controller, residual
-        n = residual.core.n
+        core = residual.core
+        n = core.n
+        self._with_loop = core.loop.active  # the attitude law at the inner rate, sensors
         self._before = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)))
         self._residual = np.zeros((n, 4))
         self._actions = np.zeros((n, 4))
         self._clipped = np.zeros((n, 4))
+        self._addition = np.zeros((n, 4))  # what the attitude law adds at every tick
         self._base_action = np.zeros((n, 4))
         self._body_errors = np.zeros((n, 6))
         self._law: tuple = ()
@@ -231,6 +281,15 @@ class FusedResidualStep:
         self._outputs: dict = {}
         self._arguments: tuple = ()
         self._tables = None  # the core's reference table the arguments were made with
+
+    @staticmethod
+    def flies(core: Any) -> bool:
+        """Whether ``core``'s loop is one a fused pass flies: ideal sensing without an
+        inner loop, or sensors with one (the residual's thrust and moments added to the
+        attitude law, not ``thrust_rates``' rate law)."""
+        if core.loop.active:
+            return not core.sensing.identity and not core.loop.rates
+        return core.sensing.identity
 
     def restart(self, indices: NDArray[np.intp]) -> None:
         """After the controller's reset of vehicles ``indices``: their first plan."""
@@ -247,6 +306,9 @@ class FusedResidualStep:
         self._residual[...] = residual
         if not self._arguments or core.reference_table is not self._tables:
             self._make_arguments()  # first step, full reset, or the tables grew
+        if self._with_loop:  # the sensors' pass is in the kernel
+            run_over_batch(fused_attitude_kernel, core.n, *self._arguments)
+            return
         run_over_batch(fused_residual_kernel, core.n, *self._arguments)
         core.finish_step()
 
@@ -265,9 +327,16 @@ class FusedResidualStep:
             effort_weight=float(command.effort_weight),
             rate_weight=float(command.rate_weight), previous=command.previous_residual,
             rewards=command.rewards,
-            applied_thrust=core.applied.thrust, applied_moment=core.applied.moment)
-        self._arguments = (flown, self._actions, kernel_tuples(core.step_arguments()),
-                           tuple(update), tuple(self._plan_arguments()))
+            applied_thrust=core.applied.thrust, applied_moment=core.applied.moment,
+            advance_torque=not self._with_loop)
+        vehicles = kernel_tuples(core.step_arguments())
+        update, plan = tuple(update), tuple(self._plan_arguments())
+        if self._with_loop:  # the law reads the controller's diagnostics, this pass's own
+            attitude = (self._addition, tuple(self.controller.inner_law()))
+            self._arguments = (flown, self._actions, attitude, vehicles,
+                               core.finish_arguments(), update, plan)
+        else:
+            self._arguments = (flown, self._actions, vehicles, update, plan)
         self._tables = core.reference_table
 
     def _gather_constants(self) -> None:
@@ -284,8 +353,11 @@ class FusedResidualStep:
             self._observer_rates = (0.0, np.zeros((3, 3)))
         else:
             state = observer.kernel_state()
-            self._observer = (True, state.translational_gain, state.rotational_gain,
-                              state.z_force, state.z_torque, state.fresh)
+            # with an inner loop the estimate reads zΩ with the gains at its tick
+            km = (state.rotational_gain if observer.inner_gains is None
+                  else np.array(observer.inner_gains[0], dtype=float))
+            self._observer = (True, state.translational_gain, km, state.z_force,
+                              state.z_torque, state.fresh)
             self._observer_rates = (state.translational_alpha, state.rotational_alpha)
 
     def _new_outputs(self) -> None:
@@ -315,7 +387,8 @@ class FusedResidualStep:
                                                                       torque_estimate)
 
     def _plan_arguments(self) -> PlanArguments:
-        core, state = self.residual.core, self.residual.core.state
+        core = self.residual.core
+        state = core.sensing.measurement  # the estimate; the truth's arrays when ideal
         mass, gravity, inertia, gains = self._law
         has_observer, gain, rotational_gain, z_force, z_torque, fresh = self._observer
         return PlanArguments(

@@ -108,14 +108,20 @@ def test_vector_residual_equals_single_residual_envs_through_autoresets():
             pending[i] = done
 
 
-@pytest.mark.parametrize("base", ["geometric-ndob:tuned", "geometric"])
-def test_compiled_residual_pass_equals_the_separate_stages(base):
+@pytest.mark.parametrize(("base", "benchmark"), [
+    ("geometric-ndob:tuned", "v1"), ("geometric", "v1"),
+    # sensors, estimator and the attitude law at the inner rate: fused_attitude_kernel
+    ("geometric-ndob:tuned", "v3"), ("geometric", "v2")])
+def test_compiled_residual_pass_equals_the_separate_stages(base, benchmark):
     # the geometric base runs in one compiled pass with the physics
     # (quad_dob_composition.fused); any other controller runs as command -> step -> record
     # -> plan. Both must agree.
     n, steps = 4, 75
-    compiled = ResidualVectorEnv(n, "gusty-hover", scenario_options=SHORT, base_controller=base)
-    staged = ResidualVectorEnv(n, "gusty-hover", scenario_options=SHORT, base_controller=base)
+    options = {**SHORT, "benchmark": benchmark}
+    compiled = ResidualVectorEnv(n, "gusty-hover", scenario_options=options,
+                                 base_controller=base)
+    staged = ResidualVectorEnv(n, "gusty-hover", scenario_options=options,
+                               base_controller=base)
     staged.residual = residual_command(staged.core, base, compiled=False)
     assert compiled.residual._fused is not None and staged.residual._fused is None
     first = [env.reset(seed=3) for env in (compiled, staged)]

@@ -9,7 +9,8 @@ which is what the registered residual ids do. Two ways to run a step, with the s
 per-vehicle equations: the stages ``command`` -> ``core.step`` -> ``record`` -> ``plan``
 work with any controller (the wrapper, whose env steps itself, always uses them); ``step``
 runs the step in one compiled pass when given one (``fused_pass``, which
-``quad_dob_composition`` supplies for the geometric controller).
+``quad_dob_composition`` supplies for the geometric controller in v1's loop and in loops
+with sensors and an inner loop; it answers None for others).
 
 Two residual modes (``residual_mode``), each with the residual ``a`` clipped to [-1, 1] and
 a zero residual giving the base command exactly:
@@ -178,10 +179,9 @@ class ResidualCommand:
         self.gate_authority, self.authority = np.ones(n), np.ones(n)
         self._started = False
         by_acceleration = self.acceleration is not None
-        # the compiled pass reads the true state (for the identity sensing only) and flies the
-        # monolithic controller
-        self._fused = (None if fused_pass is None or by_acceleration
-                       or not core.sensing.identity or core.loop.active else fused_pass(self))
+        # the compiled pass flies the base's own command (not the acceleration mode's), in
+        # the loops it knows; it answers None for any other
+        self._fused = None if fused_pass is None or by_acceleration else fused_pass(self)
         # with an inner loop, the base's attitude law runs at its rate (installed by
         # ``quad_dob_composition``, ``AttitudeLoop.install``), the residual added each tick
         if attitude_loop is not None:
