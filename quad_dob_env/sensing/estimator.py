@@ -30,6 +30,7 @@ fix compares against corrected values), with gains of a bandwidth times the fix 
 """
 
 import math
+from typing import NamedTuple
 
 from numba import njit
 
@@ -52,16 +53,44 @@ HP, HV, HR, HS = 0, 3, 6, 15
 
 
 @njit(cache=True, inline="always")
-def _rotation(state, column):
-    return (state[column], state[column + 1], state[column + 2], state[column + 3],
-            state[column + 4], state[column + 5], state[column + 6], state[column + 7],
-            state[column + 8])
+def _row_rotation(table, i, column):
+    """A row-major rotation from columns ``column..column+8`` of row i of (N, width)."""
+    return (table[i, column], table[i, column + 1], table[i, column + 2],
+            table[i, column + 3], table[i, column + 4], table[i, column + 5],
+            table[i, column + 6], table[i, column + 7], table[i, column + 8])
 
 
 @njit(cache=True, inline="always")
-def _store_rotation(state, column, R):
-    for k in range(9):
-        state[column + k] = R[k]
+def _store_row_rotation(table, i, column, R):
+    """Write ``R`` into columns ``column..column+8`` of row i, straight-line (a loop in an
+    inlined function with an array counts a reference in and out at every call)."""
+    table[i, column], table[i, column + 1], table[i, column + 2] = R[0], R[1], R[2]
+    table[i, column + 3], table[i, column + 4], table[i, column + 5] = R[3], R[4], R[5]
+    table[i, column + 6], table[i, column + 7], table[i, column + 8] = R[6], R[7], R[8]
+
+
+@njit(cache=True, inline="always")
+def _entry_rotation(lines, slot, i, column):
+    """``_row_rotation`` of slot ``slot`` of a (depth, N, width) line."""
+    return (lines[slot, i, column], lines[slot, i, column + 1], lines[slot, i, column + 2],
+            lines[slot, i, column + 3], lines[slot, i, column + 4],
+            lines[slot, i, column + 5], lines[slot, i, column + 6],
+            lines[slot, i, column + 7], lines[slot, i, column + 8])
+
+
+@njit(cache=True, inline="always")
+def _store_entry_rotation(lines, slot, i, column, R):
+    """``_store_row_rotation`` into slot ``slot`` of a (depth, N, width) line."""
+    lines[slot, i, column], lines[slot, i, column + 1] = R[0], R[1]
+    lines[slot, i, column + 2], lines[slot, i, column + 3] = R[2], R[3]
+    lines[slot, i, column + 4], lines[slot, i, column + 5] = R[4], R[5]
+    lines[slot, i, column + 6], lines[slot, i, column + 7] = R[6], R[7]
+    lines[slot, i, column + 8] = R[8]
+
+
+@njit(cache=True, inline="always")
+def _entry_vector(lines, slot, i, column):
+    return (lines[slot, i, column], lines[slot, i, column + 1], lines[slot, i, column + 2])
 
 
 @njit(cache=True)
@@ -92,73 +121,126 @@ def estimate_kernel(start, stop, indices, step_count, predict, ring, delays, per
     where ``start_estimates_kernel`` put it). ``delays``: each vehicle's pose delay (N,)
     and the IMU's delay in steps, and the lag the filter is told the fix has over the IMU
     (the two's difference, but for an unmodelled pose latency, which each vehicle may draw
-    per episode); ``gains``: ω_p, ω_R, ω_v [rad/s]."""
+    per episode); ``gains``: ω_p, ω_R, ω_v [rad/s].
+
+    Every array is read and written by its indices, never through a row's view: a view
+    counts a reference in and out (an atomic add on a line both cores share), ten a
+    vehicle before 2026-12-06."""
     pose_delays, imu_delay, lag = delays
     position_bandwidth, attitude_bandwidth, velocity_bandwidth = gains
     depth, length = ring.shape[0], history.shape[0]
     fix_period = period * dt
+    e = estimate
     for j in range(start, stop):
         i = indices[j]
         step = step_count[i]
-        e = estimate[i]
-        imu = ring[max(step - imu_delay, 0) % depth, i]
-        before = ring[max(step - imu_delay - 1, 0) % depth, i]  # the IMU's reading before
-        gyro = (0.5 * (imu[GYRO] + before[GYRO]) - e[BG],
-                0.5 * (imu[GYRO + 1] + before[GYRO + 1]) - e[BG + 1],
-                0.5 * (imu[GYRO + 2] + before[GYRO + 2]) - e[BG + 2])
-        R = _rotation(e, R_)
+        now = max(step - imu_delay, 0) % depth  # the IMU's newest reading's slot
+        last = max(step - imu_delay - 1, 0) % depth  # and the one before
+        gyro = (0.5 * (ring[now, i, GYRO] + ring[last, i, GYRO]) - e[i, BG],
+                0.5 * (ring[now, i, GYRO + 1] + ring[last, i, GYRO + 1]) - e[i, BG + 1],
+                0.5 * (ring[now, i, GYRO + 2] + ring[last, i, GYRO + 2]) - e[i, BG + 2])
+        R = _row_rotation(e, i, R_)
         middle = R  # the attitude half way through the step, for its mean specific force
         if predict:
             half = (0.5 * gyro[0] * dt, 0.5 * gyro[1] * dt, 0.5 * gyro[2] * dt)
             middle = mat_mul_tuple(R, exp_tuple(half))
             R = mat_mul_tuple(middle, exp_tuple(half))
-        specific = mat_vec_tuple(middle, (imu[ACCEL] - e[BA], imu[ACCEL + 1] - e[BA + 1],
-                                   imu[ACCEL + 2] - e[BA + 2]))
+        specific = mat_vec_tuple(middle, (ring[now, i, ACCEL] - e[i, BA],
+                                          ring[now, i, ACCEL + 1] - e[i, BA + 1],
+                                          ring[now, i, ACCEL + 2] - e[i, BA + 2]))
         if predict:
             for k in range(3):
                 a = specific[k] - (gravity if k == 2 else 0.0)
-                e[P + k] += e[V + k] * dt + 0.5 * a * dt * dt
-                e[V + k] += a * dt
-            _store_rotation(e, R_, R)
-        newest = history[step % length, i]  # this step's entry, over the oldest one
+                e[i, P + k] += e[i, V + k] * dt + 0.5 * a * dt * dt
+                e[i, V + k] += a * dt
+            _store_row_rotation(e, i, R_, R)
+        newest = step % length  # this step's entry, over the oldest one
         for k in range(15):
-            newest[k] = e[k]
+            history[newest, i, k] = e[i, k]
         for k in range(3):
-            newest[HS + k] = specific[k]
+            history[newest, i, HS + k] = specific[k]
         taken = step - pose_delays[i]
         if taken >= 0 and taken % period == 0:
-            fix = ring[taken % depth, i]
-            then = history[(step - lag) % length, i]
-            _correct(e, fix, then, history, i, step, lag, period, kind, fix_period,
-                     position_bandwidth, attitude_bandwidth, velocity_bandwidth, gravity)
+            fix, then = taken % depth, (step - lag) % length
+            measured = (0.0, 0.0, 0.0)  # the IMU's mean world specific force over the fix
+            if kind != 0 and e[i, HAS_LAST_V] > 0.0:
+                m0, m1, m2 = 0.0, 0.0, 0.0
+                for back in range(period):
+                    entry = (step - lag - back) % length
+                    m0 += history[entry, i, HS] / period
+                    m1 += history[entry, i, HS + 1] / period
+                    m2 += history[entry, i, HS + 2] / period
+                measured = (m0, m1, m2)
+            fixed = _correction(
+                _entry_vector(ring, fix, i, POSITION), _entry_rotation(ring, fix, i, ROTATION),
+                _entry_vector(ring, fix, i, VELOCITY), ring[fix, i, HEADING],
+                _entry_vector(history, then, i, HP), _entry_rotation(history, then, i, HR),
+                _entry_vector(history, then, i, HV), _row_rotation(e, i, R_),
+                (e[i, LAST_V], e[i, LAST_V + 1], e[i, LAST_V + 2]), e[i, HAS_LAST_V] > 0.0,
+                measured, kind, fix_period, position_bandwidth, attitude_bandwidth,
+                velocity_bandwidth, gravity)
+            shift_p, shift_v, turn = fixed.shift_p, fixed.shift_v, fixed.turn
+            for k in range(3):
+                e[i, BA + k] -= fixed.accelerometer_bias_step[k]
+            if kind != 0:
+                for k in range(3):
+                    e[i, LAST_V + k] = ring[fix, i, VELOCITY + k]
+                e[i, HAS_LAST_V] = 1.0
+            for k in range(3):
+                e[i, BG + k] -= fixed.gyroscope_bias_step[k]
+            _store_row_rotation(e, i, R_, fixed.rotation)
+            for k in range(3):
+                e[i, P + k] += shift_p[k]
+                e[i, V + k] += shift_v[k]
+            for h in range(length):  # the history moves with the estimate
+                for k in range(3):
+                    history[h, i, HP + k] += shift_p[k]
+                    history[h, i, HV + k] += shift_v[k]
+                _store_entry_rotation(history, h, i, HR,
+                                      mat_mul_tuple(turn, _entry_rotation(history, h, i, HR)))
+                turned = mat_vec_tuple(turn, _entry_vector(history, h, i, HS))
+                for k in range(3):
+                    history[h, i, HS + k] = turned[k]
         for k in range(3):
-            out_position[i, k] = e[P + k]
-            out_velocity[i, k] = e[V + k]
-            out_rates[i, k] = imu[GYRO + k] - e[BG + k]
+            out_position[i, k] = e[i, P + k]
+            out_velocity[i, k] = e[i, V + k]
+            out_rates[i, k] = ring[now, i, GYRO + k] - e[i, BG + k]
             for c in range(3):
-                out_rotation[i, k, c] = e[R_ + 3 * k + c]
+                out_rotation[i, k, c] = e[i, R_ + 3 * k + c]
+
+
+class Correction(NamedTuple):
+    """What one pose fix does to a vehicle's estimate (``_correction``): every history
+    entry and the estimate shift by ``shift_p``, ``shift_v`` and turn by ``turn``; the
+    biases' estimates lose their steps; the attitude becomes ``rotation``."""
+
+    shift_p: tuple
+    shift_v: tuple
+    turn: tuple  # row-major, applied in the world frame
+    accelerometer_bias_step: tuple
+    gyroscope_bias_step: tuple
+    rotation: tuple  # the estimate's new attitude, row-major
 
 
 @njit(cache=True, inline="always")
-def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_bandwidth,
-             attitude_bandwidth, velocity_bandwidth, gravity):
-    """Apply one pose fix to the estimate ``e`` and to the whole history."""
-    length = history.shape[0]
-    R_then = _rotation(then, HR)
-    R = _rotation(e, R_)
-    y = (fix[POSITION] - then[HP], fix[POSITION + 1] - then[HP + 1],
-         fix[POSITION + 2] - then[HP + 2])
+def _correction(fix_position, fix_rotation, fix_velocity, fix_heading, then_position,
+                then_rotation, then_velocity, R, last_velocity, has_last, measured, kind, T,
+                position_bandwidth, attitude_bandwidth, velocity_bandwidth, gravity):
+    """One pose fix's ``Correction``, numbers in: the fix's reading, the history's entry of
+    its time (``then_*``), the estimate's attitude now ``R``, the last GNSS velocity and
+    whether there is one, and ``measured``, the IMU's mean world specific force over the
+    fix interval (GNSS levelling only)."""
+    R_then = then_rotation
+    y = (fix_position[0] - then_position[0], fix_position[1] - then_position[1],
+         fix_position[2] - then_position[2])
     w = position_bandwidth
-    # tuples, not lists: a list is a heap allocation per call
     shift_p = (3.0 * w * T * y[0], 3.0 * w * T * y[1], 3.0 * w * T * y[2])
     shift_v = (3.0 * w * w * T * y[0], 3.0 * w * w * T * y[1], 3.0 * w * w * T * y[2])
     bias_step = mat_vec_tuple(transpose_tuple(R), y)
-    for k in range(3):
-        e[BA + k] -= w * w * w * T * bias_step[k]
+    accelerometer = (w * w * w * T * bias_step[0], w * w * w * T * bias_step[1],
+                     w * w * w * T * bias_step[2])
     if kind == 0:  # mocap: the attitude itself
-        Rm = (fix[ROTATION], fix[ROTATION + 1], fix[ROTATION + 2], fix[ROTATION + 3],
-              fix[ROTATION + 4], fix[ROTATION + 5], fix[ROTATION + 6], fix[ROTATION + 7],
-              fix[ROTATION + 8])
+        Rm = fix_rotation
         # A = R̂ᵀ R_m; e = ½ vee(A - Aᵀ)
         a21 = R_then[2] * Rm[1] + R_then[5] * Rm[4] + R_then[8] * Rm[7]
         a12 = R_then[1] * Rm[2] + R_then[4] * Rm[5] + R_then[7] * Rm[8]
@@ -169,19 +251,15 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
         # the error, a rotation vector in the body frame of then, turned into the world's
         world = mat_vec_tuple(R_then, (0.5 * (a21 - a12), 0.5 * (a02 - a20), 0.5 * (a10 - a01)))
     else:  # GNSS: velocity, heading and the levelling against its acceleration
-        shift_v = (shift_v[0] + velocity_bandwidth * T * (fix[VELOCITY] - then[HV]),
-                   shift_v[1] + velocity_bandwidth * T * (fix[VELOCITY + 1] - then[HV + 1]),
-                   shift_v[2] + velocity_bandwidth * T * (fix[VELOCITY + 2] - then[HV + 2]))
-        heading_error = wrap_angle(fix[HEADING] - heading_of(R_then))
-        levelling = [0.0, 0.0, 0.0]
-        if e[HAS_LAST_V] > 0.0:
-            measured = [0.0, 0.0, 0.0]  # the IMU's mean world specific force over the fix
-            for j in range(period):
-                entry = history[(step - lag - j) % length, i]
-                for k in range(3):
-                    measured[k] += entry[HS + k] / period
-            shown = [(fix[VELOCITY + k] - e[LAST_V + k]) / T for k in range(3)]
-            shown[2] += gravity
+        shift_v = (shift_v[0] + velocity_bandwidth * T * (fix_velocity[0] - then_velocity[0]),
+                   shift_v[1] + velocity_bandwidth * T * (fix_velocity[1] - then_velocity[1]),
+                   shift_v[2] + velocity_bandwidth * T * (fix_velocity[2] - then_velocity[2]))
+        heading_error = wrap_angle(fix_heading - heading_of(R_then))
+        levelling = (0.0, 0.0, 0.0)
+        if has_last:
+            shown = ((fix_velocity[0] - last_velocity[0]) / T,
+                     (fix_velocity[1] - last_velocity[1]) / T,
+                     (fix_velocity[2] - last_velocity[2]) / T + gravity)
             shown_norm = math.sqrt(shown[0] ** 2 + shown[1] ** 2 + shown[2] ** 2)
             norm = shown_norm * math.sqrt(measured[0] ** 2 + measured[1] ** 2
                                           + measured[2] ** 2)
@@ -189,12 +267,9 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
             # far from 1 g (a climb, a cut of thrust) the direction says little
             weight = min(max(1.0 - 2.0 * abs(shown_norm / gravity - 1.0), 0.0), 1.0)
             if norm > 0.0:
-                levelling[0] = weight * (measured[1] * shown[2] - measured[2] * shown[1]) / norm
-                levelling[1] = weight * (measured[2] * shown[0] - measured[0] * shown[2]) / norm
-                levelling[2] = weight * (measured[0] * shown[1] - measured[1] * shown[0]) / norm
-        for k in range(3):
-            e[LAST_V + k] = fix[VELOCITY + k]
-        e[HAS_LAST_V] = 1.0
+                levelling = (weight * (measured[1] * shown[2] - measured[2] * shown[1]) / norm,
+                             weight * (measured[2] * shown[0] - measured[0] * shown[2]) / norm,
+                             weight * (measured[0] * shown[1] - measured[1] * shown[0]) / norm)
         world = (levelling[0], levelling[1], levelling[2] + heading_error)
     # applied in the world frame, R̂ ← exp(ω_R T e_w) R̂, to the estimate and its history
     # alike (the attitude of then and now differ by the lag's rotation)
@@ -203,18 +278,6 @@ def _correct(e, fix, then, history, i, step, lag, period, kind, T, position_band
     # in the body frame now, where the gyroscope's bias lives
     error = mat_vec_tuple(transpose_tuple(R), world)
     integral = 0.25 * attitude_bandwidth * attitude_bandwidth * T
-    for k in range(3):
-        e[BG + k] -= integral * error[k]
-    _store_rotation(e, R_, mat_mul_tuple(turn, R))
-    for k in range(3):
-        e[P + k] += shift_p[k]
-        e[V + k] += shift_v[k]
-    for h in range(length):  # the history moves with the estimate
-        entry = history[h, i]
-        for k in range(3):
-            entry[HP + k] += shift_p[k]
-            entry[HV + k] += shift_v[k]
-        _store_rotation(entry, HR, mat_mul_tuple(turn, _rotation(entry, HR)))
-        specific = mat_vec_tuple(turn, (entry[HS], entry[HS + 1], entry[HS + 2]))
-        for k in range(3):
-            entry[HS + k] = specific[k]
+    return Correction(shift_p, shift_v, turn, accelerometer,
+                      (integral * error[0], integral * error[1], integral * error[2]),
+                      mat_mul_tuple(turn, R))
