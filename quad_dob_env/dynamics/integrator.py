@@ -31,7 +31,7 @@ from quad_dob_env.so3 import (
     exp_tuple,
     mat_mul_tuple,
     mat_vec_tuple,
-    matrix_entries,
+    matrix_at,
 )
 
 
@@ -330,8 +330,8 @@ def all_finite(x, v, R, w) -> bool:
 def vehicle_physics(i, body):
     """Vehicle i's ``RigidBody`` from the batch's ``BodyArrays``."""
     drag = body.drag
-    return RigidBody(body.mass[i], body.gravity, matrix_entries(body.inertia[i]),
-                     matrix_entries(body.inertia_inverse[i]),
+    return RigidBody(body.mass[i], body.gravity, matrix_at(body.inertia, i),
+                     matrix_at(body.inertia_inverse, i),
                      (drag[i, 0], drag[i, 1], drag[i, 2]), (drag[i, 3], drag[i, 4], drag[i, 5]))
 
 

@@ -23,7 +23,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_env.rng import gaussian_pair
-from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, matrix_entries
+from quad_dob_env.so3 import exp_tuple, mat_mul_tuple, matrix_at
 
 READING_WIDTH = 26
 POSITION, ROTATION, VELOCITY, HEADING, GYRO, ACCEL, ROTORS = 0, 3, 12, 15, 16, 19, 22
@@ -203,7 +203,7 @@ def take_readings_kernel(start, stop, indices, step_count, pose_now, pose_seen, 
         gyro_std, accel_std = gyro_stds[i], accel_stds[i]
         step = step_count[i]
         slot = step % depth
-        R = matrix_entries(truth.rotation[i])
+        R = matrix_at(truth.rotation, i)
         if reset:  # a new episode's biases: zero, or drawn
             if gyro_bias0 + accel_bias0 > 0:
                 _normals(keys[i, BIAS_KEY], 0, 6, g)
@@ -212,7 +212,6 @@ def take_readings_kernel(start, stop, indices, step_count, pose_now, pose_seen, 
             for k in range(3):
                 true_bias[i, k] = gyro_bias0 * g[k]
                 true_bias[i, 3 + k] = accel_bias0 * g[3 + k]
-        row = ring[slot, i]
         # the pose fix (taken every ``period`` steps; the slot keeps whatever it held else)
         if step % pose.period == 0 or reset:
             if pose_noisy:
@@ -222,15 +221,16 @@ def take_readings_kernel(start, stop, indices, step_count, pose_now, pose_seen, 
             velocity = seen_velocity if late else now_velocity
             for k in range(3):
                 std = vertical_std if k == 2 else position_std
-                row[POSITION + k] = position[i, k] + std * g[k]
-                row[VELOCITY + k] = velocity[i, k] + velocity_std * g[6 + k]
-            attitude = matrix_entries(seen_rotation[i] if late else now_rotation[i])
+                ring[slot, i, POSITION + k] = position[i, k] + std * g[k]
+                ring[slot, i, VELOCITY + k] = velocity[i, k] + velocity_std * g[6 + k]
+            attitude = (matrix_at(seen_rotation, i) if late
+                        else matrix_at(now_rotation, i))
             turned = mat_mul_tuple(attitude, exp_tuple((attitude_std * g[3],
                                                         attitude_std * g[4],
                                                         attitude_std * g[5])))
             for k in range(9):
-                row[ROTATION + k] = turned[k]
-            row[HEADING] = wrap_angle(heading_of(attitude) + heading_std * g[9])
+                ring[slot, i, ROTATION + k] = turned[k]
+            ring[slot, i, HEADING] = wrap_angle(heading_of(attitude) + heading_std * g[9])
         # the IMU, its biases walking first
         if gyro_std + accel_std + gyro_walk + accel_walk > 0:
             _normals(keys[i, IMU_KEY], step, 12, g)
@@ -245,8 +245,9 @@ def take_readings_kernel(start, stop, indices, step_count, pose_now, pose_seen, 
             specific = (specific[0], specific[1],
                         specific[2] + (truth.hover_thrust - thrust[i]) / mass[i])
         for k in range(3):
-            row[GYRO + k] = truth.angular_velocity[i, k] + true_bias[i, k] + gyro_std * g[k]
-            row[ACCEL + k] = specific[k] + true_bias[i, 3 + k] + accel_std * g[3 + k]
+            ring[slot, i, GYRO + k] = (truth.angular_velocity[i, k] + true_bias[i, k]
+                                       + gyro_std * g[k])
+            ring[slot, i, ACCEL + k] = specific[k] + true_bias[i, 3 + k] + accel_std * g[3 + k]
         if rotors.speed_std > 0:
             _normals(keys[i, ROTOR_KEY], step, 4, g)
         else:
@@ -254,22 +255,22 @@ def take_readings_kernel(start, stop, indices, step_count, pose_now, pose_seen, 
         for k in range(4):
             rotor_thrust = (truth.hover_rotor_thrusts[k] if reset
                             else truth.rotor_thrusts[i, k])
-            row[ROTORS + k] = (rotor_speed(rotor_thrust, rotors.thrust_coefficient)
+            ring[slot, i, ROTORS + k] = (rotor_speed(rotor_thrust, rotors.thrust_coefficient)
                                + rotors.speed_std * g[k])
         if p_std + v_std + a_std + w_std > 0.0:  # SensorNoise: noise on the state itself
             _normals(keys[i, STATE_KEY], step, 12, g)
             for k in range(3):
-                row[POSITION + k] = truth.position[i, k] + p_std * g[k]
-                row[VELOCITY + k] = truth.velocity[i, k] + v_std * g[3 + k]
-                row[GYRO + k] = truth.angular_velocity[i, k] + w_std * g[9 + k]
+                ring[slot, i, POSITION + k] = truth.position[i, k] + p_std * g[k]
+                ring[slot, i, VELOCITY + k] = truth.velocity[i, k] + v_std * g[3 + k]
+                ring[slot, i, GYRO + k] = truth.angular_velocity[i, k] + w_std * g[9 + k]
             turned = mat_mul_tuple(R, exp_tuple((a_std * g[6], a_std * g[7], a_std * g[8])))
             for k in range(9):
-                row[ROTATION + k] = turned[k]
+                ring[slot, i, ROTATION + k] = turned[k]
         if reset:
             for s in range(depth):
                 if s != slot:
                     for k in range(READING_WIDTH):
-                        ring[s, i, k] = row[k]
+                        ring[s, i, k] = ring[slot, i, k]
 
 
 @njit(cache=True, nogil=True)
