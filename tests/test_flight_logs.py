@@ -22,12 +22,15 @@ from quad_dob_training.wind_tunnel.flight_logs import (
     write_neural_fly,
 )
 from quad_dob_training.wind_tunnel.flight_statistics import (
+    LIMIT_PWM,
     fa_reconstruction_rms,
     harmonics,
+    lap_periodic_share,
     lap_window,
     log_statistics,
     reconstruct_fa,
 )
+from quad_dob_training.wind_tunnel.verdicts import TOLERANCES, verdicts, within
 
 M, G, HOVER = 2.53, 9.81, 0.48  # Neural-Fly's mass [kg], g, a hover throttle
 
@@ -180,6 +183,132 @@ def test_a_sinusoid_comes_out_at_its_amplitude():
                                    rtol=0, atol=1e-10)
 
 
+def test_a_sinusoids_phase_comes_out_against_the_laps_phase():
+    """z = A cos(2φ - θ) with φ the lap's phase (φ = t on this figure-8, 0 where p_d crosses
+    its x centre moving +x): the second harmonic's phase is θ, wrapped into (-π, π]."""
+    log = figure8(duration=45.0)
+    t = log.t
+    for theta in (0.3, -2.0, 3.0):
+        error = np.stack([np.zeros_like(t), np.zeros_like(t), 0.02 * np.cos(2 * t - theta)],
+                         axis=1)
+        second = {h.harmonic: h for h in harmonics(error, t, lap_window(log))}[2]
+        assert second.amplitude.z == pytest.approx(0.02, abs=1e-10)
+        # the lap starts are interpolated between samples: 1e-7 s off a sine's crossing
+        assert second.phase.z == pytest.approx(theta, abs=2e-6)
+
+
+def test_the_lap_periodic_share_is_the_power_that_repeats_each_lap():
+    """Planted: a lap-periodic error of power P and white noise of power N over L = 8
+    laps. The share is 1 for the periodic alone (less the 64 bins' smoothing of harmonics
+    1-3: under 1 %), bins / samples for the noise alone (what it leaks into the bins'
+    means), and their mix in between, each power weighted so."""
+    log = figure8(duration=9 * 2 * np.pi + 0.5)  # lap starts at 2π, 4π, ..., 18π
+    t, window = log.t, lap_window(log)
+    assert window.laps == 8
+    kept = window.mask(t)
+    samples = int(kept.sum())
+    periodic = np.stack([0.03 * np.sin(t), 0.01 * np.cos(3 * t), 0.02 * np.sin(2 * t + 1)],
+                        axis=1)
+    assert lap_periodic_share(periodic, t, window) == pytest.approx(1.0, abs=0.01)
+    noise = np.random.default_rng(0).normal(0.0, 0.02, (len(t), 3))
+    leak = 64 / samples
+    assert lap_periodic_share(noise, t, window) == pytest.approx(leak, rel=0.2)
+    p_power = np.sum(periodic[kept] ** 2)
+    n_power = np.sum(noise[kept] ** 2)
+    assert lap_periodic_share(periodic + noise, t, window) == pytest.approx(
+        (p_power + leak * n_power) / (p_power + n_power), rel=0.03)
+    assert math.isnan(lap_periodic_share(periodic, t, lap_window(log, laps=1)))
+
+
+def test_the_command_over_hover_and_the_share_at_a_limit():
+    """The collective command over the hover command, mean and peak, over the scored laps;
+    the share of scored samples at a limit: a real log's PWM at 1990 of 1999 or more on
+    any motor, a simulated log's own flag."""
+    log = figure8(duration=30.0)
+    window = lap_window(log)
+    kept = window.mask(log.t)
+    ratio = log.T_sp / log.hover_throttle
+    statistics = log_statistics(log)
+    assert statistics.command_over_hover_mean == pytest.approx(ratio[kept].mean(), rel=1e-12)
+    assert statistics.command_over_hover_peak == pytest.approx(ratio[kept].max(), rel=1e-12)
+    assert math.isnan(statistics.limit_share)  # neither PWM nor a flag: unknown
+    pwm = np.full((len(log.t), 4), 1500.0)
+    pwm[::10, 2] = LIMIT_PWM  # one motor at the limit every tenth sample
+    pwm[5::10, 0] = LIMIT_PWM - 1  # just below: not at it
+    real = replace(log, pwm=pwm)
+    expected = np.mean((np.arange(len(log.t)) % 10 == 0)[kept])
+    assert log_statistics(real).limit_share == pytest.approx(expected, rel=1e-12)
+    flags = (np.arange(len(log.t)) % 4 == 0).astype(float)
+    simulated = replace(log, at_limit=flags)
+    assert log_statistics(simulated).limit_share == pytest.approx(flags[kept].mean(),
+                                                                  rel=1e-12)
+
+
+def test_a_simulated_log_carries_the_steps_at_a_limit():
+    from quad_dob_env import make_scenario
+    from quad_dob_env.envs import QuadrotorVectorEnv
+    from quad_dob_training.wind_tunnel.flight_logs import InfoRecorder
+
+    env = QuadrotorVectorEnv(2, make_scenario("hover-calm", duration=0.3))
+    _, info = env.reset(seed=[1, 2])
+    recorder = InfoRecorder(2)
+    saturated = []
+    for step in range(20):
+        recorder.add(info)
+        saturated.append(info["actuator_saturated"].copy())
+        # full thrust and a full roll moment every other step: the mixer clips a rotor
+        action = np.zeros((2, 4))
+        action[:, :2] = 1.0 if step % 2 else 0.0
+        _, _, terminated, truncated, info = env.step(action)
+        recorder.ended(terminated, truncated)
+    logs = recorder.logs(env.core.vehicle)
+    flags = np.array(saturated)
+    assert flags.any() and not flags.all()
+    for i, log in enumerate(logs):
+        np.testing.assert_array_equal(log.at_limit, flags[: len(log.t), i].astype(float))
+
+
+@pytest.mark.parametrize(("statistic", "real", "simulated", "inside"), [
+    ("mean_fa_x", 14.7, 14.7 * 1.149, True), ("mean_fa_x", 14.7, 14.7 * 1.151, False),
+    ("mean_fa_x", 14.7, 14.7 * 0.851, True), ("mean_fa_x", 14.7, 14.7 * 0.849, False),
+    ("command_over_hover_mean", 1.26, 1.359, True), ("command_over_hover_mean", 1.26, 1.161,
+                                                      True),
+    ("command_over_hover_mean", 1.26, 1.361, False),
+    ("command_over_hover_peak", 1.58, 1.729, True), ("command_over_hover_peak", 1.58, 1.429,
+                                                      False),
+    ("limit_share", 0.0, 0.0199, True), ("limit_share", 0.0, 0.02, False),
+    ("rms_total", 0.122, 0.122 * 1.499, True), ("rms_total", 0.122, 0.122 / 1.49, True),
+    ("rms_total", 0.122, 0.122 * 1.51, False), ("rms_total", 0.122, 0.122 / 1.51, False),
+    ("z_share", 0.78, 0.929, True), ("z_share", 0.78, 0.629, False),
+    ("mean.x", -0.193, -0.0966, True), ("mean.x", -0.193, -0.385, True),
+    ("mean.x", -0.193, -0.0964, False), ("mean.x", -0.193, 0.150, False),
+    ("mean.x", 0.012, -0.049, True), ("mean.x", 0.012, 0.051, False),
+    ("mean.z", 0.05, 0.0799, True), ("mean.z", 0.05, 0.0801, False)])
+def test_each_tolerance_holds_its_targets_edge(statistic, real, simulated, inside):
+    (tolerance,) = [t for t in TOLERANCES if t.statistic == statistic]
+    assert within(tolerance, real, simulated) is inside
+
+
+def test_verdicts_name_the_tolerance_where_a_target_applies_and_the_ratio_elsewhere():
+    real = {"mean_fa_x": 14.7, "rms_total": 0.122, "z_share": 0.78, "mean.x": -0.193,
+            "mean.z": 0.01, "command_over_hover_mean": 1.26, "command_over_hover_peak": 1.58,
+            "limit_share": 0.0, "rms.x": 0.1, "rms.y": 0.02, "rms.z": 0.05,
+            "harmonics.1.z": 0.01, "harmonics.2.z": 0.02, "harmonics.2.phase.z": 3.0,
+            "lap_periodic_share": 0.6}
+    simulated = {**real, "mean_fa_x": 20.2, "rms_total": 0.113, "rms.x": 0.15,
+                 "harmonics.2.phase.z": -3.0}
+    rows = {row["statistic"]: row for row in verdicts(real, simulated, 12.1)}
+    assert rows["mean fa_x"]["verdict"].startswith("outside: within 15% of the real")
+    assert rows["RMS"]["verdict"].startswith("within: within 1.5x of the real")
+    assert "z share" not in rows  # a calm-air target only
+    assert rows["RMS x"]["verdict"] == "sim / real 1.50"
+    # -3.0 - 3.0 rad wraps to +0.28 rad: the phases are 16° apart, not 344°
+    wrapped = math.degrees(2 * math.pi - 6.0)
+    assert rows["z phase at 2 rad/s"]["verdict"] == f"sim - real {wrapped:+.0f}°"
+    calm = {row["statistic"] for row in verdicts(real, simulated, 0.0)}
+    assert "z share" in calm and "mean fa_x" not in calm and "at a limit" not in calm
+
+
 # --- planted errors -------------------------------------------------------------------------
 
 def test_a_constant_vertical_offset_is_the_signed_mean_and_its_share(tmp_path):
@@ -304,6 +433,10 @@ def test_the_command_scores_both_sides_over_the_same_laps(tmp_path, capsys):
     assert "| indi 35wind | real |" in printed and "| indi 35wind | sim: indi |" in printed
     assert "| NF nowind | real |" in printed and "NF nowind | sim" not in printed
     assert "(2 runs without a counterpart: real only)" in printed
+    # the verdict table: at 4.2 m/s the force's target applies, and the RMS's
+    assert "| indi 35wind | indi | mean fa_x |" in printed
+    assert "| indi 35wind | indi | RMS |" in printed and "NF nowind | " not in printed.split(
+        "Sim against real")[1]
     assert "| geometric-ndob:tuned (sim) |" in printed and "| NF-C (real) | 52 |" in printed
     document = json.loads((out / "wind_tunnel.json").read_text())
     assert document["benchmark"] == "v2" and document["seeds"] == [9001]

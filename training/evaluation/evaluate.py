@@ -42,7 +42,11 @@ from quad_dob_training.evaluation.results import (
     source_labels,
     write_document,
 )
-from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
+from quad_dob_training.evaluation.statistics import (
+    bootstrap_mean,
+    paired_difference,
+    z_share,
+)
 from quad_dob_training.policies import (
     LIBRARY_BENCHMARK,
     SHIPPED_TRAINED_IN,
@@ -234,9 +238,7 @@ def _row(scenario: str, policy: str, seeds: list[int], metrics: list[dict],
         row[f"{key}_low"], row[f"{key}_high"] = interval.low, interval.high
     # the vertical share of the squared settled error, pooled over the seeds (rms² as the
     # axes' sum, which it is: the share then cannot round above 1)
-    squares = sum(m[key] ** 2 for m in metrics for key in AXIS_SCORES)
-    row["z_share_settled"] = (sum(m["rms_position_settled_z"] ** 2 for m in metrics) / squares
-                              if squares > 0 else float("nan"))
+    row["z_share_settled"] = z_share([[m[key] for key in AXIS_SCORES] for m in metrics])
     for key in ESTIMATOR_SCORES:
         values = np.array([m.get(key, np.nan) for m in metrics], dtype=float)
         row[f"{key}_mean"] = float(values.mean())

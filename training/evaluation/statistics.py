@@ -1,4 +1,6 @@
-"""Confidence intervals for comparisons over seeds: percentile bootstrap of the mean.
+"""Confidence intervals for comparisons over seeds: percentile bootstrap of the mean; and
+the vertical share of the squared error, pooled over flights (``z_share``), which
+``quad-dob evaluate`` and ``quad-dob wind-tunnel`` both report.
 
 Two policies flown on the same seeds meet the same wind and start, so their difference is
 paired: the interval of the mean per-seed difference is far tighter than the two means'
@@ -50,3 +52,13 @@ def paired_difference(values: ArrayLike, baseline: ArrayLike, **options: float) 
         raise ValueError(f"a paired difference needs one value per seed on both sides, got "
                          f"{a.shape} and {b.shape}")
     return bootstrap_mean(a - b, **options)
+
+
+def z_share(rms: ArrayLike) -> float:
+    """The vertical share of the squared position error, Σ rms_z² / Σ (rms_x² + rms_y² +
+    rms_z²) over the rows of ``rms`` (per-axis RMS [m], (3,) for one flight or (F, 3) for
+    F flights pooled): the axes' squares sum to the norm's, so it never rounds above 1.
+    NaN where every error is zero."""
+    squares = np.atleast_2d(np.asarray(rms, dtype=float)) ** 2
+    total = float(squares.sum())
+    return float(squares[:, 2].sum() / total) if total > 0 else float("nan")

@@ -7,7 +7,10 @@
 - ``flight_logs``: Neural-Fly's logs read as flights (the same records simulated flights
   give).
 - ``flight_statistics``: the statistics both sides share: per-axis error, the z share, the
-  vertical residual force and its fit.
+  vertical residual force and its fit, the error's harmonics and phases, its lap-periodic
+  share, the command over hover and the share at an actuator limit.
+- ``verdicts``: sim against real per statistic: within or outside the tolerance Benchmark
+  v4's targets give, else the ratio.
 - ``plots``: the tool's figures.
 
 May import ``quad_dob_env``, ``quad_dob_composition``, ``quad_dob_baselines`` and the parts

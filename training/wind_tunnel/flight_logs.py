@@ -52,8 +52,11 @@ class FlightLog:
     ``t`` [s]; ``p``, ``p_d`` [m] and ``v``, ``v_d`` [m/s] (T, 3), world frame, z up;
     ``R`` (T, 3, 3) body to world; ``T_sp`` the collective thrust setpoint, normalised
     (0..1), and ``hover_throttle`` the setpoint believed to hold the weight, (T,) each;
-    optional ``fa`` (T, 3) [N], the residual force the log itself records, and ``pwm``
-    (T, 4). ``wind_speed`` [m/s] is None for a wind without a steady speed;
+    optional ``fa`` (T, 3) [N], the residual force the log itself records, ``pwm``
+    (T, 4), and ``at_limit`` (T,), 1 where the actuators were at a limit (a simulated
+    log's ``info["actuator_saturated"]``; a real log's comes from its ``pwm``:
+    ``flight_statistics.limit_samples``). ``wind_speed`` [m/s] is None for a wind without
+    a steady speed;
     ``thrust_source`` says what ``T_sp`` and ``hover_throttle`` were made from."""
 
     t: NDArray
@@ -66,6 +69,7 @@ class FlightLog:
     hover_throttle: NDArray
     fa: NDArray | None = None
     pwm: NDArray | None = None
+    at_limit: NDArray | None = None
     method: str = ""
     condition: str = ""
     wind_speed: float | None = None
@@ -81,7 +85,7 @@ class FlightLog:
         if not np.all(np.diff(t) > 0):
             raise ValueError(f"FlightLog.t must increase strictly ({self.source or 'a log'})")
         shapes = {"p": (3,), "p_d": (3,), "v": (3,), "v_d": (3,), "R": (3, 3), "T_sp": (),
-                  "hover_throttle": (), "fa": (3,), "pwm": (4,)}
+                  "hover_throttle": (), "fa": (3,), "pwm": (4,), "at_limit": ()}
         for name, shape in shapes.items():
             value = getattr(self, name)
             if value is None:
@@ -240,13 +244,14 @@ def log_from_fields(fields: Mapping[str, NDArray], vehicle: VehicleParams,
         p_d=fields["reference_position"],
         v=fields["reference_velocity"] + fields["velocity_error"],
         v_d=fields["reference_velocity"], R=fields["rotation"], T_sp=setpoint,
-        hover_throttle=hover, mass=vehicle.mass, thrust_source=source, **metadata)
+        hover_throttle=hover, at_limit=fields.get("actuator_saturated"), mass=vehicle.mass,
+        thrust_source=source, **metadata)
 
 
 # the info entries a log is made of (rotation: info["rotation"], else the estimate's)
 INFO_FIELDS = ("time", "reference_position", "position_error", "reference_velocity",
                "velocity_error", "base_thrust", "applied_thrust", "thrust_setpoint",
-               "hover_throttle")
+               "hover_throttle", "actuator_saturated")
 
 
 def _fields_of(info: Mapping) -> dict[str, NDArray]:

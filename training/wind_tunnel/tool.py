@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from quad_dob_env.benchmark import TOOLS_BENCHMARK
+from quad_dob_training.evaluation.statistics import z_share
 from quad_dob_training.wind_tunnel.flight_logs import NEURAL_FLY_METHODS, FlightLog
 from quad_dob_training.wind_tunnel.flight_statistics import (
     HARMONICS,
@@ -37,6 +38,7 @@ from quad_dob_training.wind_tunnel.published import (
     WIND_SPEEDS,
     side_by_side,
 )
+from quad_dob_training.wind_tunnel.verdicts import verdicts
 
 # Neural-Fly's method -> the simulated controller that stands for it (NF, NF-T: none)
 SIMULATED_OF = {method: spec for method, label in NEURAL_FLY_METHODS.items()
@@ -79,6 +81,8 @@ def flat(statistics: LogStatistics) -> dict[str, float]:
         if key == "harmonics":
             values.update({f"harmonics.{h['harmonic']}.{axis}": h["amplitude"][axis]
                            for h in value for axis in "xyz"})
+            values.update({f"harmonics.{h['harmonic']}.phase.{axis}": h["phase"][axis]
+                           for h in value for axis in "xyz"})
         elif isinstance(value, dict) and key != "window":
             values.update({f"{key}.{name}": entry for name, entry in value.items()})
         elif key != "window":
@@ -87,13 +91,17 @@ def flat(statistics: LogStatistics) -> dict[str, float]:
 
 
 def pooled(per_seed: list[dict[str, float]]) -> dict[str, float]:
-    """The mean over the seeds of each statistic; the z share pooled, Σ rms_z² / Σ rms²."""
+    """The mean over the seeds of each statistic; the z share pooled, Σ rms_z² / Σ rms²; a
+    phase by its circular mean (the angle of the mean unit vector: -179° and 179° average
+    to 180°, not 0°)."""
     if not per_seed:
         return {}
     mean = {key: float(np.mean([values[key] for values in per_seed])) for key in per_seed[0]}
-    squares = sum(values["rms_total"] ** 2 for values in per_seed)
-    z_squares = sum(values["rms.z"] ** 2 for values in per_seed)
-    mean["z_share"] = z_squares / squares if squares > 0 else float("nan")
+    for key in (key for key in per_seed[0] if ".phase." in key):
+        angles = np.array([values[key] for values in per_seed])
+        mean[key] = float(np.arctan2(np.mean(np.sin(angles)), np.mean(np.cos(angles))))
+    mean["z_share"] = z_share([[values[f"rms.{axis}"] for axis in "xyz"]
+                               for values in per_seed])
     return mean
 
 
@@ -154,12 +162,14 @@ def compare_real(real: list[FlightLog], simulated: list[dict[str, Any]]
             laps = min(laps, match["laps"]) or laps
         statistics = flat(log_statistics(log, laps))
         fa_rms = asdict(fa_reconstruction_rms(log)) if log.fa is not None else None
+        simulated_mean = None if match is None else match["mean"].get(str(laps))
         rows.append({"file": Path(log.source).name, "method": log.method,
                      "condition": log.condition, "wind_speed": log.wind_speed,
                      "counterpart": spec if match is not None else None,
                      "laps": laps, "statistics": statistics,
-                     "fa_reconstruction_rms": fa_rms,
-                     "simulated": None if match is None else match["mean"].get(str(laps))})
+                     "fa_reconstruction_rms": fa_rms, "simulated": simulated_mean,
+                     "verdicts": None if simulated_mean is None else verdicts(
+                         statistics, simulated_mean, log.wind_speed)})
     return rows
 
 
@@ -174,7 +184,12 @@ COLUMNS = (("laps", "laps", 1.0, ".0f"), ("rms.x", "RMS x", 1e3, ".1f"),
            ("fa_z_fit.c", "c [N]", 1.0, ".2f"), ("fa_z_fit.r_squared", "R²", 1.0, ".2f"),
            ("fa_z_fit.tau", "τ [ms]", 1e3, ".0f"), ("mean_fa_x", "mean fa_x [N]", 1.0, ".2f"),
            ("hover_throttle_start", "hover start", 1.0, ".3f"),
-           ("hover_throttle_end", "end", 1.0, ".3f"))
+           ("hover_throttle_end", "end", 1.0, ".3f"),
+           ("harmonics.2.phase.z", "z phase at 2 rad/s [°]", 180 / math.pi, ".0f"),
+           ("lap_periodic_share", "lap-periodic share", 1.0, ".2f"),
+           ("command_over_hover_mean", "command / hover mean", 1.0, ".2f"),
+           ("command_over_hover_peak", "peak", 1.0, ".2f"),
+           ("limit_share", "at a limit [%]", 100.0, ".1f"))
 
 
 def _cells(values: dict[str, float] | None) -> list[str]:
@@ -215,7 +230,24 @@ def report(benchmark: str, simulated: list[dict], real_rows: list[dict]) -> str:
         parts += ["", f"Neural-Fly's runs beside their simulated counterparts over the same "
                       f"whole laps ({alone} runs without a counterpart: real only)",
                   statistics_table(["run", "side"], table)]
+        parts += ["", "Sim against real: a verdict where Benchmark v4's targets give a "
+                      "tolerance, else the ratio", verdict_table(real_rows)]
     return "\n".join(parts)
+
+
+def verdict_table(real_rows: list[dict]) -> str:
+    """Every run with a counterpart: each statistic's real and simulated value and verdict."""
+    lines = ["| run | counterpart | statistic | real | sim | verdict |",
+             "|---|---|---|---|---|---|"]
+    for row in real_rows:
+        for entry in row["verdicts"] or ():
+            shown = ["—" if entry[side] is None or not np.isfinite(entry[side])
+                     else f"{entry[side]:.3g}{' ' + entry['unit'] if entry['unit'] else ''}"
+                     for side in ("real", "simulated")]
+            lines.append(f"| {row['method']} {row['condition']} | {row['counterpart']} | "
+                         f"{entry['statistic']} | {shown[0]} | {shown[1]} | "
+                         f"{entry['verdict']} |")
+    return "\n".join(lines)
 
 
 def _plain(value: Any) -> Any:
