@@ -334,7 +334,8 @@ _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
     "random-tracks": ("vehicle", "wind_scale"),
     "random-lemniscates": ("vehicle", "wind_scale"),
     "heldout-tracks": ("vehicle", "wind_scale"), "heldout-hops": ("vehicle", "wind_scale"),
-    **{f"figure8-wind-{speed:g}": ("vehicle", "turbulence_intensity", "benchmark")
+    **{f"figure8-wind-{speed:g}": ("vehicle", "turbulence_intensity", "benchmark",
+                                   "reference_ramp")
        for speed in FIGURE8_WINDS},
 }
 

@@ -12,7 +12,7 @@ from quad_dob_env.disturbances import Constant, Disturbance, Dryden
 from quad_dob_env.loop_options import LoopOptions
 from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.scenario import Scenario
-from quad_dob_env.trajectories import Harmonic
+from quad_dob_env.trajectories import Harmonic, RampedStart
 from quad_dob_env.validation import as_finite
 
 # Neural-Fly's wind-tunnel experiment (O'Connell et al., Science Robotics 2022, and the
@@ -25,6 +25,11 @@ FIGURE8_HEIGHT = 2.15
 # are more turbulent than closed tunnels (Dougherty 2022, as cited by Stefan-Zavala et al.
 # 2024). Our assumption: 5 % of the mean wind (σ_u / U), MIL-F-8785C Dryden spectra.
 FIGURE8_TURBULENCE_INTENSITY = 0.05
+# Neural-Fly's reference starts from rest: in all 30 of their wind-tunnel logs the figure-8's
+# phase rate grows linearly from 0, 0.0796 t + 0.005 rad/s (median over the logs, fitted
+# 1-11 s; spread between logs 0.011 rad/s), to 1 rad/s at 12.5 s, and holds: 1 / (4π) rad/s²
+# for 4π s, one lap (aerorobotics/neural-fly, data/experiment, read for this figure alone).
+NEURAL_FLY_RAMP = 4 * math.pi  # [s]
 # Neural-Fly's position loop runs at 50 Hz. v1 and v2 fly the figure-8s at 100 Hz, because
 # their latencies are resolved on the control grid (quad_dob_env.sensing.stage): at 50 Hz the
 # mocap's 10 ms would become 20 ms. v3 flies 50 Hz with the pose's latency on the inner
@@ -48,12 +53,15 @@ def tunnel_wind(speed: float, intensity: float, height: float, direction: float)
 
 def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fly",
                  turbulence_intensity: float | None = None, benchmark: str = "v1",
-                 **fields: Any) -> Scenario:
+                 reference_ramp: float = 0.0, **fields: Any) -> Scenario:
     """The figure-8 at ``wind_speed``. Under ``benchmark="v3"`` it flies Neural-Fly's 50 Hz
     outer loop and the tunnel turbulence v3 sources (``benchmark_v3``), its sensing and drag
     as v3 sets them; v1 and v2 fly 100 Hz, ``FIGURE8_TURBULENCE_INTENSITY`` and mocap
-    sensing, drag and a motor lag pinned, as they always have. ``fields`` are the
-    scenario's (``make_scenario``'s options), laid over these."""
+    sensing, drag and a motor lag pinned, as they always have. ``reference_ramp`` [s]: the
+    reference starts from rest, its phase rate growing linearly to 1 rad/s over this long
+    (``RampedStart``; Neural-Fly's: ``NEURAL_FLY_RAMP``, 4π s); 0, v1-v3's, flies at speed
+    from the start. ``fields`` are the scenario's (``make_scenario``'s options), laid over
+    these."""
     params = get_vehicle(vehicle)
     v3 = benchmark == "v3"
     real = REAL_LOOPS.get(params.name) if v3 else None
@@ -62,8 +70,11 @@ def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fl
                                 else FIGURE8_TURBULENCE_INTENSITY)
     speed = as_finite(wind_speed, "wind_speed", 0.0)
     intensity = as_finite(turbulence_intensity, "turbulence_intensity", 0.0)
+    ramp = as_finite(reference_ramp, "reference_ramp", 0.0)
     figure8 = Harmonic(offset=(0.0, 0.0, FIGURE8_HEIGHT),
                        terms=[(0, 1.25, 1.0, 0.0), (2, 0.75, 2.0, 0.0)])
+    if ramp > 0:
+        figure8 = RampedStart(figure8, ramp)
     start = figure8.evaluate(0.0)
     # the mean wind and the turbulence it carries past
     disturbance = tunnel_wind(speed, intensity, FIGURE8_HEIGHT, math.pi)
@@ -78,4 +89,6 @@ def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fl
         description=f"Neural-Fly's wind-tunnel figure-8: x = 1.25 sin t, z = "
                     f"{FIGURE8_HEIGHT:g} + 0.75 sin 2t, heading fixed, {speed:g} m/s of wind "
                     f"along -x with {100 * intensity:g} % turbulence; mocap sensing; scored "
-                    "after 5 s, as Neural-Fly; drag, motor lag, physical rotors") | fields)
+                    "after 5 s, as Neural-Fly; drag, motor lag, physical rotors"
+                    + (f"; the reference starts from rest, at speed after {ramp:.2f} s"
+                       if ramp > 0 else "")) | fields)

@@ -6,11 +6,17 @@ import pytest
 
 from quad_dob_env.trajectories import (
     Circle,
+    Harmonic,
     Hover,
     Lemniscate,
     PaperHelix,
+    RampedStart,
     TakeoffHoverLanding,
 )
+
+# Neural-Fly's figure-8, with a turning heading so that the yaw's chain rule is held too
+FIGURE8 = Harmonic(offset=(0.0, 0.0, 2.15), terms=[(0, 1.25, 1.0, 0.0), (2, 0.75, 2.0, 0.0)],
+                   yaw=0.1, yaw_rate=0.3)
 
 TRAJECTORIES = {
     "paper-helix": PaperHelix(),
@@ -18,6 +24,8 @@ TRAJECTORIES = {
     "circle": Circle(radius=1.5, period=4.0, yaw=-0.2),
     "lemniscate": Lemniscate(amplitude=2.0, period=6.0),
     "takeoff-landing": TakeoffHoverLanding(climb_time=2.0, hover_time=1.0, descent_time=2.5),
+    # the ramp ends at 3 s, between two of the test's samples (φ'' steps there)
+    "ramped-figure8": RampedStart(FIGURE8, ramp_time=3.0),
 }
 
 
@@ -81,3 +89,48 @@ def test_bad_arguments_are_named():
         Hover((0.0, 1.0))
     with pytest.raises(ValueError, match="1-D"):
         Hover().evaluate(np.zeros((2, 2)))
+
+
+def test_a_ramped_start_leaves_from_rest_and_flies_its_base_late_by_half_the_ramp():
+    ramp = 4 * math.pi
+    ramped = RampedStart(FIGURE8, ramp)
+    start = ramped.evaluate(0.0)
+    np.testing.assert_array_equal(start.velocity, 0.0)
+    np.testing.assert_array_equal(start.position, FIGURE8.evaluate(0.0).position)
+    # after the ramp: the base, half a ramp late, every derivative
+    t = np.linspace(ramp, ramp + 20.0, 50)
+    late, base = ramped.evaluate(t), FIGURE8.evaluate(t - ramp / 2)
+    for name in ("position", "velocity", "acceleration", "jerk", "snap", "heading",
+                 "heading_rate", "heading_acceleration"):
+        np.testing.assert_allclose(getattr(late, name), getattr(base, name), rtol=0,
+                                   atol=1e-12, err_msg=name)
+    # during it: the base at φ = t² / 2T, its speed scaled by φ' = t / T
+    t = np.linspace(0.1, ramp - 0.1, 40)
+    during, base = ramped.evaluate(t), FIGURE8.evaluate(t ** 2 / (2 * ramp))
+    np.testing.assert_allclose(during.position, base.position, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(during.velocity, base.velocity * (t / ramp)[:, None], rtol=0,
+                               atol=1e-14)
+    # continuous through its end, position and velocity
+    edge = ramped.evaluate(np.array([ramp - 1e-9, ramp]))
+    np.testing.assert_allclose(edge.position[0], edge.position[1], atol=1e-8)
+    np.testing.assert_allclose(edge.velocity[0], edge.velocity[1], atol=1e-8)
+
+
+def test_the_tunnel_figure8_ramps_as_neural_flys_logs_and_only_when_asked():
+    from quad_dob_env import make_scenario
+    from quad_dob_env.wind_tunnel import NEURAL_FLY_RAMP
+
+    plain = make_scenario("figure8-wind-8.5")
+    assert type(plain.trajectory) is Harmonic  # v1-v3's figure-8, as it always was
+    ramped = make_scenario("figure8-wind-8.5", reference_ramp=NEURAL_FLY_RAMP)
+    assert ramped.initial_velocity == (0.0, 0.0, 0.0)
+    # the logs' phase rate: 0.0796 t rad/s to 1 rad/s at 12.5 s, from |v_d| on the figure
+    t = np.array([1.0, 5.0, 10.0, 12.0, 14.0, 20.0])
+    reference = ramped.trajectory.evaluate(t)
+    phase = t ** 2 / (2 * NEURAL_FLY_RAMP)
+    phase = np.where(t < NEURAL_FLY_RAMP, phase, t - NEURAL_FLY_RAMP / 2)
+    shape = np.hypot(1.25 * np.cos(phase), 1.5 * np.cos(2 * phase))
+    rate = np.linalg.norm(reference.velocity, axis=1) / shape
+    np.testing.assert_allclose(rate, np.minimum(0.0796 * t, 1.0), rtol=2e-3)
+    with pytest.raises(ValueError, match="reference_ramp"):
+        make_scenario("figure8-wind-8.5", reference_ramp=-1.0)

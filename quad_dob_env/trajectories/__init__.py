@@ -4,7 +4,8 @@
   template: implement ``position_derivatives`` and ``yaw_derivatives`` to add one.
 - ``library``: ``PaperHelix`` (the paper's reference), ``Hover``, ``Circle``,
   ``Lemniscate``, ``TakeoffHoverLanding`` (C³ vertical profile), ``WaypointHops``
-  (rest-to-rest C³ hops through 3-D waypoints).
+  (rest-to-rest C³ hops through 3-D waypoints), ``RampedStart`` (any of them on a clock
+  that starts from rest).
 - ``family``: ``TrajectoryFamily`` (members, one per vehicle, drawn at each reset) and
   ``random_references`` (a seeded pool of smooth random references, by kind).
 
@@ -19,6 +20,7 @@ from quad_dob_env.trajectories.library import (
     Hover,
     Lemniscate,
     PaperHelix,
+    RampedStart,
     TakeoffHoverLanding,
     WaypointHops,
 )
@@ -31,6 +33,7 @@ __all__ = [
     "Hover",
     "Lemniscate",
     "PaperHelix",
+    "RampedStart",
     "Reference",
     "TakeoffHoverLanding",
     "Trajectory",

@@ -101,6 +101,50 @@ class Lemniscate(Harmonic):
                          terms=[(0, amplitude, w, 0.0), (1, amplitude / 2, 2 * w, 0.0)])
 
 
+class RampedStart(Trajectory):
+    """``base`` flown on a clock that starts from rest: ``x_d(t) = base(φ(t))`` with the
+    clock's rate ``φ' = t / T`` for t < T and 1 after, so ``φ = t² / (2T)``, then
+    ``t - T/2`` (continuous, and at rest at t = 0). ``ramp_time`` T [s]; 0 is ``base``
+    itself.
+
+    The derivatives are the chain rule's (Faà di Bruno's formula, with φ''' = 0), ``b_k``
+    the base's k-th derivative at φ: ``x' = b1 φ'``, ``x'' = b2 φ'² + b1 φ''``, the third
+    ``b3 φ'³ + 3 b2 φ' φ''``, the fourth ``b4 φ'⁴ + 6 b3 φ'² φ'' + 3 b2 φ''²``; the yaw's
+    alike. φ'' steps from 1/T to 0 at T, and the acceleration with it by ``b1 / T``, as a
+    reference whose rate ramps linearly does.
+    """
+
+    def __init__(self, base: Trajectory, ramp_time: float) -> None:
+        self.base = base
+        self.ramp_time = as_finite(ramp_time, "RampedStart.ramp_time", 0.0)
+
+    def _clock(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
+        """φ, φ', φ'' at ``times``."""
+        ramp = self.ramp_time
+        if ramp == 0:
+            return times, np.ones_like(times), np.zeros_like(times)
+        during = times < ramp
+        phase = np.where(during, times ** 2 / (2 * ramp), times - ramp / 2)
+        return phase, np.where(during, times / ramp, 1.0), np.where(during, 1.0 / ramp, 0.0)
+
+    def position_derivatives(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        phase, rate, change = self._clock(times)
+        b = self.base.position_derivatives(phase)
+        r, c = rate[:, None], change[:, None]
+        out = np.empty_like(b)
+        out[0] = b[0]
+        out[1] = b[1] * r
+        out[2] = b[2] * r ** 2 + b[1] * c
+        out[3] = b[3] * r ** 3 + 3 * b[2] * r * c
+        out[4] = b[4] * r ** 4 + 6 * b[3] * r ** 2 * c + 3 * b[2] * c ** 2
+        return out
+
+    def yaw_derivatives(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        phase, rate, change = self._clock(times)
+        yaw = self.base.yaw_derivatives(phase)
+        return np.stack([yaw[0], yaw[1] * rate, yaw[2] * rate ** 2 + yaw[1] * change])
+
+
 # s(τ) = 35τ⁴ - 84τ⁵ + 70τ⁶ - 20τ⁷: 0 -> 1 on [0, 1] with zero 1st..3rd derivatives at both ends
 _SMOOTHSTEP = np.array([0, 0, 0, 0, 35.0, -84.0, 70.0, -20.0])
 _SMOOTHSTEP_DERIVATIVES = [polynomial.polyder(_SMOOTHSTEP, k) for k in range(DERIVATIVE_ORDERS)]
