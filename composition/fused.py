@@ -327,7 +327,8 @@ class FusedResidualStep:
             effort_weight=float(command.effort_weight),
             rate_weight=float(command.rate_weight), previous=command.previous_residual,
             rewards=command.rewards,
-            applied_thrust=core.applied.thrust, applied_moment=core.applied.moment,
+            applied_thrust=core.estimator_wrench.thrust,
+            applied_moment=core.estimator_wrench.moment,
             advance_torque=not self._with_loop)
         vehicles = kernel_tuples(core.step_arguments())
         update, plan = tuple(update), tuple(self._plan_arguments())

@@ -52,8 +52,8 @@ class ReferencePolicy:
             controller.reset(1, core.vehicle, core.scenario.dt,
                              actuation=core.scenario.actuation)
         else:
-            controller.applied(self._last_state, core.applied.thrust.copy(),
-                               core.applied.moment.copy())
+            told = core.estimator_wrench  # what a real stack's estimators have
+            controller.applied(self._last_state, told.thrust.copy(), told.moment.copy())
         measurement = core.measurement
         thrust, moment = controller.compute(core.time, measurement, core.reference)
         self._last_step, self._last_state = step, measurement.copy()

@@ -25,6 +25,8 @@ state and what the policy reads, is one option of this record; ``Scenario.loop``
 | ``unmodelled_pose_latency`` | [s] on the pose fix, unknown to its estimator (margin) |    |    |
 | ``imu_vibration_scale``     | ``imu_vibration`` times this                           |    |    |
 | ``rotor_thrust_mismatch``   | each rotor's k_F off the nominal by up to ± this       |    |    |
+| ``estimator_wrench``        | what the estimators are told was applied: ``"applied"`` |    |    |
+|                             | (the rotors' output) or ``"commanded"`` (the autopilot's) |  |    |
 
 The twelve benchmark options (``LOOP_FIELDS``) left None are what ``benchmark`` sets
 (``quad_dob_env.benchmark.loop_fields``, the one resolution; the v2 and v3 columns say which
@@ -104,6 +106,10 @@ def _record(value: object, name: str) -> object:
                          + ", ".join(names)) from None
 
 
+# what the estimators may be told was applied (LoopOptions.estimator_wrench)
+ESTIMATOR_WRENCHES = ("applied", "commanded")
+
+
 @dataclass(frozen=True, kw_only=True)
 class LoopOptions:
     """The vehicle loop's options (table in the module docstring); validated when made.
@@ -147,6 +153,13 @@ class LoopOptions:
     # (amolchanov86/quad_sim2multireal, quadrotor_randomization.py: "assymetry" in
     # [0.9, 1.1], rescaled to a sum of 4): a design choice there, not a measurement
     rotor_thrust_mismatch: float = 0.0
+    # What the estimators (the NDOB, L1, the attitude laws' rotational observers) are told
+    # was applied each step: "applied", the rotors' output as the nominal model gives it
+    # (k_F ω² of the true, lagged rotor speeds: v1-v3, docs/design.md), or "commanded",
+    # what the autopilot sent (after its mixer's saturation, in its own thrust model's
+    # newtons: before the motors' lag and the true throttle map), which is all a real
+    # stack without rotor telemetry has (Benchmark v4, issue 54)
+    estimator_wrench: str = "applied"
     # the record as given, kept by ``resolved`` (None: this one is as given); a change of
     # benchmark or clock resolves from it again, as a given 0 or "ideal" resolves to None
     given: LoopOptions | None = field(default=None, init=False, compare=False, repr=False)
@@ -202,6 +215,9 @@ class LoopOptions:
             raise ValueError(f"LoopOptions.rotor_thrust_mismatch is a rotor's relative "
                              f"thrust error bound, in [0, 0.5), got {mismatch!r}")
         checked["rotor_thrust_mismatch"] = mismatch
+        if self.estimator_wrench not in ESTIMATOR_WRENCHES:
+            raise unknown_name_error("LoopOptions.estimator_wrench", self.estimator_wrench,
+                                     ESTIMATOR_WRENCHES)
         for name, value in checked.items():  # frozen: the normalised values, set once
             object.__setattr__(self, name, value)
 

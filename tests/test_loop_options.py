@@ -58,7 +58,8 @@ def _same_record(got: str, recorded: str) -> bool:
 def test_the_record_holds_the_loop_and_the_scenario_holds_the_record():
     assert set(LOOP_FIELDS) | {"benchmark", "motor_lag", "motor_time_constant_scale",
                                "extra_latency", "unmodelled_pose_latency",
-                               "imu_vibration_scale", "rotor_thrust_mismatch"} == set(OPTION_NAMES)
+                               "imu_vibration_scale", "rotor_thrust_mismatch",
+                               "estimator_wrench"} == set(OPTION_NAMES)
     assert LOOP_KEYS == (*OPTION_NAMES, "sensors")
     fields = {f.name for f in dataclasses.fields(Scenario)}
     assert "loop" in fields and not fields & set(MOVED)

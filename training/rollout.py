@@ -197,8 +197,9 @@ def fly(controller: Controller, scenarios: Scenario | Sequence[Scenario],
         thrust, moment = controller.compute(np.full(n, step * dt), measured, reference)
         for i, core in enumerate(cores):
             core.step(core.action_map.to_actions(thrust[i:i + 1], moment[i:i + 1]))
-        applied_thrust = np.concatenate([core.applied.thrust for core in cores])
-        applied_moment = np.concatenate([core.applied.moment for core in cores])
+        # what the estimators are told was applied (LoopOptions.estimator_wrench)
+        applied_thrust = np.concatenate([core.estimator_wrench.thrust for core in cores])
+        applied_moment = np.concatenate([core.estimator_wrench.moment for core in cores])
         controller.applied(measured, applied_thrust, applied_moment)
         diagnostics = controller.diagnostics
         ended = np.array([core.terminated[0] or step + 1 >= steps[i]

@@ -115,6 +115,10 @@ class QuadrotorBatch:
         self.rewards = np.zeros(n)
         self.applied = AppliedCommand(np.zeros(n), np.zeros((n, 3)), np.zeros((n, 4)),
                                       np.zeros(n, dtype=np.bool_))
+        # what the autopilot commanded over the step (its mixer's output, in its own thrust
+        # model's newtons; ``saturated`` is the step's, shared with ``applied``)
+        self.commanded = AppliedCommand(np.zeros(n), np.zeros((n, 3)), np.zeros((n, 4)),
+                                        self.applied.saturated)
         self.disturbance_force = np.zeros((n, 3))
         self.disturbance_torque = np.zeros((n, 3))
         self.wind_velocity = np.zeros((n, 3))
@@ -350,6 +354,9 @@ class QuadrotorBatch:
                 obs=self._true_obs, reward=self.rewards, code=self.termination_code,
                 applied_thrust=applied.thrust, applied_moment=applied.moment,
                 rotor_thrusts=applied.rotor_thrusts, saturated=applied.saturated,
+                commanded_thrust=self.commanded.thrust,
+                commanded_moment=self.commanded.moment,
+                commanded_rotor_thrusts=self.commanded.rotor_thrusts,
                 disturbance_force=self.disturbance_force,
                 disturbance_torque=self.disturbance_torque, wind_velocity=self.wind_velocity))
 
@@ -379,6 +386,15 @@ class QuadrotorBatch:
             sensing.start_estimates(indices)
         run_over_batch(measured_finish_kernel, len(indices),
                        *self.finish_arguments(indices, reset))
+
+    @property
+    def estimator_wrench(self) -> AppliedCommand:
+        """What the estimators are told was applied over the last step
+        (``LoopOptions.estimator_wrench``): ``applied`` (the rotors' output, v1-v3) or
+        ``commanded`` (the autopilot's own command). Its arrays are the core's own."""
+        if self.scenario.loop.estimator_wrench == "commanded":
+            return self.commanded
+        return self.applied
 
     @property
     def measurement(self) -> Measurement:

@@ -261,6 +261,12 @@ class StepOutputs(NamedTuple):
     applied_moment: NDArray  # (N, 3) [N m]
     rotor_thrusts: NDArray  # (N, 4) [N]
     saturated: NDArray  # (N,) bool, any limit hit
+    # what the autopilot commanded over the step (the ticks' mean of its mixer's output
+    # after saturation, in its own thrust model's newtons: before the motors' lag and the
+    # true throttle map), what a real stack's estimators have (LoopOptions.estimator_wrench)
+    commanded_thrust: NDArray  # (N,) [N]
+    commanded_moment: NDArray  # (N, 3) [N m]
+    commanded_rotor_thrusts: NDArray  # (N, 4) [N]
     disturbance_force: NDArray  # (N, 3) [N] the true disturbance, world frame
     disturbance_torque: NDArray  # (N, 3) [N m] body frame
     wind_velocity: NDArray  # (N, 3) [m/s] the air's velocity at the vehicle, world frame
@@ -428,6 +434,9 @@ def fly_vehicles(start, stop, actions, loop, law, law_constants, law_start, law_
     to_wrench, to_rotors = actuator.to_wrench, actuator.to_rotors
     applied_thrust, applied_moment = outputs.applied_thrust, outputs.applied_moment
     rotor_thrusts, saturated = outputs.rotor_thrusts, outputs.saturated
+    commanded_thrust, commanded_moment = outputs.commanded_thrust, outputs.commanded_moment
+    commanded_rotors = outputs.commanded_rotor_thrusts
+    reads_command = inner.reads_command
     pose_tick, pose_position = inner.pose_tick, inner.pose_position
     pose_velocity, pose_rotation = inner.pose_velocity, inner.pose_rotation
     has_estimate, gyro_filter = inner.has_estimate, inner.gyro_filter
@@ -457,6 +466,7 @@ def fly_vehicles(start, stop, actions, loop, law, law_constants, law_start, law_
         vehicle = law_start(i, law)
         end = (output[i, 0], output[i, 1], output[i, 2], output[i, 3])
         total = (0.0, 0.0, 0.0, 0.0)
+        commanded = (0.0, 0.0, 0.0, 0.0)  # the ticks' sum of the mixer's output
         any_saturated, diverged = False, False
         pose_at = pose_tick[i]
         seen_rotation, seen_rate = R, w
@@ -473,12 +483,14 @@ def fly_vehicles(start, stop, actions, loop, law, law_constants, law_start, law_
                 store_samples(samples, g, sample(force, row, force_own, i, first + g),
                               sample(torque, row, torque_own, i, first + g),
                               sample(wind, row, wind_own, i, first + g))
-            xn, vn, Rn, wn, next_end, mean, hit, _ = fly_tick(
+            xn, vn, Rn, wn, next_end, mean, hit, mixed = fly_tick(
                 (x, v, R, w), end, thrust, moment, battery, body, tick_dt, mean_factor,
                 end_factor, mixing, rotors, draw, samples, substeps, thrust_law)
             end = next_end
             total = (total[0] + mean[0], total[1] + mean[1], total[2] + mean[2],
                      total[3] + mean[3])
+            commanded = (commanded[0] + mixed[0], commanded[1] + mixed[1],
+                         commanded[2] + mixed[2], commanded[3] + mixed[3])
             any_saturated = any_saturated or hit
             if not all_finite(xn, vn, Rn, wn):
                 diverged = True
@@ -492,7 +504,10 @@ def fly_vehicles(start, stop, actions, loop, law, law_constants, law_start, law_
                     rate_after, filter_state = filtered_rate(rate_after, gyro_coefficients,
                                                              filter_state)
                     filter_output = rate_after
-                vehicle = law_after_tick(seen_rate, rate_after, request, mean, constants,
+                # what the law's observer is told the motors gave: their output, or what
+                # the autopilot commanded (a real stack's, LoopOptions.estimator_wrench)
+                vehicle = law_after_tick(seen_rate, rate_after, request,
+                                         mixed if reads_command else mean, constants,
                                          vehicle, mixing)
                 seen_rotation, seen_rate = rotation_after, rate_after
         law_end(i, law, vehicle)
@@ -504,6 +519,9 @@ def fly_vehicles(start, stop, actions, loop, law, law_constants, law_start, law_
         store_applied(i, (total[0] / ticks, total[1] / ticks, total[2] / ticks,
                           total[3] / ticks), to_wrench, to_rotors, applied_thrust,
                       applied_moment, rotor_thrusts)
+        store_applied(i, (commanded[0] / ticks, commanded[1] / ticks, commanded[2] / ticks,
+                          commanded[3] / ticks), to_wrench, to_rotors, commanded_thrust,
+                      commanded_moment, commanded_rotors)
         output[i, 0], output[i, 1], output[i, 2], output[i, 3] = end[0], end[1], end[2], end[3]
         store_vehicle(i, position, velocity, rotation, angular_velocity, x, v, R, w)
         code[i] = NON_FINITE_STATE if diverged else 0  # finish_vehicles reads it
@@ -595,10 +613,12 @@ def start_kernel(indices, offsets, rotations, scales, start, nominal, state, bod
                 inertia[i, k, c] = nominal.inertia[0, k, c] * scales[j, 1]
                 inertia_inverse[i, k, c] = nominal.inertia_inverse[0, k, c] / scales[j, 1]
             outputs.applied_moment[i, k] = 0.0
+            outputs.commanded_moment[i, k] = 0.0
             outputs.disturbance_force[i, k] = 0.0
             outputs.disturbance_torque[i, k] = 0.0
         body.mass[i] = nominal.mass[0] * scales[j, 0]
         outputs.applied_thrust[i] = 0.0
+        outputs.commanded_thrust[i] = 0.0
         outputs.saturated[i] = False
         outputs.reward[i] = 0.0
         episode.step_count[i] = 0
@@ -606,6 +626,7 @@ def start_kernel(indices, offsets, rotations, scales, start, nominal, state, bod
             drag[i, k] = nominal.drag[0, k] * scales[j, 2]
         for k in range(4):
             outputs.rotor_thrusts[i, k] = 0.0
+            outputs.commanded_rotor_thrusts[i, k] = 0.0
             actuator.output[i, k] = start.hover[k]
         x, v, R, w = load_vehicle(i, position, velocity, rotation, angular_velocity)
         outputs.code[i], _ = _sense(i, x, v, R, w, episode, outputs.obs)

@@ -56,6 +56,9 @@ class InnerLoop(NamedTuple):
     pose_velocity: NDArray
     pose_rotation: NDArray  # (N, 3, 3)
     told_inertia: NDArray  # (N,) the rate loop's inertia over the truth (model tolerance)
+    # the attitude laws' observers are told what the autopilot commanded at each tick, not
+    # what the motors gave (LoopOptions.estimator_wrench "commanded")
+    reads_command: bool
 
 
 class RateLaw(NamedTuple):

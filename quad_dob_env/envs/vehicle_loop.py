@@ -93,7 +93,8 @@ class VehicleLoop:
             gyro_output=self.gyro_output, pose_tick=pose_tick, pose_position=pose_position,
             pose_velocity=pose_velocity, pose_rotation=pose_rotation,
             # the told inertia over the truth, which thrust_rates' rate loop flies
-            told_inertia=self.told_over_true[:, 1])
+            told_inertia=self.told_over_true[:, 1],
+            reads_command=scenario.loop.estimator_wrench == "commanded")
         self.draws = RotorDraws(
             time_constant=self.time_constant,
             spin_down_time_constant=self.spin_down_time_constant,

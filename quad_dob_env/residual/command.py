@@ -292,7 +292,8 @@ class ResidualCommand:
         """After the core flew ``command``'s actions: tell the controller what was applied
         and score the residual's effort."""
         core = self.core
-        self.controller.applied(self._state_before, core.applied.thrust, core.applied.moment)
+        told = core.estimator_wrench  # what a real stack's estimators have (LoopOptions)
+        self.controller.applied(self._state_before, told.thrust, told.moment)
         self.rewards = np.empty(core.n)  # a new array: the one handed out stays as it was
         residual_reward_kernel(0, core.n, self._residual, core.rewards, self.effort_weight,
                                self.rate_weight, self.previous_residual,
