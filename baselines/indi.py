@@ -24,6 +24,14 @@ so the acceleration and the actuator state it is compared with share one phase l
 condition Tal & Karaman (citing Smeur 2016) put on INDI. The filter is a second-order
 Butterworth at ``filter_bandwidth`` [rad/s] (``quad_dob_baselines.filters``).
 
+Without telemetry (``actuator_state="model"``; Neural-Fly's vehicle had PWM only,
+docs/research/issue-27-indi.md) the rotors' state is a first-order model of the wrench the
+autopilot commanded, at the vehicle's nominal motor time constant τ, as Paparazzi's INDI
+does without RPM feedback (its ``act_dyn``, [PPZ-S] there): ``u_f ← u_f + (1 − e^{−dt/τ})
+(u_c − u_f)``, ``u_c`` the wrench ``applied`` was told over the step (a loop's
+``estimator_wrench="commanded"`` tells it the command), ``u_f`` starting at hover.
+``"telemetry"`` (v1-v3) reads the rotor speeds.
+
 Timing: the telemetry is each rotor's speed over the last step and the gyroscope's
 difference spans the same step, so the two describe one interval. Both readings come once
 per control step (that is how this simulator draws them), so the increments are formed at
@@ -53,22 +61,36 @@ from quad_dob_env.validation import as_finite
 # Smeur et al. 2018's second-order filter, ω_n = 50 rad/s (8 Hz, the cutoff Paparazzi's
 # and the Crazyflie's INDI ports use): v1's setting; v2's is tuned (gain_sets).
 INDI_FILTER = {"filter_bandwidth": 50.0}
+# where INDI reads the rotors' state: their speeds' telemetry (v1-v3), or a first-order
+# model of the commanded wrench (a vehicle without telemetry: module docstring)
+ACTUATOR_STATES = ("telemetry", "model")
 
 
 @njit(cache=True)
 def indi_measured_disturbances(rows, rotation, gyroscope, accelerometer, rotor_speeds, wrench,
                                from_rotors, mass, inertia, thrust_coefficient, allocation, dt,
                                section, previous_gyro, fresh, inputs, outputs, force_estimate,
-                               torque_estimate):
+                               torque_estimate, modelled, model_rate, hover_thrust):
     """d̂x, d̂Ω (module docstring) for the vehicles ``rows`` marks after one control step;
     a ``fresh`` vehicle starts its filters settled on its first force residual and a zero
-    torque one (no earlier gyroscope reading to difference)."""
+    torque one (no earlier gyroscope reading to difference). ``model_rate`` above 0: the
+    actuators' state is ``modelled`` (N, 4), the first-order model of the told ``wrench``
+    advanced by this share of the gap each step (``1 - e^{-dt/τ}``), starting at hover
+    (``hover_thrust``, no moment: where an episode starts the rotors, before any command);
+    else the telemetry (``from_rotors``) or the told wrench itself."""
     J = matrix_entries(inertia)
     for i in range(rotation.shape[0]):
         if not rows[i]:
             continue
         R = matrix_at(rotation, i)
-        if from_rotors:
+        if model_rate > 0.0:
+            for k in range(4):
+                if fresh[i]:  # nothing commanded yet: the rotors at hover
+                    modelled[i, k] = hover_thrust if k == 0 else 0.0
+                else:
+                    modelled[i, k] += model_rate * (wrench[i, k] - modelled[i, k])
+            thrust_moment = [modelled[i, k] for k in range(4)]
+        elif from_rotors:
             rotor_thrusts = [thrust_coefficient * rotor_speeds[i, k] ** 2 for k in range(4)]
             thrust_moment = [allocation[row, 0] * rotor_thrusts[0]
                              + allocation[row, 1] * rotor_thrusts[1]
@@ -115,11 +137,15 @@ class IncrementalNDI(EstimatingGeometricController):
     name = "indi"
 
     def __init__(self, filter_bandwidth: float = INDI_FILTER["filter_bandwidth"],
-                 **gains: ArrayLike) -> None:
-        super().__init__(tuple(INDI_FILTER), **gains)
+                 actuator_state: str = "telemetry", **gains: ArrayLike) -> None:
+        super().__init__((*INDI_FILTER, "actuator_state"), **gains)
         # held to the control step's Nyquist rate at reset, when the step is known
         self.filter_bandwidth = as_finite(filter_bandwidth, "IncrementalNDI.filter_bandwidth",
                                           0.0, strictly=True)
+        if actuator_state not in ACTUATOR_STATES:
+            raise ValueError(f"unknown IncrementalNDI.actuator_state {actuator_state!r}; "
+                             f"valid: {', '.join(ACTUATOR_STATES)}")
+        self.actuator_state = actuator_state
 
     def reset(self, num_vehicles: int, vehicle: VehicleParams, dt: float,
               indices: NDArray[np.intp] | None = None, actuation: str = "rotors") -> None:
@@ -130,6 +156,14 @@ class IncrementalNDI(EstimatingGeometricController):
                                                 "IncrementalNDI.filter_bandwidth")
             self._previous_gyro = np.zeros((n, 3))
             self._inputs, self._outputs = np.zeros((n, 2, 6)), np.zeros((n, 2, 6))
+            self._modelled = np.zeros((n, 4))  # the actuators' modelled wrench
+            # the model's share of the gap a step, 1 - e^{-dt/τ}; 0: no model
+            tau = float(vehicle.motor_time_constant)
+            if self.actuator_state == "model" and tau <= 0:
+                raise ValueError(f"indi's actuator_state 'model' needs the vehicle's motor time "
+                                 f"constant; {vehicle.name!r} has {tau!r} s")
+            self._model_rate = (1.0 - np.exp(-self.dt / tau) if self.actuator_state == "model"
+                                else 0.0)
 
     def _advance(self, state: VehicleState, rows: NDArray[np.bool_]) -> None:
         vehicle = self.vehicle
@@ -143,7 +177,8 @@ class IncrementalNDI(EstimatingGeometricController):
             self._wrench, self.actuation == "rotors", vehicle.mass, vehicle.inertia_matrix,
             vehicle.thrust_coefficient, vehicle.allocation_matrix, self.dt, self._section,
             self._previous_gyro, self._fresh, self._inputs, self._outputs, self._force,
-            self._torque)
+            self._torque, self._modelled, self._model_rate, vehicle.hover_thrust)
 
     def describe(self) -> dict[str, Any]:
-        return {**super().describe(), "filter_bandwidth": self.filter_bandwidth}
+        return {**super().describe(), "filter_bandwidth": self.filter_bandwidth,
+                "actuator_state": self.actuator_state}

@@ -289,3 +289,47 @@ def test_indi_and_l1_keep_every_flight_of_the_v2_wind_scenarios(name):
     for row in rows:
         assert row["crashes"] == 0, row["scenario"]
         assert row["rms_position_settled_mean"] < 0.3, row["scenario"]
+
+
+def test_indi_without_telemetry_reads_a_first_order_model_of_the_command():
+    """``actuator_state="model"``: the rotors' state is u_f ← u_f + (1 − e^{−dt/τ})(u_c − u_f)
+    on the told wrench u_c, from hover, τ the vehicle's motor time constant; the estimates
+    are the filtered residuals against it (the rotor speeds are not read: they carry
+    nonsense here). A vehicle whose thrust lags its command exactly so leaves no force."""
+    rng = np.random.default_rng(7)
+    steps, bandwidth = 40, 60.0
+    m, J, tau = PAPER.mass, PAPER.inertia_matrix, PAPER.motor_time_constant
+    share = 1.0 - math.exp(-DT / tau)
+    commands = [np.r_[PAPER.hover_thrust + rng.uniform(-8, 8), rng.uniform(-0.5, 0.5, 3)]
+                for _ in range(steps)]
+    model = [np.r_[PAPER.hover_thrust, 0.0, 0.0, 0.0]]  # at the first compute: hover
+    for command in commands[:-1]:
+        model.append(model[-1] + share * (command - model[-1]))
+    rotations = [exp(0.2 * np.sin(0.1 * k + np.array([0.0, 1.0, 2.0]))) for k in range(steps)]
+    rates = [np.array([0.5, -0.3, 0.2]) * np.sin(0.3 * k) for k in range(steps)]
+    # the accelerometer of a vehicle whose thrust is the model's, and no other force
+    accelerometers = [np.array([0.0, 0.0, u[0] / m]) for u in model]
+    controller = IncrementalNDI(filter_bandwidth=bandwidth, actuator_state="model")
+    controller.reset(1, PAPER, DT)
+    forces, torques = [], []
+    for R, rate, accelerometer, command in zip(rotations, rates, accelerometers, commands,
+                                               strict=True):
+        state = Measurement(np.zeros((1, 3)), np.zeros((1, 3)), R[None], rate[None],
+                            gyroscope=rate[None], accelerometer=accelerometer[None],
+                            rotor_speeds=np.full((1, 4), 1e4))
+        controller.compute(np.zeros(1), state, hover_reference())
+        forces.append(controller.force_estimate[0].copy())
+        torques.append(controller.torque_estimate[0].copy())
+        controller.applied(state, command[:1], command[None, 1:])
+    np.testing.assert_allclose(np.array(forces), 0.0, atol=1e-9)
+    torque_residual = [np.zeros(3)]
+    for k in range(1, steps):
+        mean = 0.5 * (rates[k] + rates[k - 1])
+        torque_residual.append(J @ (rates[k] - rates[k - 1]) / DT + np.cross(mean, J @ mean)
+                               - model[k][1:])
+    numerator, denominator = analog_butterworth(bandwidth, DT)
+    for axis in range(3):
+        np.testing.assert_allclose(np.array(torques)[:, axis], filtered(
+            np.array(torque_residual)[:, axis], numerator, denominator), rtol=1e-9, atol=1e-9)
+    with pytest.raises(ValueError, match="actuator_state 'rpm'; valid: telemetry, model"):
+        IncrementalNDI(actuator_state="rpm")
