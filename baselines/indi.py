@@ -44,7 +44,7 @@ speeds), so INDI there measures the disturbance exactly, one step late, through 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -66,19 +66,27 @@ INDI_FILTER = {"filter_bandwidth": 50.0}
 ACTUATOR_STATES = ("telemetry", "model")
 
 
+class ActuatorModel(NamedTuple):
+    """INDI's first-order model of its actuators, without telemetry."""
+
+    modelled: NDArray  # (N, 4) the modelled wrench: thrust, moment
+    rate: float  # the share of the gap to the told wrench closed a step, 1 - e^{-dt/τ}; 0: off
+    hover_thrust: float  # [N] where it starts: nothing commanded yet, the rotors at hover
+
+
 @njit(cache=True)
 def indi_measured_disturbances(rows, rotation, gyroscope, accelerometer, rotor_speeds, wrench,
                                from_rotors, mass, inertia, thrust_coefficient, allocation, dt,
                                section, previous_gyro, fresh, inputs, outputs, force_estimate,
-                               torque_estimate, modelled, model_rate, hover_thrust):
+                               torque_estimate, model):
     """d̂x, d̂Ω (module docstring) for the vehicles ``rows`` marks after one control step;
     a ``fresh`` vehicle starts its filters settled on its first force residual and a zero
-    torque one (no earlier gyroscope reading to difference). ``model_rate`` above 0: the
-    actuators' state is ``modelled`` (N, 4), the first-order model of the told ``wrench``
-    advanced by this share of the gap each step (``1 - e^{-dt/τ}``), starting at hover
-    (``hover_thrust``, no moment: where an episode starts the rotors, before any command);
-    else the telemetry (``from_rotors``) or the told wrench itself."""
+    torque one (no earlier gyroscope reading to difference). ``model`` (an
+    ``ActuatorModel`` as a plain tuple) with a rate above 0: the actuators' state is its
+    first-order model of the told ``wrench``; else the telemetry (``from_rotors``) or the
+    told wrench itself."""
     J = matrix_entries(inertia)
+    modelled, model_rate, hover_thrust = ActuatorModel(*model)
     for i in range(rotation.shape[0]):
         if not rows[i]:
             continue
@@ -177,7 +185,7 @@ class IncrementalNDI(EstimatingGeometricController):
             self._wrench, self.actuation == "rotors", vehicle.mass, vehicle.inertia_matrix,
             vehicle.thrust_coefficient, vehicle.allocation_matrix, self.dt, self._section,
             self._previous_gyro, self._fresh, self._inputs, self._outputs, self._force,
-            self._torque, self._modelled, self._model_rate, vehicle.hover_thrust)
+            self._torque, (self._modelled, self._model_rate, vehicle.hover_thrust))
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "filter_bandwidth": self.filter_bandwidth,
