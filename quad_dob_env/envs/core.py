@@ -286,11 +286,11 @@ class QuadrotorBatch:
         true ``disturbance_force`` / ``disturbance_torque``.
         """
         self.prepare_step()
-        if self.loop.rates or self.action_map.rate_loop is None:  # flown as they are
-            self._actions[...] = actions  # (reading the measurement costs ideal sensing a call)
-        else:
-            self._actions[...] = self.action_map.flown(
-                actions, self.measurement.angular_velocity, self.loop.told_inertia(self.inertia))
+        # the stage's own record: its rates are current under any sensing, where
+        # ``measurement`` would first refresh the ideal IMU's readings, a compiled call
+        self._actions[...] = (actions if self.loop.rates else self.action_map.flown(
+            actions, self.sensing.measurement.angular_velocity,
+            self.loop.told_inertia(self.inertia)))
         if self.attitude_loop is not None:  # a controller's attitude law at the inner rate
             self.attitude_loop.step(self._actions)
         else:
