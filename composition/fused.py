@@ -47,6 +47,7 @@ from quad_dob_composition.attitude_loop import attitude_loop_kernel
 from quad_dob_env.dynamics import load_vehicle
 from quad_dob_env.envs.step_kernels import kernel_tuples, measured_finish_kernel, step_kernel
 from quad_dob_env.residual.residual_kernels import (
+    residual_addition_kernel,
     residual_command_kernel,
     residual_observation,
     residual_reward_kernel,
@@ -221,14 +222,6 @@ def fused_residual_kernel(start, stop, command, actions, vehicles, update, plan)
     plan_kernel(np.arange(start, stop), plan)
 
 
-@njit(cache=True, inline="always")
-def store_addition(start, stop, clipped, residual_range, addition):
-    """What the attitude law adds at every tick: the clipped residual times its range."""
-    for i in range(start, stop):
-        for k in range(4):
-            addition[i, k] = clipped[i, k] * residual_range[k]
-
-
 @njit(cache=True, nogil=True)
 def fused_attitude_kernel(start, stop, command, actions, attitude, vehicles, finish, update,
                           plan):
@@ -242,7 +235,7 @@ def fused_attitude_kernel(start, stop, command, actions, attitude, vehicles, fin
     residual_command_kernel(start, stop, *command)
     update_record, plan_record = UpdateArguments(*update), PlanArguments(*plan)
     addition, inner_law = attitude
-    store_addition(start, stop, update_record.clipped, command[1], addition)
+    residual_addition_kernel(start, stop, update_record.clipped, command[1], addition)
     remember_state(start, stop, update_record, plan_record)
     attitude_loop_kernel(start, stop, actions, addition, inner_law, *vehicles)
     measured_finish_kernel(start, stop, *finish)

@@ -79,6 +79,7 @@ from quad_dob_env.residual.observation import RESIDUAL_ENTRIES
 from quad_dob_env.residual.options import ResidualOptions
 from quad_dob_env.residual.residual_kernels import (
     join_columns,
+    residual_addition_kernel,
     residual_command_kernel,
     residual_observation_kernel,
     residual_reward_kernel,
@@ -261,7 +262,8 @@ class ResidualCommand:
                                 np.ascontiguousarray(self.base_moment), core.action_map.inverse,
                                 self._residual, self.requested_thrust, actions)
         if self._attitude is not None:  # what the inner loop adds to its law at every tick
-            self._attitude.addition[...] = self._residual * self.residual_range
+            residual_addition_kernel(0, core.n, self._residual, self.residual_range,
+                                     self._attitude.addition)
         if self.residual_mode == "acceleration":
             self._residual = clipped  # the effort term scores the whole residual
         return actions

@@ -44,6 +44,15 @@ def residual_command_kernel(start, stop, residual, residual_range, base_thrust, 
 
 
 @njit(cache=True)
+def residual_addition_kernel(start, stop, clipped, residual_range, addition):
+    """What an inner loop's attitude law adds at every tick for vehicles ``start..stop-1``:
+    the clipped residual times its range (thrust [N], moments [N m])."""
+    for i in range(start, stop):
+        for k in range(4):
+            addition[i, k] = clipped[i, k] * residual_range[k]
+
+
+@njit(cache=True)
 def residual_reward_kernel(start, stop, clipped, core_rewards, effort_weight, rate_weight,
                            previous, rewards):
     """The env's reward minus ``effort_weight · mean(a²)`` and ``rate_weight ·
