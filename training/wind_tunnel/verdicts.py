@@ -48,11 +48,13 @@ TOLERANCES = (
     Tolerance("mean.x", "mean x", OFFSET, 0.050, 1e3, "mm", "v4 part 2: offsets", (12.1,)),
     Tolerance("mean.z", "mean z", ABSOLUTE, 0.030, 1e3, "mm", "v4 part 2: offsets", (12.1,)),
 )
-# the shape statistics without a target: their ratio, sim / real (a phase: sim - real)
-RATIOS = (("rms.x", "RMS x"), ("rms.y", "RMS y"), ("rms.z", "RMS z"),
-          ("harmonics.1.z", "z at 1 rad/s"), ("harmonics.2.z", "z at 2 rad/s"),
-          ("harmonics.2.phase.z", "z phase at 2 rad/s"),
-          ("lap_periodic_share", "lap-periodic share"))
+# the shape statistics without a target, (name, label, scale to the unit shown, unit):
+# their ratio, sim / real (a phase: sim - real)
+RATIOS = (("rms.x", "RMS x", 1e3, "mm"), ("rms.y", "RMS y", 1e3, "mm"),
+          ("rms.z", "RMS z", 1e3, "mm"), ("harmonics.1.z", "z at 1 rad/s", 1e3, "mm"),
+          ("harmonics.2.z", "z at 2 rad/s", 1e3, "mm"),
+          ("harmonics.2.phase.z", "z phase at 2 rad/s", 180 / math.pi, "°"),
+          ("lap_periodic_share", "lap-periodic share", 1.0, ""))
 
 
 def _finite(*values: float | None) -> bool:
@@ -108,18 +110,15 @@ def verdicts(real: dict[str, float], simulated: dict[str, float], wind_speed: fl
                      "real": None if r is None else r * tolerance.scale,
                      "simulated": None if s is None else s * tolerance.scale,
                      "verdict": verdict})
-    for statistic, label in RATIOS:
+    for statistic, label, scale, unit in RATIOS:
         r, s = real.get(statistic), simulated.get(statistic)
-        phase = ".phase." in statistic
-        scale = 180 / math.pi if phase else (1.0 if statistic == "lap_periodic_share" else 1e3)
         verdict = "—"
-        if _finite(r, s) and phase:
+        if _finite(r, s) and ".phase." in statistic:
             difference = (s - r + math.pi) % (2 * math.pi) - math.pi
             verdict = f"sim - real {math.degrees(difference):+.0f}°"
         elif _finite(r, s) and r != 0:
             verdict = f"sim / real {s / r:.2f}"
-        rows.append({"statistic": label, "unit": "°" if phase else (
-            "" if statistic == "lap_periodic_share" else "mm"),
-            "real": None if r is None else r * scale,
-            "simulated": None if s is None else s * scale, "verdict": verdict})
+        rows.append({"statistic": label, "unit": unit,
+                     "real": None if r is None else r * scale,
+                     "simulated": None if s is None else s * scale, "verdict": verdict})
     return rows
