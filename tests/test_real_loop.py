@@ -321,7 +321,7 @@ def _difference_equation(b, a, x, inputs, outputs):
 
 @pytest.mark.parametrize(("cutoff", "rate"), [(30.0, 200.0), (20.0, 400.0), (45.0, 100.0)])
 def test_the_gyro_low_pass_is_the_prewarped_butterworth(cutoff, rate):
-    from quad_dob_env.envs.ticks import butterworth_coefficients
+    from quad_dob_env.filters import butterworth_coefficients
 
     b, a = _butterworth_oracle(cutoff, rate)
     coefficients = butterworth_coefficients(cutoff, rate)

@@ -9,7 +9,6 @@ loop over ticks, ``step_kernels.fly_vehicles``, calls these, so each equation is
 once.
 """
 
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -115,17 +114,6 @@ def estimated(R, w, has_estimate, error):
     rates, w0 = error.estimated_rate, error.true_rate
     return (mat_mul_tuple(error.rotation, R),
             (w[0] + rates[0] - w0[0], w[1] + rates[1] - w0[1], w[2] + rates[2] - w0[2]))
-
-
-def butterworth_coefficients(cutoff: float, rate: float) -> tuple[float, ...]:
-    """A 2nd-order Butterworth low-pass at ``cutoff`` [Hz] sampled at ``rate`` [Hz], by the
-    bilinear transform prewarped at the cutoff: (b0, b1, b2, a1, a2) of
-    ``y_k = b0 x_k + b1 x_{k-1} + b2 x_{k-2} - a1 y_{k-1} - a2 y_{k-2}``."""
-    k = math.tan(math.pi * cutoff / rate)  # the prewarped cutoff, ω_c T / 2
-    norm = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
-    b0 = k * k * norm
-    return (b0, 2.0 * b0, b0, 2.0 * (k * k - 1.0) * norm,
-            (1.0 - math.sqrt(2.0) * k + k * k) * norm)
 
 
 @njit(cache=True, inline="always")

@@ -16,7 +16,8 @@ from quad_dob_env.dynamics import Actuator
 from quad_dob_env.dynamics.actuation import as_floats
 from quad_dob_env.dynamics.rotors import RotorDraws, RotorModel
 from quad_dob_env.envs.actions import MAX_RATE_COMMAND, RATE_GAIN
-from quad_dob_env.envs.ticks import InnerLoop, butterworth_coefficients
+from quad_dob_env.envs.ticks import InnerLoop
+from quad_dob_env.filters import butterworth_coefficients
 from quad_dob_env.rng import named_stream
 from quad_dob_env.scenarios import Scenario
 
