@@ -26,8 +26,9 @@ Butterworth at ``filter_bandwidth`` [rad/s] (``quad_dob_baselines.filters``).
 
 Without telemetry (``actuator_state="model"``; Neural-Fly's vehicle had PWM only,
 docs/research/issue-27-indi.md) the rotors' state is a first-order model of the wrench the
-autopilot commanded, at the vehicle's nominal motor time constant τ, as Paparazzi's INDI
-does without RPM feedback (its ``act_dyn``, [PPZ-S] there): ``u_f ← u_f + (1 − e^{−dt/τ})
+autopilot commanded, at a motor time constant τ (``actuator_time_constant``; None: the
+vehicle's nominal), as Paparazzi's INDI does without RPM feedback with its identified
+``act_dyn`` ([PPZ-S] there): ``u_f ← u_f + (1 − e^{−dt/τ})
 (u_c − u_f)``, ``u_c`` the wrench ``applied`` was told over the step (a loop's
 ``estimator_wrench="commanded"`` tells it the command), ``u_f`` starting at hover.
 ``"telemetry"`` (v1-v3) reads the rotor speeds.
@@ -145,8 +146,9 @@ class IncrementalNDI(EstimatingGeometricController):
     name = "indi"
 
     def __init__(self, filter_bandwidth: float = INDI_FILTER["filter_bandwidth"],
-                 actuator_state: str = "telemetry", **gains: ArrayLike) -> None:
-        super().__init__((*INDI_FILTER, "actuator_state"), **gains)
+                 actuator_state: str = "telemetry", actuator_time_constant: float | None = None,
+                 **gains: ArrayLike) -> None:
+        super().__init__((*INDI_FILTER, "actuator_state", "actuator_time_constant"), **gains)
         # held to the control step's Nyquist rate at reset, when the step is known
         self.filter_bandwidth = as_finite(filter_bandwidth, "IncrementalNDI.filter_bandwidth",
                                           0.0, strictly=True)
@@ -154,6 +156,10 @@ class IncrementalNDI(EstimatingGeometricController):
             raise ValueError(f"unknown IncrementalNDI.actuator_state {actuator_state!r}; "
                              f"valid: {', '.join(ACTUATOR_STATES)}")
         self.actuator_state = actuator_state
+        # [s] the model's time constant (None: the vehicle's nominal motor_time_constant)
+        self.actuator_time_constant = (None if actuator_time_constant is None else as_finite(
+            actuator_time_constant, "IncrementalNDI.actuator_time_constant", 0.0,
+            strictly=True))
 
     def reset(self, num_vehicles: int, vehicle: VehicleParams, dt: float,
               indices: NDArray[np.intp] | None = None, actuation: str = "rotors") -> None:
@@ -166,7 +172,8 @@ class IncrementalNDI(EstimatingGeometricController):
             self._inputs, self._outputs = np.zeros((n, 2, 6)), np.zeros((n, 2, 6))
             self._modelled = np.zeros((n, 4))  # the actuators' modelled wrench
             # the model's share of the gap a step, 1 - e^{-dt/τ}; 0: no model
-            tau = float(vehicle.motor_time_constant)
+            tau = float(vehicle.motor_time_constant if self.actuator_time_constant is None
+                        else self.actuator_time_constant)
             if self.actuator_state == "model" and tau <= 0:
                 raise ValueError(f"indi's actuator_state 'model' needs the vehicle's motor time "
                                  f"constant; {vehicle.name!r} has {tau!r} s")
@@ -189,4 +196,5 @@ class IncrementalNDI(EstimatingGeometricController):
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "filter_bandwidth": self.filter_bandwidth,
-                "actuator_state": self.actuator_state}
+                "actuator_state": self.actuator_state,
+                "actuator_time_constant": self.actuator_time_constant}
