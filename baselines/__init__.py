@@ -37,7 +37,13 @@ from typing import Any
 
 from quad_dob_baselines import plugins
 from quad_dob_baselines.base import Controller
-from quad_dob_baselines.gain_sets import GAIN_SETS, MARGIN_LOSSES, GainSet, gain_set
+from quad_dob_baselines.gain_sets import (
+    BENCHMARK_INPUTS,
+    GAIN_SETS,
+    MARGIN_LOSSES,
+    GainSet,
+    gain_set,
+)
 from quad_dob_baselines.geometric import GeometricController, GeometricIntegralController
 from quad_dob_baselines.indi import IncrementalNDI
 from quad_dob_baselines.l1 import L1AdaptiveController
@@ -128,8 +134,9 @@ def user_controller(name: str) -> tuple[plugins.ControllerFactory, Any] | None:
 def make_controller(name: str, vehicle: VehicleParams | str = "paper",
                     benchmark: str = "v1", **options: object) -> Controller:
     """The named controller for ``vehicle`` with the gains its name means in ``benchmark``
-    (``gain_sets``: v1's are the modules' defaults); ``options`` override them. A user's
-    controller (``py:package.module:Name`` or an installed entry point, ``plugins``) flies
+    (``gain_sets``: v1's are the modules' defaults) and what it reads in that benchmark's
+    loop (``BENCHMARK_INPUTS``: v4's INDI models its actuators); ``options`` override them.
+    A user's controller (``py:package.module:Name`` or an installed entry point, ``plugins``) flies
     its own defaults in every benchmark."""
     params = get_vehicle(vehicle)
     user = user_controller(name)
@@ -138,12 +145,14 @@ def make_controller(name: str, vehicle: VehicleParams | str = "paper",
         controller.gain_set = GainSet({}, None)
         return controller
     chosen = gain_set(name, benchmark, params)
-    controller = CONTROLLERS[name](params, **{**chosen.options, **options})
+    inputs = BENCHMARK_INPUTS.get((name, benchmark), {})
+    controller = CONTROLLERS[name](params, **{**chosen.options, **inputs, **options})
     controller.gain_set = chosen
     return controller
 
 
 __all__ = [
+    "BENCHMARK_INPUTS",
     "CONTROLLERS",
     "GAIN_SETS",
     "MARGIN_LOSSES",

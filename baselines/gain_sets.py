@@ -24,6 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from quad_dob_env.benchmark import BENCHMARKS
+from quad_dob_env.benchmark_v4 import V4_INDI_ACTUATOR_TIME_CONSTANT
 from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.validation import unknown_name_error
 
@@ -166,7 +167,17 @@ class GainSet(NamedTuple):
 # A name with no set of a benchmark's own (a user's tuned name, a benchmark before its
 # search) flies the sets of the benchmark before it (``tuned_for`` says so): v3's loop is
 # v2's with the real vehicle's lag and thrust path.
-INHERITED_FROM = {"v3": "v2"}
+INHERITED_FROM = {"v3": "v2", "v4": "v3"}
+
+# What a controller reads in a benchmark's loop where its default reads more than the real
+# vehicle's stack has (not gains: laid over every set of the benchmark, a user's options
+# over them). v4: Neural-Fly's INDI vehicle had PWM only, no rotor telemetry, so INDI
+# models its actuators, at the class's measured motor time constant, as Paparazzi's is
+# identified on its vehicle (quad_dob_env.benchmark_v4.V4_SOURCES, "indi.actuator_state").
+BENCHMARK_INPUTS: dict[tuple[str, str], dict[str, object]] = {
+    ("indi", "v4"): {"actuator_state": "model",
+                     "actuator_time_constant": V4_INDI_ACTUATOR_TIME_CONSTANT},
+}
 
 
 def gain_set(name: str, benchmark: str, vehicle: VehicleParams | str) -> GainSet:

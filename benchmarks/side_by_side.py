@@ -26,9 +26,14 @@ The cases (``--cases``):
   residual (the base, ``geometric-ndob:tuned``, in the loop).
 - ``v3``: ``TrackResidual-v3`` on ``dryden-helix-gusts``, N = 1024, a zero residual;
   ``v1-windy``: ``TrackResidual-v1`` on the same scenario (v3's loop against v1's).
+- ``v4``: ``TrackResidual-v4`` on ``dryden-helix-gusts``, N = 1024, a zero residual.
 - ``single-v1``, ``single-v3``: ``gym.make('QuadDOB/Track-v1')`` on ``paper-none`` and
   ``gym.make('QuadDOB/TrackResidual-v3')`` on its own scenario, random actions, resets
   counted.
+
+``--pair A,B`` sets two cases side by side instead, on the working tree alone: A B A B ...,
+each repeat a fresh process, and the ratio of A's rate to B's (e.g. ``--pair v4,v3``,
+Benchmark v4's loop against v3's on one scenario).
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ CASES = {
     "v1": ("vector", "QuadDOB/TrackResidual-v1", "paper-none", 1024),
     "v1-4096": ("vector", "QuadDOB/TrackResidual-v1", "paper-none", 4096),
     "v3": ("vector", "QuadDOB/TrackResidual-v3", "dryden-helix-gusts", 1024),
+    "v4": ("vector", "QuadDOB/TrackResidual-v4", "dryden-helix-gusts", 1024),
     "v1-windy": ("vector", "QuadDOB/TrackResidual-v1", "dryden-helix-gusts", 1024),
     "single-v1": ("single", "QuadDOB/Track-v1", "paper-none", 1),
     "single-v3": ("single", "QuadDOB/TrackResidual-v3", "", 1),  # "": the id's own
@@ -129,6 +135,30 @@ def measure(python: Path, case: str, steps: int, cwd: Path) -> dict:
     return json.loads(result.stdout.strip().splitlines()[-1])
 
 
+def compare_cases(pair: list[str], repeats: int, steps: int, workdir: Path) -> None:
+    """Two cases interleaved on the working tree: each one's median rate, and A / B."""
+    workdir.mkdir(parents=True, exist_ok=True)
+    python = Path(sys.executable)
+    for case in pair:
+        measure(python, case, 3, workdir)  # compiles into the cache
+    rates: dict[str, list[float]] = {case: [] for case in pair}
+    for repeat in range(repeats):
+        for case in pair:
+            kind = CASES[case][0]
+            rates[case].append(measure(python, case, steps * (100 if kind == "single" else 1),
+                                       workdir)["rate"])
+        print(f"repeat {repeat + 1}/{repeats}: " + ", ".join(
+            f"{case} {values[-1] / 1e3:,.1f}k" for case, values in rates.items()), flush=True)
+    first, second = pair
+    ratios = [a / b for a, b in zip(rates[first], rates[second], strict=True)]
+    print("\n| case | steps/s (median) |\n|---|---|")
+    for case, values in rates.items():
+        print(f"| {case}: {CASES[case][1]} on {CASES[case][2]}, N = {CASES[case][3]} | "
+              f"{statistics.median(values):,.0f} |")
+    print(f"\n{first} / {second}: median {statistics.median(ratios):.3f} "
+          f"[{min(ratios):.3f}, {max(ratios):.3f}] over {repeats} interleaved repeats")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--commits", default="5a52e7e",
@@ -145,7 +175,15 @@ def main() -> None:
     parser.add_argument("--cases", default="v1,v3", help=f"comma-separated, of: "
                                                          f"{', '.join(CASES)}")
     parser.add_argument("--workdir", default="/tmp/quad-dob-side-by-side")
+    parser.add_argument("--pair", default=None,
+                        help="two cases, A,B, interleaved on the working tree (module doc)")
     args = parser.parse_args()
+    if args.pair:
+        pair = [case.strip() for case in args.pair.split(",")]
+        if len(pair) != 2 or any(case not in CASES for case in pair):
+            parser.error(f"--pair takes two of the cases {', '.join(CASES)}, got {args.pair!r}")
+        compare_cases(pair, args.repeats, args.steps, Path(args.workdir))
+        return
     workdir = Path(args.workdir)
     workdir.mkdir(parents=True, exist_ok=True)
     cases = [case.strip() for case in args.cases.split(",")]

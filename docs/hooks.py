@@ -1,7 +1,7 @@
 """The docs pages generated from the code, and the MkDocs hook that holds them to it.
 
 - ``environments/ID.md``, one per registered id (``quad_dob_env.ENV_IDS``, ``ENV_IDS_V2``,
-  ``ENV_IDS_V3``):
+  ``ENV_IDS_V3``, ``ENV_IDS_V4``):
   the env made with ``gym.make`` and its spaces, default scenario, loop, base controller,
   episode length and version history read off it.
   Each page has tables for the id's default options, read off the env and the code's own
@@ -40,6 +40,11 @@ LOOPS = {
           "constants, the autopilot's 30 Hz gyro low-pass, the pose's latency on the inner "
           "loop's grid, the throttle map with the battery's spread and drift, vibration on "
           "the IMU and the controllers' model off the truth",
+    "v4": "v3's loop with five mechanisms corrected against Neural-Fly's logs: the "
+          "estimators told the autopilot's command (INDI modelling its actuators), the drag "
+          "fitted in the simulator's tilted equilibrium, the rotors' vibration as tones "
+          "through the IMU's chain, an identified throttle curve, the tunnel's reference "
+          "from rest",
 }
 
 

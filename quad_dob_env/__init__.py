@@ -27,9 +27,10 @@ Importing the package registers the Gymnasium ids ``QuadDOB/Hover-v1`` and
 ``QuadDOB/Track-v1`` (direct control), and ``QuadDOB/HoverResidual-v1`` and
 ``QuadDOB/TrackResidual-v1`` (a residual on top of ``base_controller``, default the
 recommended ``geometric-ndob:tuned``, in wind), and ``QuadDOB/TracksResidual-v1`` (the same
-on ``random-tracks``, the task distribution generalists train on); the ``-v2`` and ``-v3``
-ids fly the same scenarios (but the paper's wrench-actuated helix) in Benchmark v2's and
-v3's loops (``benchmark``; v3's sourced values in ``benchmark_v3``);
+on ``random-tracks``, the task distribution generalists train on); the ``-v2``, ``-v3``
+and ``-v4`` ids fly the same scenarios (but the paper's wrench-actuated helix) in Benchmark
+v2's, v3's and v4's loops (``benchmark``; v3's sourced values in ``benchmark_v3``, v4's in
+``benchmark_v4``);
 ``gym.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")`` gives the native
 ``QuadrotorVectorEnv`` for each. The envs' version history is in ``QuadrotorEnv``'s
 docstring.
@@ -65,10 +66,13 @@ ENV_IDS_V2 = {
 
 # Benchmark v3's loop (the real vehicle's lag and thrust path) on the same scenarios
 ENV_IDS_V3 = {env_id.replace("-v2", "-v3"): scenario for env_id, scenario in ENV_IDS_V2.items()}
+# Benchmark v4's loop (v3's with five mechanisms corrected against Neural-Fly's logs)
+ENV_IDS_V4 = {env_id.replace("-v2", "-v4"): scenario for env_id, scenario in ENV_IDS_V2.items()}
 BENCHMARK_OF_ID = {**{env_id: "v2" for env_id in ENV_IDS_V2},
-                   **{env_id: "v3" for env_id in ENV_IDS_V3}}
+                   **{env_id: "v3" for env_id in ENV_IDS_V3},
+                   **{env_id: "v4" for env_id in ENV_IDS_V4}}
 # every id this package registers, with its default scenario, in registration order
-ALL_ENV_IDS = {**ENV_IDS, **ENV_IDS_V2, **ENV_IDS_V3}
+ALL_ENV_IDS = {**ENV_IDS, **ENV_IDS_V2, **ENV_IDS_V3, **ENV_IDS_V4}
 
 
 def is_residual_id(env_id: str) -> bool:
@@ -106,6 +110,7 @@ __all__ = [
     "ENV_IDS",
     "ENV_IDS_V2",
     "ENV_IDS_V3",
+    "ENV_IDS_V4",
     "SENSING_PRESETS",
     "VEHICLES",
     "Measurement",

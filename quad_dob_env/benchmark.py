@@ -1,4 +1,4 @@
-"""Benchmark v1, v2 or v3, as one option of the vehicle loop (``LoopOptions.benchmark``).
+"""Benchmark v1, v2, v3 or v4, as one option of the vehicle loop (``LoopOptions.benchmark``).
 
 ``"v1"`` is the loop v1 measured: ideal sensing, one controller at the control rate, a lag
 on the thrust, no rotor aerodynamics. ``"v2"`` is the loop a real vehicle flies, parts 1
@@ -9,11 +9,17 @@ with the real vehicle's lag and thrust path (``quad_dob_env.benchmark_v3``, ever
 sourced): the motors' measured time constants, the autopilot's gyro low-pass and the pose
 latency on the inner loop's tick grid, the throttle map with the battery under it in place
 of thrust uncertainty, vibration on the IMU and the controllers' model off the truth.
+``"v4"`` is v3's loop with five mechanisms corrected against Neural-Fly's logs
+(``quad_dob_env.benchmark_v4``): the estimators told the autopilot's command, the drag
+fitted in the simulator's tilted equilibrium, the vibration as tones in place of v3's white
+noise, the identified throttle curve (and, outside the loop, INDI's actuator model and the
+tunnel's reference from rest).
 
 A loop field given with the scenario (``sensing="ideal"``, ``speed_motors=False``,
 ``inner_rate=0``, ...) keeps its value under any benchmark: that is how one factor is
-switched off in turn. v3's own factors are switched off with ``False`` (``gyro_cutoff``: 0).
-Imports nothing above ``benchmark_v3`` and ``sensing.models``.
+switched off in turn. v3's and v4's own factors are switched off with ``False``
+(``gyro_cutoff``: 0; ``estimator_wrench``: ``"applied"``). Imports nothing above
+``benchmark_v4`` and ``sensing.models``.
 """
 
 from __future__ import annotations
@@ -22,10 +28,11 @@ import math
 from typing import Any
 
 from quad_dob_env.benchmark_v3 import REAL_LOOPS, butterworth_gain
+from quad_dob_env.benchmark_v4 import V4_LOOPS
 from quad_dob_env.sensing.models import SensorSuite, resolve_sensing
 from quad_dob_env.validation import unknown_name_error
 
-BENCHMARKS = ("v1", "v2", "v3")
+BENCHMARKS = ("v1", "v2", "v3", "v4")
 # the benchmark the command-line tools (evaluate, --suite, tune, check-controller, the
 # leaderboard, wind-tunnel, make demo) fly when none is given: the newest. The library's
 # scenarios keep v1 unless told, so code written against v1 flies as it did.
@@ -42,7 +49,10 @@ V2_LOOP_FIELDS = ("sensing", "inner_rate", "speed_motors", "thrust_uncertainty",
                   "rotor_aerodynamics", "drag")
 V3_LOOP_FIELDS = ("motor_time_constants", "throttle_map", "model_tolerance", "gyro_cutoff",
                   "imu_vibration", "pose_latency_on_ticks")
-LOOP_FIELDS = V2_LOOP_FIELDS + V3_LOOP_FIELDS
+V4_LOOP_FIELDS = ("estimator_wrench", "airframe_drag", "imu_vibration_tones")
+LOOP_FIELDS = V2_LOOP_FIELDS + V3_LOOP_FIELDS + V4_LOOP_FIELDS
+# the benchmarks that fly v3's sourced loop (v4 corrects five of its mechanisms over it)
+REAL_LOOP_BENCHMARKS = ("v3", "v4")
 
 
 def v2_inner_rate(dt: float, rate: float = V2_INNER_RATE) -> float:
@@ -50,11 +60,11 @@ def v2_inner_rate(dt: float, rate: float = V2_INNER_RATE) -> float:
     return math.ceil(rate * dt - 1e-9) / dt
 
 
-def v3_loop(vehicle: Any, name: str) -> dict[str, Any]:
+def v3_loop(vehicle: Any, name: str, benchmark: str = "v3") -> dict[str, Any]:
     """v3's own loop fields for ``vehicle`` (a ``VehicleParams``), from its sourced values."""
     if vehicle.name not in REAL_LOOPS:
-        raise ValueError(f"benchmark='v3' flies sourced values of the real vehicle's loop, "
-                         f"which exist for the vehicles {sorted(REAL_LOOPS)}; scenario "
+        raise ValueError(f"benchmark={benchmark!r} flies sourced values of the real vehicle's "
+                         f"loop, which exist for the vehicles {sorted(REAL_LOOPS)}; scenario "
                          f"{name!r} flies {vehicle.name!r}: use one of those, or "
                          "benchmark='v2'")
     real = REAL_LOOPS[vehicle.name]
@@ -69,9 +79,23 @@ def v3_loop(vehicle: Any, name: str) -> dict[str, Any]:
             "pose_latency_on_ticks": True}
 
 
-# what each of v3's own fields is when off (given as False, ``gyro_cutoff`` as 0)
+def v4_loop(vehicle: Any, name: str) -> dict[str, Any]:
+    """v4's loop fields for ``vehicle``: v3's, with the five mechanisms v4 corrects
+    (``quad_dob_env.benchmark_v4``): the estimators told the command, the fitted drag, the
+    vibration as tones (in place of v3's white vibration), the identified throttle curve."""
+    fields = v3_loop(vehicle, name, "v4")
+    v4 = V4_LOOPS[vehicle.name]
+    return {**fields, "throttle_map": v4.throttle_map, "imu_vibration": None,
+            "estimator_wrench": "commanded", "airframe_drag": v4.airframe_drag,
+            "imu_vibration_tones": v4.vibration}
+
+
+# what each of v3's and v4's own fields is when off (given as False, ``gyro_cutoff`` as 0;
+# the estimators then told the rotors' output, as v1-v3)
 V3_OFF = {"motor_time_constants": None, "throttle_map": None, "model_tolerance": None,
           "gyro_cutoff": None, "imu_vibration": None, "pose_latency_on_ticks": False}
+V4_OFF = {"estimator_wrench": "applied", "airframe_drag": None, "imu_vibration_tones": None}
+OFF = {**V3_OFF, **V4_OFF}
 
 
 def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str,
@@ -81,22 +105,24 @@ def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str
     given "off" their ``V3_OFF`` value."""
     if benchmark not in BENCHMARKS:
         raise unknown_name_error("benchmark", benchmark, BENCHMARKS)
-    loop = benchmark in ("v2", "v3")
+    loop = benchmark in ("v2", *REAL_LOOP_BENCHMARKS)
     if loop and actuation != "rotors":
         raise ValueError(f"benchmark={benchmark!r} flies rotors (speed motors, rotor "
                          f"aerodynamics), but scenario {name!r} flies actuation={actuation!r},"
                          " the paper's wrench: the paper-* scenarios are v1-only "
                          "(benchmark='v1')")
-    v3 = benchmark == "v3"
+    v3 = benchmark in REAL_LOOP_BENCHMARKS
     rate = REAL_LOOPS[vehicle.name].inner_rate if v3 and vehicle.name in REAL_LOOPS else (
         V2_INNER_RATE)
+    own = (v4_loop(vehicle, name) if benchmark == "v4" else
+           {**v3_loop(vehicle, name), **V4_OFF} if v3 else OFF)
     defaults = {"sensing": V2_SENSING if loop else None,
                 "inner_rate": v2_inner_rate(dt, rate) if loop else None,
                 "speed_motors": loop, "thrust_uncertainty": benchmark == "v2",
                 "rotor_aerodynamics": loop,
                 # the air-relative velocity the rotors' aerodynamics act on
                 "drag": loop,
-                **(v3_loop(vehicle, name) if v3 else V3_OFF)}
+                **own}
     resolved = {key: defaults[key] if given.get(key) is None else given[key]
                 for key in LOOP_FIELDS}
     if given["rotor_aerodynamics"] is None and given["drag"] is not None:
@@ -105,7 +131,7 @@ def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str
         resolved["rotor_aerodynamics"] = resolved["rotor_aerodynamics"] and bool(given["drag"])
     if isinstance(resolved["inner_rate"], (int, float)) and resolved["inner_rate"] == 0:
         resolved["inner_rate"] = None
-    for key, off in V3_OFF.items():
+    for key, off in OFF.items():
         value = resolved[key]
         if value is False or (key == "gyro_cutoff" and value == 0):
             resolved[key] = off
@@ -120,10 +146,13 @@ def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str
              "model_tolerance": not resolved["speed_motors"],
              "gyro_cutoff": resolved["inner_rate"] is None,
              # a sensor suite's IMU and pose fix
-             "imu_vibration": not suite, "pose_latency_on_ticks": not suite}
+             "imu_vibration": not suite, "pose_latency_on_ticks": not suite,
+             "imu_vibration_tones": not suite,
+             # the drag's coefficients act through the air-relative velocity drag turns on
+             "airframe_drag": not resolved["drag"]}
     for key, missing in needs.items():
         if missing and given.get(key) is None:
-            resolved[key] = V3_OFF[key]
+            resolved[key] = OFF[key]
     return resolved
 
 

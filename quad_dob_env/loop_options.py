@@ -6,7 +6,7 @@ state and what the policy reads, is one option of this record; ``Scenario.loop``
 
 | option                      | what it does                                          | v2 | v3 |
 |-----------------------------|-------------------------------------------------------|----|----|
-| ``benchmark``               | ``"v1"``, ``"v2"`` or ``"v3"``: what the None ones are | -  | -  |
+| ``benchmark``               | ``"v1"`` to ``"v4"``: what the None ones are           | -  | -  |
 | ``sensing``                 | what every policy reads (``quad_dob_env.sensing``)     | x  | x  |
 | ``inner_rate``              | [Hz] the attitude loop, a multiple of 1/dt; 0: none    | x  | x  |
 | ``speed_motors``            | motors on rotor speed, thrust and yaw torque ∝ ω²      | x  | x  |
@@ -27,11 +27,15 @@ state and what the policy reads, is one option of this record; ``Scenario.loop``
 | ``rotor_thrust_mismatch``   | each rotor's k_F off the nominal by up to ± this       |    |    |
 | ``estimator_wrench``        | what the estimators are told was applied: ``"applied"`` |    |    |
 |                             | (the rotors' output) or ``"commanded"`` (the autopilot's) |  |    |
+| ``airframe_drag``           | the airframe's drag in place of the vehicle preset's   |    |    |
+| ``imu_vibration_tones``     | the rotors' vibration on the IMU as tones              |    |    |
 
-The twelve benchmark options (``LOOP_FIELDS``) left None are what ``benchmark`` sets
+The fifteen benchmark options (``LOOP_FIELDS``) left None are what ``benchmark`` sets
 (``quad_dob_env.benchmark.loop_fields``, the one resolution; the v2 and v3 columns say which
-it turns on), so one option given keeps its value under any benchmark and one factor is
-switched off in turn; v3's own are switched off with ``False`` (``gyro_cutoff``: 0).
+it turns on; v4, v3's loop with its own ``throttle_map``, sets the last three, with
+``estimator_wrench="commanded"``, and no white ``imu_vibration``), so one option given
+keeps its value under any benchmark and one factor is switched off in turn; v3's and v4's
+own are switched off with ``False`` (``gyro_cutoff``: 0; ``estimator_wrench``: "applied").
 
 Ranges: ``motor_time_constant_scale``, ``unmodelled_pose_latency`` and
 ``imu_vibration_scale`` take a number or a (low, high) range, drawn uniformly per episode for
@@ -63,8 +67,9 @@ import numpy as np
 
 from quad_dob_env.benchmark import BENCHMARKS, LOOP_FIELDS, loop_fields
 from quad_dob_env.dynamics.throttle import ThrottleMap
-from quad_dob_env.params import VehicleParams, get_vehicle
+from quad_dob_env.params import AirframeDrag, VehicleParams, get_vehicle
 from quad_dob_env.sensing.models import SensorSuite, resolve_sensing
+from quad_dob_env.sensing.vibration import VibrationTones
 from quad_dob_env.validation import as_finite, unknown_name_error
 from quad_dob_env.variation import ModelTolerance, SensorNoise, range_bounds, value_or_range
 
@@ -73,7 +78,9 @@ SWITCHES = ("speed_motors", "thrust_uncertainty", "rotor_aerodynamics", "drag",
             "pose_latency_on_ticks")
 # v3's parts given as a record, a dict of its fields, None (the benchmark's) or False (off)
 RECORD_OPTIONS: dict[str, type] = {"throttle_map": ThrottleMap,
-                                   "model_tolerance": ModelTolerance}
+                                   "model_tolerance": ModelTolerance,
+                                   "airframe_drag": AirframeDrag,
+                                   "imu_vibration_tones": VibrationTones}
 
 
 def _pair(value: object, name: str, what: str, strictly: bool) -> tuple[float, float]:
@@ -114,7 +121,7 @@ ESTIMATOR_WRENCHES = ("applied", "commanded")
 class LoopOptions:
     """The vehicle loop's options (table in the module docstring); validated when made.
 
-    ``benchmark`` and the twelve options it sets (``LOOP_FIELDS``), v1's ``motor_lag`` and
+    ``benchmark`` and the fifteen options it sets (``LOOP_FIELDS``), v1's ``motor_lag`` and
     the margin's knobs (a lag, a slower motor, a late reading: parts of the loop too);
     ``sensors`` is no option but a flat key for ``sensing``. Made by hand or from flat keys
     (``split_loop_keys``) it is *given*: its None options are the benchmark's. ``Scenario``
@@ -158,8 +165,14 @@ class LoopOptions:
     # (k_F ω² of the true, lagged rotor speeds: v1-v3, docs/design.md), or "commanded",
     # what the autopilot sent (after its mixer's saturation, in its own thrust model's
     # newtons: before the motors' lag and the true throttle map), which is all a real
-    # stack without rotor telemetry has (Benchmark v4, issue 54)
-    estimator_wrench: str = "applied"
+    # stack without rotor telemetry has (v4's); None: the benchmark's
+    estimator_wrench: str | None = None
+    # the airframe's drag in place of the vehicle preset's (v4's fitted one; None: the
+    # benchmark's, the preset's own in v1-v3; False: the preset's)
+    airframe_drag: AirframeDrag | None = None
+    # the rotors' vibration on the accelerometer as tones through the autopilot's sampling
+    # and filters (v4's; None: the benchmark's; False: none)
+    imu_vibration_tones: VibrationTones | None = None
     # the record as given, kept by ``resolved`` (None: this one is as given); a change of
     # benchmark or clock resolves from it again, as a given 0 or "ideal" resolves to None
     given: LoopOptions | None = field(default=None, init=False, compare=False, repr=False)
@@ -215,7 +228,8 @@ class LoopOptions:
             raise ValueError(f"LoopOptions.rotor_thrust_mismatch is a rotor's relative "
                              f"thrust error bound, in [0, 0.5), got {mismatch!r}")
         checked["rotor_thrust_mismatch"] = mismatch
-        if self.estimator_wrench not in ESTIMATOR_WRENCHES:
+        if self.estimator_wrench is not None and self.estimator_wrench not in (
+                ESTIMATOR_WRENCHES):
             raise unknown_name_error("LoopOptions.estimator_wrench", self.estimator_wrench,
                                      ESTIMATOR_WRENCHES)
         for name, value in checked.items():  # frozen: the normalised values, set once
@@ -281,6 +295,19 @@ class LoopOptions:
             raise ValueError(f"LoopOptions.imu_vibration shakes an IMU, but {flight} senses "
                              f"{self.sensing!r}: give sensing a suite with an IMU ('mocap', "
                              "'gnss-imu')")
+        if self.imu_vibration_tones is not None:
+            if not suite:
+                raise ValueError(f"LoopOptions.imu_vibration_tones shake an IMU, but {flight} "
+                                 f"senses {self.sensing!r}: give sensing a suite with an IMU "
+                                 "('mocap', 'gnss-imu')")
+            if not self.imu_vibration_tones.reading_period_fits(dt):
+                raise ValueError(f"LoopOptions.imu_vibration_tones are read at the end of the "
+                                 f"IMU's batches, every 1/{self.imu_vibration_tones.batch_rate:g}"
+                                 f" s, but {flight} reads every {dt:g} s: use a control step "
+                                 "that is a whole number of batches")
+        if self.airframe_drag is not None and not self.drag:
+            raise ValueError(f"LoopOptions.airframe_drag acts on the air-relative velocity, but "
+                             f"{flight} flies without drag: set drag=True")
         if self.pose_latency_on_ticks and not suite:
             raise ValueError(f"LoopOptions.pose_latency_on_ticks resolves a sensor suite's pose "
                              f"latency, but {flight} senses {self.sensing!r}: give sensing a "
@@ -292,10 +319,11 @@ class LoopOptions:
                              f"sensor suite's pose fix, but {flight} senses "
                              f"{self.sensing!r}: give sensing a suite ('mocap', 'gnss-imu'), "
                              "or use extra_latency")
-        if self.imu_vibration_scale != 1.0 and self.imu_vibration is None:
+        if (self.imu_vibration_scale != 1.0 and self.imu_vibration is None
+                and self.imu_vibration_tones is None):
             raise ValueError(f"LoopOptions.imu_vibration_scale = {self.imu_vibration_scale} "
                              f"scales the IMU's vibration, but {flight} has none: give "
-                             "imu_vibration (or benchmark='v3')")
+                             "imu_vibration or imu_vibration_tones (or benchmark='v3')")
         if self.motor_time_constant_scale != 1.0 and not (self.motor_lag or self.speed_motors):
             scale = self.motor_time_constant_scale
             shown = scale if isinstance(scale, tuple) else f"{scale:g}"
@@ -349,6 +377,11 @@ class LoopOptions:
                 raise ValueError(f"LoopOptions.gyro_cutoff must be below the inner loop's "
                                  f"Nyquist frequency, {self.inner_rate / 2:g} Hz, got "
                                  f"{self.gyro_cutoff:g}")
+
+    def airframe(self, vehicle: VehicleParams) -> VehicleParams:
+        """The airframe the physics flies: ``vehicle`` with this loop's ``airframe_drag``
+        in place of its own where it has one."""
+        return vehicle if self.airframe_drag is None else self.airframe_drag.on(vehicle)
 
     def inner_ticks(self, dt: float) -> int:
         """Inner-loop ticks per control step of ``dt`` [s] (1 without an inner loop)."""

@@ -258,6 +258,34 @@ NEURAL_FLY_MASS, NEURAL_FLY_THRUST_TO_WEIGHT = 2.53, 2.2
 NEURAL_FLY_HALF_SPACING = (0.39 / 2, (0.85 - 11 * 0.0254) / 2)  # front-back, sideways [m]
 
 
+@dataclass(frozen=True)
+class AirframeDrag:
+    """A benchmark's own drag for the airframe it flies, laid over a vehicle preset's
+    (``LoopOptions.airframe_drag``): the body's quadratic drag per body axis [N/(m/s)²] and
+    the rotors' drag per rotor speed and in-plane airspeed k_d [N/(rad/s · m/s)]. A preset
+    keeps its own values, so the benchmarks that fly it stay as they were."""
+
+    body_quadratic: tuple[float, float, float]
+    rotor_drag_coefficient: float
+
+    def __post_init__(self) -> None:
+        values = np.asarray(self.body_quadratic, dtype=float)
+        if values.shape != (3,) or not np.all(np.isfinite(values)) or np.any(values < 0):
+            raise ValueError(f"AirframeDrag.body_quadratic must be three finite numbers >= 0 "
+                             f"[N/(m/s)²], got {self.body_quadratic!r}")
+        object.__setattr__(self, "body_quadratic", tuple(float(v) for v in values))
+        k = self.rotor_drag_coefficient
+        if not (isinstance(k, (int, float)) and math.isfinite(k) and k >= 0):
+            raise ValueError(f"AirframeDrag.rotor_drag_coefficient must be a finite number "
+                             f">= 0 [N/(rad/s · m/s)], got {k!r}")
+        object.__setattr__(self, "rotor_drag_coefficient", float(k))
+
+    def on(self, vehicle: VehicleParams) -> VehicleParams:
+        """``vehicle`` with this drag in place of its own."""
+        return replace(vehicle, drag_quadratic=self.body_quadratic,
+                       rotor_drag_coefficient=self.rotor_drag_coefficient)
+
+
 def _point_mass_inertia(mass: float, arm: tuple[float, float], rotor_mass: float,
                         body: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
     """Our estimate where a vehicle's inertia is unpublished: four rotor groups of

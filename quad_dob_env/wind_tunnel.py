@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from quad_dob_env.benchmark import REAL_LOOP_BENCHMARKS
 from quad_dob_env.benchmark_v3 import REAL_LOOPS
 from quad_dob_env.disturbances import Constant, Disturbance, Dryden
 from quad_dob_env.loop_options import LoopOptions
@@ -53,17 +54,19 @@ def tunnel_wind(speed: float, intensity: float, height: float, direction: float)
 
 def figure8_wind(*, wind_speed: float, vehicle: str | VehicleParams = "neural-fly",
                  turbulence_intensity: float | None = None, benchmark: str = "v1",
-                 reference_ramp: float = 0.0, **fields: Any) -> Scenario:
-    """The figure-8 at ``wind_speed``. Under ``benchmark="v3"`` it flies Neural-Fly's 50 Hz
-    outer loop and the tunnel turbulence v3 sources (``benchmark_v3``), its sensing and drag
-    as v3 sets them; v1 and v2 fly 100 Hz, ``FIGURE8_TURBULENCE_INTENSITY`` and mocap
-    sensing, drag and a motor lag pinned, as they always have. ``reference_ramp`` [s]: the
-    reference starts from rest, its phase rate growing linearly to 1 rad/s over this long
-    (``RampedStart``; Neural-Fly's: ``NEURAL_FLY_RAMP``, 4π s); 0, v1-v3's, flies at speed
-    from the start. ``fields`` are the scenario's (``make_scenario``'s options), laid over
-    these."""
+                 reference_ramp: float | None = None, **fields: Any) -> Scenario:
+    """The figure-8 at ``wind_speed``. Under ``benchmark="v3"`` or ``"v4"`` it flies
+    Neural-Fly's 50 Hz outer loop and the tunnel turbulence v3 sources (``benchmark_v3``),
+    its sensing and drag as the benchmark sets them; v1 and v2 fly 100 Hz,
+    ``FIGURE8_TURBULENCE_INTENSITY`` and mocap sensing, drag and a motor lag pinned, as they
+    always have. ``reference_ramp`` [s]: the reference starts from rest, its phase rate
+    growing linearly to 1 rad/s over this long (``RampedStart``); 0 flies at speed from the
+    start; None, the benchmark's: Neural-Fly's ``NEURAL_FLY_RAMP`` (4π s) in v4, 0 in
+    v1-v3. ``fields`` are the scenario's (``make_scenario``'s options), laid over these."""
     params = get_vehicle(vehicle)
-    v3 = benchmark == "v3"
+    v3 = benchmark in REAL_LOOP_BENCHMARKS
+    if reference_ramp is None:
+        reference_ramp = NEURAL_FLY_RAMP if benchmark == "v4" else 0.0
     real = REAL_LOOPS.get(params.name) if v3 else None
     if turbulence_intensity is None:
         turbulence_intensity = (real.tunnel_turbulence_intensity if real is not None

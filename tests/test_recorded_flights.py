@@ -12,6 +12,8 @@ first allowed) so that another CPU's rounding cannot fail it, far below any chan
 equation.
 
 Re-record only for a change meant to move flights: ``python tests/test_recorded_flights.py``.
+A new id is recorded without touching the others: ``python tests/test_recorded_flights.py
+--new-ids`` (the -v4 ids, 2026-12-06).
 One such change so far (issue 43): ``residual:v2`` flown in v1 and v3 flew v2's loop, its
 training config's benchmark rebuilding the scenario; its eight flights there were recorded
 again after the fix (their final states moved by 3-105 mm), every other entry is as before.
@@ -186,7 +188,18 @@ def test_every_id_steps_bit_for_bit(env_id):
     _close(step_id(env_id), recorded[env_id], 1e-6)
 
 
+def record_new_ids() -> dict:
+    """The records as they are, with each registered id that has none stepped and added."""
+    records = _recorded()
+    for env_id in QUAD_IDS:
+        if env_id not in records["ids"]:
+            records["ids"][env_id] = step_id(env_id)
+            print(f"recorded {env_id}", file=sys.stderr)
+    return records
+
+
 if __name__ == "__main__":
     RECORDS.parent.mkdir(exist_ok=True)
-    RECORDS.write_text(json.dumps(record(), indent=1) + "\n")
+    records = record_new_ids() if "--new-ids" in sys.argv[1:] else record()
+    RECORDS.write_text(json.dumps(records, indent=1) + "\n")
     print(f"wrote {RECORDS}", file=sys.stderr)

@@ -49,8 +49,9 @@ def _zoo_envs(algo: str, env_id: str, log_folder, n_envs: int = 2):
 
 
 def test_the_registry_holds_every_id_the_package_names():
-    named = {*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2, *quad_dob_env.ENV_IDS_V3}
-    assert set(ENV_IDS) == named and len(ENV_IDS) == 13
+    named = {*quad_dob_env.ENV_IDS, *quad_dob_env.ENV_IDS_V2, *quad_dob_env.ENV_IDS_V3,
+             *quad_dob_env.ENV_IDS_V4}
+    assert set(ENV_IDS) == named and len(ENV_IDS) == 17
 
 
 # the files' batch sizes are for their n_envs, not for the two envs built here

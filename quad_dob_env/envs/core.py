@@ -81,6 +81,9 @@ class QuadrotorBatch:
         self.limits = limits or EpisodeLimits()
         self.reward_weights = reward or RewardWeights()
         self.vehicle = scenario.vehicle
+        # the airframe the physics flies: the vehicle with the loop's own drag where it has
+        # one (v4's fitted), the controllers' model keeping the vehicle's
+        self.airframe = scenario.loop.airframe(self.vehicle)
         self.actuator = Actuator(self.vehicle, scenario.actuation)
         self.action_map = ActionMap(self.vehicle, self.actuator, action_mode)
         self.observation_size = observation_size(entries)
@@ -124,9 +127,9 @@ class QuadrotorBatch:
         self.wind_velocity = np.zeros((n, 3))
         self._own = tuple(np.zeros((n, samples, 3)) for _ in range(3))  # force, torque, wind
         # per-vehicle physics (mass, inertia, inverse, drag), so vehicles can differ
-        self._nominal = physics_arrays(self.vehicle, 1, scenario.loop.drag,
+        self._nominal = physics_arrays(self.airframe, 1, scenario.loop.drag,
                                        scenario.loop.rotor_aerodynamics)
-        body = physics_arrays(self.vehicle, n, scenario.loop.drag,
+        body = physics_arrays(self.airframe, n, scenario.loop.drag,
                               scenario.loop.rotor_aerodynamics)
         self.mass, self.inertia, self.inertia_inverse, self.drag = (
             body.mass, body.inertia, body.inertia_inverse, body.drag)
@@ -144,7 +147,8 @@ class QuadrotorBatch:
             vibration=scenario.loop.imu_vibration or (0.0, 0.0),
             ticks=scenario.inner_ticks if scenario.loop.pose_latency_on_ticks else 1,
             unmodelled_pose_latency=scenario.loop.unmodelled_pose_latency,
-            vibration_scale=scenario.loop.imu_vibration_scale)
+            vibration_scale=scenario.loop.imu_vibration_scale,
+            tones=scenario.loop.imu_vibration_tones)
         # the kernels write the true state's observation here; a policy reads ``obs`` (the
         # same array for the identity, else rebuilt from the measurement)
         self._true_obs = self.obs if self.sensing.identity else np.zeros_like(self.obs)

@@ -133,10 +133,19 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
     ``max_position_error``, ``max_tilt``, ``max_body_rate``, ``reward_position_scale``,
     ``reward_effort_weight``, ``render_mode`` (``rgb_array``: ``render()`` returns a frame,
     headless; ``human``: a window at the control rate), ``invalid_actions`` (``raise`` or
-    ``terminate``), ``benchmark`` (``"v1"``, ``"v2"`` or ``"v3"``, beneath
-    ``scenario_options``: ``quad_dob_env.benchmark``; the ``-v2`` and ``-v3`` ids set theirs).
+    ``terminate``), ``benchmark`` (``"v1"`` to ``"v4"``, beneath ``scenario_options``:
+    ``quad_dob_env.benchmark``; the ``-v2``, ``-v3`` and ``-v4`` ids set theirs).
 
     ## Version history
+    - v4 (2026-12, issue 54): the ids ``QuadDOB/Hover-v4``, ``HoverResidual-v4``,
+      ``TrackResidual-v4`` and ``TracksResidual-v4`` fly the v2 ids' scenarios under
+      ``benchmark="v4"``: v3's loop with five mechanisms corrected against Neural-Fly's logs
+      (``quad_dob_env.benchmark_v4``, every value sourced; docs/benchmark-v4.md): the
+      estimators told the autopilot's command, INDI modelling its actuators, the drag fitted
+      in the simulator's tilted equilibrium, the rotors' vibration as tones through the IMU's
+      chain, an identified throttle curve, and the tunnel's reference from rest. Its
+      controllers fly v3's gains (``INHERITED_FROM``); v3 stays the tools' default. The
+      v1-v3 ids stay registered and fly as before, bit for bit.
     - all versions, residual options removed (2026-12, issue 42; no flight without them
       changes): ``lookahead`` and ``residual_cutoff``, measured in Benchmark v3 and of no
       help there. Naming either raises an error that points at

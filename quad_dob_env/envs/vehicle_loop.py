@@ -38,7 +38,7 @@ class VehicleLoop:
                  pose: tuple[NDArray, NDArray, NDArray, NDArray] | None = None) -> None:
         vehicle = scenario.vehicle
         self.throttle = scenario.loop.throttle_map
-        self.model = RotorModel.of(vehicle, scenario.loop.speed_motors,
+        self.model = RotorModel.of(scenario.loop.airframe(vehicle), scenario.loop.speed_motors,
                                    scenario.loop.thrust_uncertainty,
                                    scenario.loop.rotor_aerodynamics, self.throttle)
         # each vehicle's lag and the rotors' κ, per-vehicle arrays set at a reset, so that an

@@ -11,11 +11,13 @@
 - ``estimator``: the complementary filter fusing the IMU with each pose fix;
   ``stability``: the check that refuses gains whose filter would not settle at the fix
   period and lag a scenario gives it.
+- ``vibration``: ``VibrationTones``, the rotors' vibration as tones, and ``tone_gain``, what
+  the IMU chain's sampling and filters leave of a tone (the compiled readings add them).
 - ``stage``: ``SensingStage``, which the env core runs after each step and reset.
 
 Sits between the dynamics and the envs: may import ``params``, ``dynamics``, ``so3``,
-``rng``, ``memory``, ``validation`` and ``variation``; never the envs, the controllers or
-anything above them.
+``rng``, ``memory``, ``validation``, ``filters`` and ``variation``; never the envs, the
+controllers or anything above them.
 """
 
 from quad_dob_env.sensing.measurement import Measurement

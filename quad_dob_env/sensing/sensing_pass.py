@@ -10,7 +10,8 @@ random draw of the flight.
 ``take_readings_kernel`` reads its records by name: the states the pose fix sees
 (``PoseState``: now, and where the step passed its latency), the truth (``TrueState``),
 each source's settings (``PoseSettings``, ``ImuSettings``, ``RotorSettings``,
-``StateNoise``) and the sensors' own arrays (``ReadingLines``); passed from Python as
+``StateNoise``, ``ToneSettings``) and the sensors' own arrays (``ReadingLines``); passed
+from Python as
 plain tuples (numba types a named tuple on a slower path every call) and rebuilt in its
 first lines.
 """
@@ -103,13 +104,28 @@ class StateNoise(NamedTuple):
     rate_std: float = 0.0
 
 
+class ToneSettings(NamedTuple):
+    """The rotors' vibration tones on the accelerometer (``quad_dob_env.sensing.vibration``;
+    the defaults: none): each rotor's amplitudes, each vehicle's own (its vibration scale
+    drawn per episode), and what the IMU chain leaves of a tone, tabulated by frequency."""
+
+    rotor_amplitude: NDArray  # (N,) a rotor's tone at its rotation frequency [m/s²], x and y
+    blade_amplitude: NDArray  # (N,) a rotor's tone at the blade-pass frequency [m/s²], z
+    gains: NDArray  # (rows, 2) the chain's gain G(f), real and imaginary, every table_step Hz
+    table_step: float = 1.0  # [Hz]
+    blades: int = 2
+    dt: float = 0.0  # [s] between readings: each rotor's angle advances ω dt
+    on: bool = False
+
+
 class ReadingLines(NamedTuple):
-    """The sensors' own arrays: each vehicle's keys and true IMU biases, and the delay
-    line of readings."""
+    """The sensors' own arrays: each vehicle's keys and true IMU biases, the delay line of
+    readings, and each rotor's angle (where its vibration tones are)."""
 
     keys: NDArray  # (N, KEYS) uint64
     true_bias: NDArray  # (N, 6) gyroscope, accelerometer
     ring: NDArray  # (depth, N, READING_WIDTH)
+    rotor_angle: NDArray  # (N, 4) [rad], in [0, 2π)
 
 
 @njit(cache=True, inline="always")
@@ -154,9 +170,42 @@ def rotor_speed(rotor_thrust, thrust_coefficient):
     return math.sqrt(max(rotor_thrust, 0.0) / thrust_coefficient)
 
 
+@njit(cache=True, inline="always")
+def _tabulated_gain(frequency, gains, table_step):
+    """The chain's gain G(f) from its table, linear between rows (its last row above)."""
+    x = frequency / table_step
+    last = gains.shape[0] - 1
+    k = min(int(x), last - 1)
+    w = min(x - k, 1.0)
+    return ((1.0 - w) * gains[k, 0] + w * gains[k + 1, 0],
+            (1.0 - w) * gains[k, 1] + w * gains[k + 1, 1])
+
+
+@njit(cache=True, inline="always")
+def vibration_tones(i, angle, speeds, tones):
+    """Vehicle ``i``'s tones on the accelerometer [m/s², body] with its rotors at ``angle``
+    turning at ``speeds`` [rad/s]: per rotor ``a |G(f)| (cos, sin)(θ + arg G(f))`` in x and
+    y at f = ω/2π and ``b |G(Bf)| sin(Bθ + arg G(Bf))`` in z (``sensing.vibration``)."""
+    ax = ay = az = 0.0
+    a, b = tones.rotor_amplitude[i], tones.blade_amplitude[i]
+    for r in range(4):
+        frequency = speeds[r] / (2.0 * math.pi)
+        c, s = math.cos(angle[r]), math.sin(angle[r])
+        gr, gi = _tabulated_gain(frequency, tones.gains, tones.table_step)
+        # a G e^{jθ}: its real part along x, its imaginary part along y
+        ax += a * (gr * c - gi * s)
+        ay += a * (gr * s + gi * c)
+        cb, sb = c, s  # e^{jBθ} by repeated products
+        for _ in range(tones.blades - 1):
+            cb, sb = cb * c - sb * s, cb * s + sb * c
+        gr, gi = _tabulated_gain(tones.blades * frequency, tones.gains, tones.table_step)
+        az += b * (gr * sb + gi * cb)
+    return ax, ay, az
+
+
 @njit(cache=True, nogil=True)
 def take_readings_kernel(start, stop, indices, step_count, pose_now, pose_seen, truth, pose,
-                         imu, rotors, state_noise, lines, reset):
+                         imu, rotors, state_noise, tones, lines, reset):
     """The readings of vehicles ``indices[start:stop]`` of their true state now, into each
     delay line's slot ``step % depth`` (at a reset, into every slot: no older readings
     exist). A source whose standard deviations are all zero draws nothing: its reading is
@@ -173,12 +222,13 @@ def take_readings_kernel(start, stop, indices, step_count, pose_now, pose_seen, 
 
     ``pose`` a ``PoseSettings``, ``imu`` an ``ImuSettings``, ``rotors`` a ``RotorSettings``,
     ``state_noise`` a ``StateNoise`` (``SensorNoise``'s mode has no IMU noise, biases nor
-    estimator: ``imu`` is all zeros), ``lines`` the ``ReadingLines``; each passed as a plain
-    tuple."""
+    estimator: ``imu`` is all zeros), ``tones`` a ``ToneSettings`` (its rotor angles start
+    at a reset at phases drawn from the rotors' key, and advance by the rotors' speed over
+    each step), ``lines`` the ``ReadingLines``; each passed as a plain tuple."""
     now, seen = PoseState(*pose_now), PoseState(*pose_seen)
     truth, lines = TrueState(*truth), ReadingLines(*lines)
     pose, imu, rotors = PoseSettings(*pose), ImuSettings(*imu), RotorSettings(*rotors)
-    state_noise = StateNoise(*state_noise)
+    state_noise, tones = StateNoise(*state_noise), ToneSettings(*tones)
     position_std, vertical_std = pose.position_std, pose.vertical_std
     attitude_std, velocity_std, heading_std = pose.attitude_std, pose.velocity_std, pose.heading_std
     gyro_stds, accel_stds = imu.gyroscope_std, imu.accelerometer_std  # (N,) each
@@ -189,10 +239,11 @@ def take_readings_kernel(start, stop, indices, step_count, pose_now, pose_seen, 
     gyro_bias0, accel_bias0 = imu.gyroscope_initial_bias, imu.accelerometer_initial_bias
     p_std, v_std = state_noise.position_std, state_noise.velocity_std
     a_std, w_std = state_noise.attitude_std, state_noise.rate_std
-    keys, true_bias, ring = lines.keys, lines.true_bias, lines.ring
+    keys, true_bias, ring, rotor_angle = lines.keys, lines.true_bias, lines.ring, lines.rotor_angle
     thrust, mass = truth.thrust, truth.mass
     depth = ring.shape[0]
     g = np.zeros(12)
+    speeds = np.zeros(4)  # a vehicle's rotor speeds, where its tones are
     pose_noisy = position_std + vertical_std + attitude_std + velocity_std + heading_std > 0
     # the velocity's and heading's normals (the last two pairs) only where they have noise
     # (GNSS; a mocap fix has none): a pair is drawn by its index, so the first three pairs
@@ -244,6 +295,20 @@ def take_readings_kernel(start, stop, indices, step_count, pose_now, pose_seen, 
         if reset:
             specific = (specific[0], specific[1],
                         specific[2] + (truth.hover_thrust - thrust[i]) / mass[i])
+        if tones.on:
+            for r in range(4):
+                speeds[r] = rotor_speed(truth.hover_rotor_thrusts[r] if reset
+                                        else truth.rotor_thrusts[i, r],
+                                        rotors.thrust_coefficient)
+                if reset:  # a new episode's phases, uniform: one normal pair's angle each
+                    first, second = gaussian_pair(keys[i, ROTOR_KEY], 8 * step + 4 + r)
+                    rotor_angle[i, r] = math.atan2(second, first) % (2.0 * math.pi)
+                else:
+                    rotor_angle[i, r] = (rotor_angle[i, r] + speeds[r] * tones.dt) % (
+                        2.0 * math.pi)
+            shake = vibration_tones(i, rotor_angle[i], speeds, tones)
+            specific = (specific[0] + shake[0], specific[1] + shake[1],
+                        specific[2] + shake[2])
         for k in range(3):
             ring[slot, i, GYRO + k] = (truth.angular_velocity[i, k] + true_bias[i, k]
                                        + gyro_std * g[k])

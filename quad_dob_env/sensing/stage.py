@@ -29,12 +29,14 @@ from quad_dob_env.sensing.sensing_pass import (
     ReadingLines,
     RotorSettings,
     StateNoise,
+    ToneSettings,
     TrueState,
     ideal_readings_kernel,
     measurement_kernel,
     take_readings_kernel,
 )
 from quad_dob_env.sensing.stability import check_stability
+from quad_dob_env.sensing.vibration import TABLE_STEP, VibrationTones, gain_table
 from quad_dob_env.threads import run_over_batch
 from quad_dob_env.variation import SensorNoise, range_bounds
 
@@ -81,7 +83,9 @@ class SensingStage:
       fix is taken where the step passes it, ``pose_tick``, the rest on the control grid), and
       the estimator (``quad_dob_env.sensing.estimator``) fusing them; ``vibration`` (gyro
       [rad/s], accelerometer [m/s²], RMS per axis) times ``vibration_scale`` adds to its
-      IMU's white noise, and ``unmodelled_pose_latency`` [s] delays its pose fix alone.
+      IMU's white noise, ``tones`` (a ``VibrationTones``) times it adds the rotors'
+      tones to its accelerometer, and ``unmodelled_pose_latency`` [s] delays its pose fix
+      alone.
 
     ``unmodelled_pose_latency`` and ``vibration_scale`` are each a number or a (low, high)
     range drawn per episode (``start``), so the pose fix's delay and tick (``pose_delay``,
@@ -94,7 +98,8 @@ class SensingStage:
                  dt: float, hover: tuple[float, NDArray[np.float64]] | None = None,
                  vibration: tuple[float, float] = (0.0, 0.0), ticks: int = 1,
                  unmodelled_pose_latency: float | tuple[float, float] = 0.0,
-                 vibration_scale: float | tuple[float, float] = 1.0) -> None:
+                 vibration_scale: float | tuple[float, float] = 1.0,
+                 tones: VibrationTones | None = None) -> None:
         n = truth.n
         self.sensing, self.dt, self.gravity = sensing, float(dt), float(vehicle.gravity)
         self.truth = truth
@@ -128,6 +133,13 @@ class SensingStage:
         self._fresh = False
         self._state_noise = StateNoise()
         self._imu = ImuSettings(self.gyroscope_std, self.accelerometer_std)
+        # the rotors' vibration tones (v4): each vehicle's rotor amplitudes, its scale's
+        # draw times the level's share of one rotor (four of independent phase: level/√2)
+        self.rotor_angle = np.zeros((n, 4))
+        self.tone_amplitudes = np.zeros((2, n))
+        self._tones = tones
+        self._tone_settings = ToneSettings(self.tone_amplitudes[0], self.tone_amplitudes[1],
+                                           np.zeros((2, 2)))
         self._rotors = RotorSettings(speed_std=0.0,
                                      thrust_coefficient=self.thrust_coefficient)
         if self.estimating:
@@ -144,6 +156,14 @@ class SensingStage:
             self._imu_noise = (imu.gyroscope_noise_density / root,
                                imu.accelerometer_noise_density / root)
             self._vibration = vibration
+            if tones is not None:
+                # the table reaches past the blade-pass frequency of a rotor at twice its
+                # largest thrust (above it the last row holds)
+                fastest = math.sqrt(2 * vehicle.max_rotor_thrust / vehicle.thrust_coefficient)
+                self._tone_settings = ToneSettings(
+                    self.tone_amplitudes[0], self.tone_amplitudes[1],
+                    gain_table(tones, tones.blades * fastest / (2 * math.pi)),
+                    table_step=TABLE_STEP, blades=int(tones.blades), dt=float(dt), on=True)
             self._shake(slice(None), scale_low)
             self._imu = ImuSettings(
                 gyroscope_std=self.gyroscope_std, accelerometer_std=self.accelerometer_std,
@@ -230,9 +250,9 @@ class SensingStage:
         self._pose_seen = tuple(PoseState(position=position, velocity=velocity,
                                           rotation=rotation))
         self._settings = (tuple(self._pose), tuple(self._imu), tuple(self._rotors),
-                          tuple(self._state_noise))
+                          tuple(self._state_noise), tuple(self._tone_settings))
         self._lines = tuple(ReadingLines(keys=self.keys, true_bias=self.true_bias,
-                                         ring=self.ring))
+                                         ring=self.ring, rotor_angle=self.rotor_angle))
         m = self.measurement
         self.measure_arguments = MeasureArguments(
             readings=(self._pose_now, self._pose_seen, self._truth, *self._settings,
@@ -257,14 +277,17 @@ class SensingStage:
         return late // ticks, (ticks - late % ticks if late % ticks else 0)
 
     def _shake(self, index: int | slice, scale: float) -> None:
-        """Vehicle ``index``'s IMU white noise with the vibration times ``scale``: (v3) white
-        noise of its own RMS on every reading, the rotors' effect left by the autopilot's
-        filters, added to the sensor's own in quadrature."""
+        """Vehicle ``index``'s vibration times ``scale``: (v3) white noise of its own RMS on
+        every reading, the rotors' effect left by the autopilot's filters, added to the
+        sensor's own in quadrature; (v4) its tones' amplitudes."""
         (gyroscope, accelerometer), (gyro_vibration, accelerometer_vibration) = (
             self._imu_noise, self._vibration)
         self.gyroscope_std[index] = math.hypot(gyroscope, scale * gyro_vibration)
         self.accelerometer_std[index] = math.hypot(accelerometer,
                                                    scale * accelerometer_vibration)
+        if self._tones is not None:
+            self.tone_amplitudes[0, index] = scale * self._tones.rotor_level / math.sqrt(2)
+            self.tone_amplitudes[1, index] = scale * self._tones.blade_pass_level / math.sqrt(2)
 
     def start(self, index: int, stream: np.random.Generator | None) -> None:
         """A new episode's sensor keys for vehicle ``index``, from ``stream``, the episode's

@@ -173,8 +173,10 @@ def _wind_tunnel(args: argparse.Namespace) -> int:
 
 
 def _benchmark_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--benchmark", default=None, choices=["v1", "v2", "v3"],
-                        help="the loop every scenario is flown in: v3, the real vehicle's "
+    parser.add_argument("--benchmark", default=None, choices=list(BENCHMARKS),
+                        help="the loop every scenario is flown in: v4, v3's loop with five "
+                        "mechanisms corrected against Neural-Fly's logs (docs/benchmark-v4.md; "
+                        "v3's gains), v3, the real vehicle's "
                         "lag and thrust path on v2's loop (docs/benchmark-v3.md; the gains "
                         "tuned for it), v2, the vehicle's own loop (mocap sensing, inner "
                         "loop, motors, thrust uncertainty, rotor aerodynamics), to reproduce "
@@ -361,7 +363,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="the episode's seed (default: %(default)s)")
     # v1 unless told, as the library: the default scenario is the paper's (moments applied
     # directly), which only v1's ideal loop flies as the paper did
-    replay.add_argument("--benchmark", default="v1", choices=["v1", "v2", "v3"],
+    replay.add_argument("--benchmark", default="v1", choices=list(BENCHMARKS),
                         help="the loop the scenario is flown in; a model flies it on its "
                         "base's training gains, and bare residual is this benchmark's "
                         "shipped policy (default: %(default)s)")

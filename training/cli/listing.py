@@ -15,7 +15,8 @@ def main() -> int:
     print("Environment ids:")
     for env_id, scenario in quad_dob_env.ENV_IDS.items():
         print(f"  {env_id:<26} default scenario {scenario}")
-    for env_id, scenario in {**quad_dob_env.ENV_IDS_V2, **quad_dob_env.ENV_IDS_V3}.items():
+    for env_id, scenario in {**quad_dob_env.ENV_IDS_V2, **quad_dob_env.ENV_IDS_V3,
+                               **quad_dob_env.ENV_IDS_V4}.items():
         print(f"  {env_id:<26} default scenario {scenario}, "
               f"benchmark {quad_dob_env.BENCHMARK_OF_ID[env_id]}")
     print("Scenarios (margins: share of each actuator limit the reference leaves, by "

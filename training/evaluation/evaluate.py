@@ -95,6 +95,7 @@ SUITES = {
 }
 # v3 flies v2's families in its own loop (the figure-8s at Neural-Fly's 50 Hz)
 SUITES["v3"] = SUITES["v2"]
+SUITES["v4"] = SUITES["v2"]  # and v4, v3's loop with five mechanisms corrected
 # the leaderboard's cells: mean [95 % CI]
 LEADERBOARD = (("rms_position_settled", "RMS ‖e_x‖ [m]"), ("rms_tilt_settled", "tilt [rad]"),
                ("rms_heading_settled", "heading [rad]"), ("rms_moment", "effort ‖M‖ [N m]"),

@@ -29,9 +29,9 @@ DELAY_PATHS = {"readings": "extra_latency", "pose": "unmodelled_pose_latency"}
 
 
 def benchmark_delay_path(benchmark: str) -> str:
-    """Where ``benchmark``'s tuning margin puts its latency: ``"pose"`` for v3, else
-    ``"readings"``."""
-    return "pose" if benchmark == "v3" else "readings"
+    """Where ``benchmark``'s tuning margin puts its latency: ``"pose"`` for v3 and v4 (its
+    margin is v3's), else ``"readings"``."""
+    return "pose" if benchmark in ("v3", "v4") else "readings"
 
 
 @dataclass(frozen=True)

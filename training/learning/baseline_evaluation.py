@@ -77,11 +77,11 @@ class BaselineEvaluation(BaseCallback):
         if config["base_controller"]:
             self.base_scores = self._score(Policy(config["base_controller"],
                                                   config["base_controller"]))
-        # in v2's and v3's loops, also the strongest classical baseline (each flown once, at
-        # that benchmark's gains)
+        # in v2's, v3's and v4's loops, also the strongest classical baseline (each flown
+        # once, at that benchmark's gains)
         self.strongest: tuple[str, float, float] | None = None
         self.first_beat_strongest: str | None = None
-        if benchmark in ("v2", "v3"):
+        if benchmark in ("v2", "v3", "v4"):
             scores = {name: self._score(Policy(name, name)) for name in CLASSICAL_BASELINES}
             name = min(scores, key=lambda key: (scores[key][1], scores[key][0]))
             self.strongest = (name, *scores[name])
