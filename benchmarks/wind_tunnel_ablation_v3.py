@@ -13,10 +13,8 @@ model it (docs/benchmark-v3.md, "Not modelled").
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,6 +24,7 @@ from quad_dob_env.benchmark_v3 import ABLATION_ENDS, REAL_LOOPS
 from quad_dob_env.params import get_vehicle
 from quad_dob_env.sensing.models import SENSING_PRESETS
 from quad_dob_training.evaluation.evaluate import parse_seeds
+from quad_dob_training.wind_tunnel.ablation import ablation_arguments, chosen_variants
 from quad_dob_training.wind_tunnel.published import COUNTERPARTS, WIND_SPEEDS
 from quad_dob_training.wind_tunnel.tool import simulate
 
@@ -102,22 +101,11 @@ def calm_z_share(rows: list[dict[str, Any]]) -> list[str]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default="9001-9020")
-    parser.add_argument("--variants", default="",
-                        help="comma-separated labels (default: all); see --list")
-    parser.add_argument("--list", action="store_true", help="print the labels and stop")
-    parser.add_argument("--json", type=Path, help="also write every row here")
-    args = parser.parse_args()
+    args = ablation_arguments(__doc__.splitlines()[0], "9001-9020")
     table = variants()
-    if args.list:
-        print("\n".join(table))
+    wanted = chosen_variants(args, table)
+    if not wanted:
         return
-    wanted = [label.strip() for label in args.variants.split(",") if label.strip()] or list(
-        table)
-    for label in wanted:
-        if label not in table:
-            raise SystemExit(f"unknown variant {label!r}; the variants: {', '.join(table)}")
     seeds = parse_seeds(args.seeds)
     flown = {label: simulate("v3", seeds, None, set(), table[label]) for label in wanted}
     print(f"Benchmark v3's ablation, seeds {args.seeds}: RMS ‖e_x‖ after 5 s [mm], mean of "

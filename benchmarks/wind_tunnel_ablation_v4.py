@@ -15,13 +15,11 @@ statistic. Seeds 9701-9720 are v4's report seeds (docs/benchmark-v4.md).
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import dataclasses
 import json
 import math
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -32,6 +30,7 @@ from quad_dob_env.benchmark_v3 import REAL_LOOPS
 from quad_dob_env.benchmark_v4 import ABLATION_ENDS, V4_LOOPS
 from quad_dob_env.params import get_vehicle
 from quad_dob_training.evaluation.evaluate import parse_seeds
+from quad_dob_training.wind_tunnel.ablation import ablation_arguments, chosen_variants
 from quad_dob_training.wind_tunnel.published import COUNTERPARTS, WIND_SPEEDS
 from quad_dob_training.wind_tunnel.tool import simulate
 
@@ -125,22 +124,11 @@ def per_seed(rows: list[dict[str, Any]]) -> dict[tuple[str, float], dict[str, di
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default="9701-9720")
-    parser.add_argument("--variants", default="",
-                        help="comma-separated labels (default: all); see --list")
-    parser.add_argument("--list", action="store_true", help="print the labels and stop")
-    parser.add_argument("--json", type=Path, help="also write every change here")
-    args = parser.parse_args()
+    args = ablation_arguments(__doc__.splitlines()[0], "9701-9720")
     table = variants()
-    if args.list:
-        print("\n".join(table))
+    wanted = chosen_variants(args, table)
+    if not wanted:
         return
-    wanted = [label.strip() for label in args.variants.split(",") if label.strip()] or list(
-        table)
-    for label in wanted:
-        if label not in table:
-            raise SystemExit(f"unknown variant {label!r}; the variants: {', '.join(table)}")
     if "Benchmark v4" not in wanted:
         wanted.insert(0, "Benchmark v4")
     seeds = parse_seeds(args.seeds)

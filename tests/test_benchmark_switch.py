@@ -70,8 +70,8 @@ def test_the_inner_rate_is_the_first_multiple_of_the_control_rate_at_200_hz():
 def test_the_papers_wrench_scenarios_are_v1_only_and_names_are_checked():
     with pytest.raises(ValueError, match="paper-\\* scenarios are v1-only"):
         make_scenario("paper-II", benchmark="v2")
-    with pytest.raises(ValueError, match="unknown benchmark 'v4'; valid: v1, v2, v3"):
-        make_scenario("hover-calm", benchmark="v4")
+    with pytest.raises(ValueError, match="unknown benchmark 'v5'; valid: v1, v2, v3, v4"):
+        make_scenario("hover-calm", benchmark="v5")
 
 
 def test_the_v2_ids_fly_benchmark_v2_and_the_v1_ids_stay_v1():

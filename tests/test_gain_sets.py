@@ -84,7 +84,7 @@ def test_a_vehicle_without_its_own_set_flies_the_paper_vehicles_scaled_to_it():
     renamed = dataclasses.replace(get_vehicle("neural-fly"), name="nf-custom")
     assert gain_set("pid", "v2", renamed).tuned_for == ("v2", "paper")
     with pytest.raises(ValueError, match="benchmark"):
-        gain_set("pid", "v4", "paper")
+        gain_set("pid", "v5", "paper")
 
 
 def test_the_paper_observer_preset_refuses_rates():

@@ -15,6 +15,7 @@ import pytest
 import quad_dob_env
 from quad_dob_env.benchmark import LOOP_FIELDS, V2_INNER_RATE
 from quad_dob_env.benchmark_v3 import REAL_LOOPS
+from quad_dob_env.benchmark_v4 import V4_LOOPS
 from quad_dob_env.loop_options import (
     DEFAULT_LOOP_OPTIONS,
     LOOP_KEYS,
@@ -86,8 +87,11 @@ def test_resolution_is_as_the_scenario_fields_resolved_before_the_record():
 
 @pytest.mark.parametrize("vehicle", ["paper", "neural-fly"])
 def test_each_benchmarks_preset_is_its_loop(vehicle):
+    # v3's fields off, and v4's: the estimators told the rotors' output, the preset's drag,
+    # no tones
     off = {"motor_time_constants": None, "throttle_map": None, "model_tolerance": None,
-           "gyro_cutoff": None, "imu_vibration": None, "pose_latency_on_ticks": False}
+           "gyro_cutoff": None, "imu_vibration": None, "pose_latency_on_ticks": False,
+           "estimator_wrench": "applied", "airframe_drag": None, "imu_vibration_tones": None}
     v1 = LoopOptions.preset("v1", vehicle)
     assert v1 == dataclasses.replace(DEFAULT_LOOP_OPTIONS, speed_motors=False,
                                      thrust_uncertainty=False, rotor_aerodynamics=False,
@@ -110,9 +114,15 @@ def test_each_benchmarks_preset_is_its_loop(vehicle):
         speed_motors=True, thrust_uncertainty=False, rotor_aerodynamics=True, drag=True,
         motor_time_constants=real.motor_time_constants, throttle_map=real.throttle_map,
         model_tolerance=real.model_tolerance, gyro_cutoff=real.gyro_cutoff,
-        pose_latency_on_ticks=True)
+        pose_latency_on_ticks=True, estimator_wrench="applied")
     # a scenario flown in a benchmark flies its preset, but for what its builder gives
     assert make_scenario("hover-calm", benchmark="v3", vehicle=vehicle).loop == v3
+    # v4: v3's loop with its own five fields, the white vibration replaced by tones
+    own = V4_LOOPS[vehicle]
+    assert LoopOptions.preset("v4", vehicle) == dataclasses.replace(
+        v3, benchmark="v4", imu_vibration=None, throttle_map=own.throttle_map,
+        estimator_wrench="commanded", airframe_drag=own.airframe_drag,
+        imu_vibration_tones=own.vibration)
 
 
 def test_flat_keys_split_into_the_record_and_the_rest_stay():

@@ -12,6 +12,9 @@
 - ``verdicts``: sim against real per statistic: within or outside the tolerance Benchmark
   v4's targets give, else the ratio.
 - ``plots``: the tool's figures.
+- ``drag_fit``: Benchmark v4's drag, fitted in the simulator's tilted equilibrium to the
+  logs' mean fa_x (``python -m quad_dob_training.wind_tunnel.drag_fit``).
+- ``ablation``: the command line the ablation scripts in ``benchmarks/`` share.
 
 May import ``quad_dob_env``, ``quad_dob_composition``, ``quad_dob_baselines`` and the parts
 of ``quad_dob_training`` below it (``rollout``, ``rl``, ``policies``, ``evaluation``; the
