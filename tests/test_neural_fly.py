@@ -1,0 +1,97 @@
+"""NF-C (``quad_dob_baselines.neural_fly``) held to Neural-Fly's equations written out here:
+the composite law's gains, and the adaptation's discrete update (their supplement §S4,
+eqs. 15-19, with the tracking term of their eq. 8), step by step against an oracle."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from quad_dob_baselines import make_controller
+from quad_dob_baselines.neural_fly import NeuralFlyConstant
+from quad_dob_env.params import VEHICLES
+from quad_dob_env.sensing import Measurement
+from quad_dob_env.trajectories import Reference
+
+VEHICLE = VEHICLES["neural-fly"]
+DT = 0.02
+E3 = np.array([0.0, 0.0, 1.0])
+
+
+def _reference(n: int) -> Reference:
+    zeros = np.zeros((n, 3))
+    return Reference(np.tile([0.0, 0.0, 2.0], (n, 1)), zeros, zeros, zeros, zeros,
+                     np.tile([1.0, 0.0, 0.0], (n, 1)), zeros, zeros)
+
+
+def _tilted(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _oracle(states, thrusts, gains):
+    """NF-C's estimate after each step, from the equations (φ = I, P = p I)."""
+    m, g = VEHICLE.mass, VEHICLE.gravity
+    q, r, p, lam, rate = (gains["process_noise"], gains["measurement_noise"],
+                          gains["initial_covariance"], gains["forgetting"],
+                          gains["composite_rate"])
+    a = np.zeros(3)
+    out = [a.copy()]
+    for k in range(1, len(states)):
+        (_, v0, R0), (p1, v1, R1) = states[k - 1], states[k]
+        y = m * ((v1 - v0) / DT + g * E3) - thrusts[k - 1] * 0.5 * (R0[:, 2] + R1[:, 2])
+        s = v1 + rate * (p1 - np.array([0.0, 0.0, 2.0]))  # the reference is at rest
+        a_minus = (1 - lam * DT) * a
+        p_minus = (1 - lam * DT) ** 2 * p + q * DT
+        k_gain = p_minus / (p_minus + r * DT)
+        a = a_minus - k_gain * (a_minus - y) + p_minus * s * DT
+        p = (1 - k_gain) ** 2 * p_minus + k_gain**2 * r * DT
+        out.append(a.copy())
+    return np.array(out)
+
+
+def test_nf_constants_estimate_is_its_update_written_out():
+    gains = {"k_per_mass": 3.0, "composite_rate": 1.5, "process_noise": 0.3,
+             "measurement_noise": 2.0, "initial_covariance": 0.7, "forgetting": 0.05}
+    controller = NeuralFlyConstant(**gains)
+    controller.reset(1, VEHICLE, DT)
+    rng = np.random.default_rng(3)
+    states, thrusts, estimates = [], [], []
+    for k in range(40):
+        state = (np.array([0.1, -0.2, 2.05]) + 0.01 * rng.normal(size=3),
+                 0.3 * rng.normal(size=3), _tilted(0.2 * math.sin(0.3 * k)))
+        states.append(state)
+        measurement = Measurement(state[0][None], state[1][None], state[2][None],
+                                  np.zeros((1, 3)))
+        controller.compute(np.zeros(1), measurement, _reference(1))
+        estimates.append(controller.diagnostics["force_estimate"][0].copy())
+        thrust = VEHICLE.hover_thrust * (1.0 + 0.2 * rng.normal())
+        thrusts.append(thrust)
+        controller.applied(measurement, np.array([thrust]), np.zeros((1, 3)))
+    np.testing.assert_allclose(np.array(estimates), _oracle(states, thrusts, gains),
+                               rtol=1e-12, atol=1e-12)
+
+
+def test_a_steady_force_is_learnt_and_the_law_is_lees_with_composite_gains():
+    controller = make_controller("nf-constant", VEHICLE, k_per_mass=2.5, composite_rate=2.0,
+                                 forgetting=0.0)
+    assert controller.gains["kx_per_mass"] == pytest.approx(np.full(3, 2.5 * 2.0))
+    assert controller.gains["kv_per_mass"] == pytest.approx(np.full(3, 2.5 + 2.0))
+    # level and at rest on the reference (s = 0), told 3 N less thrust than its weight: the
+    # measured residual force is 3 N up every step, and without forgetting the estimate,
+    # a Kalman filter on it, converges to it
+    controller.reset(1, VEHICLE, DT)
+    state = Measurement(np.array([[0.0, 0.0, 2.0]]), np.zeros((1, 3)), np.eye(3)[None],
+                        np.zeros((1, 3)))
+    for _ in range(400):
+        controller.compute(np.zeros(1), state, _reference(1))
+        controller.applied(state, np.array([VEHICLE.hover_thrust - 3.0]), np.zeros((1, 3)))
+    controller.compute(np.zeros(1), state, _reference(1))
+    np.testing.assert_allclose(controller.diagnostics["force_estimate"][0], [0.0, 0.0, 3.0],
+                               atol=1e-6)
+    with pytest.raises(ValueError, match="k_per_mass and composite_rate"):
+        NeuralFlyConstant(kx_per_mass=10.0)
+    with pytest.raises(ValueError, match="allowed λ Δt < 1"):
+        NeuralFlyConstant(forgetting=60.0).reset(1, VEHICLE, DT)
