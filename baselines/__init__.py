@@ -15,7 +15,8 @@ envs, residual or wrappers, nor ``quad_dob_composition`` or ``quad_dob_training`
 - ``indi``: incremental nonlinear dynamic inversion on the geometric law (acceleration
   feedback from the IMU and the rotor-speed telemetry); ``l1``: L1 adaptive augmentation
   of the geometric law; ``filters``: the low-pass filters they run; ``neural_fly``:
-  Neural-Fly-Constant (NF-C), the composite law with NF-C's composite adaptation.
+  Neural-Fly-Constant (NF-C) and Neural-Fly's nonlinear baseline, their composite law with
+  NF-C's adaptation and with integral action.
 - ``inner``: their attitude laws, compiled per vehicle, for an inner loop that runs them
   at its own rate (``InnerLaw``, what ``Controller.inner_law`` hands it).
 
@@ -28,8 +29,9 @@ envs, residual or wrappers, nor ``quad_dob_composition`` or ``quad_dob_training`
 residual wrapper use: ``geometric``, ``geometric-ndob`` (the paper's observer gains),
 ``geometric-ndob:tuned`` (tuned observer rates, the paper's gains: the recommended base),
 ``geometric-ndob:gains-tuned`` (its gains tuned too), ``geometric-integral`` (integral
-action on position instead of an observer), ``indi``, ``l1``, ``nf-constant`` (Neural-Fly's
-NF-C), ``pid``, ``smc``.
+action on position instead of an observer), ``indi``, ``l1``, ``l1-matched`` (L1 compensating
+the thrust axis's part alone, as Neural-Fly's), ``nf-constant`` (Neural-Fly's NF-C),
+``nf-baseline`` (their nonlinear baseline), ``pid``, ``smc``.
 """
 
 from __future__ import annotations
@@ -49,7 +51,7 @@ from quad_dob_baselines.gain_sets import (
 from quad_dob_baselines.geometric import GeometricController, GeometricIntegralController
 from quad_dob_baselines.indi import IncrementalNDI
 from quad_dob_baselines.l1 import L1AdaptiveController
-from quad_dob_baselines.neural_fly import NeuralFlyConstant
+from quad_dob_baselines.neural_fly import NeuralFlyBaseline, NeuralFlyConstant
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_baselines.pid import CascadedPID
 from quad_dob_baselines.smc import SlidingModeController
@@ -107,7 +109,10 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     "geometric-integral": lambda vehicle, **options: GeometricIntegralController(**options),
     "indi": lambda vehicle, **options: IncrementalNDI(**options),
     "l1": lambda vehicle, **options: L1AdaptiveController(**options),
+    "l1-matched": lambda vehicle, **options: _named(
+        L1AdaptiveController(**{"compensation": "matched", **options}), "l1-matched"),
     "nf-constant": lambda vehicle, **options: NeuralFlyConstant(**options),
+    "nf-baseline": lambda vehicle, **options: NeuralFlyBaseline(**options),
     "pid": lambda vehicle, **options: CascadedPID(**options),
     "smc": lambda vehicle, **options: SlidingModeController(**options),
 }
@@ -169,6 +174,7 @@ __all__ = [
     "GeometricIntegralController",
     "IncrementalNDI",
     "L1AdaptiveController",
+    "NeuralFlyBaseline",
     "NeuralFlyConstant",
     "NonlinearDisturbanceObserver",
     "SlidingModeController",

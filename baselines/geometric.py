@@ -262,11 +262,16 @@ class GeometricIntegralController(GeometricController):
         limit = self.integral_limit_per_weight * vehicle.hover_thrust / ki
         # ∫ex dt by forward Euler, clamped: ki |∫ex| <= limit_per_weight m g; once per
         # flown step (a second compute before the next step integrates nothing)
-        step = (state.position - reference.position) * self.dt
+        step = self.integrated_error(state, reference) * self.dt
         self.integral = np.clip(self.integral + self._due[:, None] * step, -limit, limit)
         self._due[:] = False
         self._integral_force = ki * self.integral
         return super().compute(time, state, reference, acceleration_correction)
+
+    def integrated_error(self, state: VehicleState, reference: Reference) -> NDArray:
+        """What the integral accumulates: the position error ex (a subclass's own law may
+        integrate another error)."""
+        return state.position - reference.position
 
     def applied(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
         self._due[:] = True

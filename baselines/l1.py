@@ -23,7 +23,9 @@ of ``T_s = dt``, z up:
   [rad/s] (L1Quad's structure), discretised exactly (``quad_dob_baselines.filters``).
 
 Where this departs from L1-Quad: σ̂x is the whole world-frame force, and all of it is
-compensated through the thrust vector the geometric law turns into an attitude. L1-Quad
+compensated through the thrust vector the geometric law turns into an attitude (``l1``;
+``compensation="matched"``, the name ``l1-matched``, compensates L1-Quad's and Neural-Fly's
+part alone, ``COMPENSATIONS``). L1-Quad
 compensates only the part along the thrust (matched) and leaves the horizontal part to the
 baseline's position loop. Here wind is mostly horizontal, and the geometric law's thrust
 vector is how a horizontal force is opposed: leaving it to a position loop without
@@ -61,6 +63,14 @@ from quad_dob_env.validation import as_finite
 # moments. v1's setting; v2's are tuned (gain_sets), all but the second torque stage.
 L1_GAINS = {"predictor_rate": 5.0, "rotational_predictor_rate": 10.0, "force_cutoff": 30.0,
             "torque_cutoff": 5.0, "torque_second_cutoff": 15.0}
+
+
+# What the adaptive force compensates: "full", the whole world-frame estimate through the
+# thrust vector (l1, module docstring); "matched", its part along the thrust axis alone, as
+# the L1 Neural-Fly flew (l1-matched: their L1 follows Pravitra et al. 2020 and Hanover et
+# al., RA-L 2022, whose L1 compensates the matched uncertainty, the thrust axis's force and
+# the moments, and leaves the unmatched horizontal force to the baseline's position loop)
+COMPENSATIONS = ("full", "matched")
 
 
 def adaptation_gain(predictor_rate: float, dt: float) -> float:
@@ -185,8 +195,12 @@ class L1AdaptiveController(EstimatingGeometricController):
                  force_cutoff: float = L1_GAINS["force_cutoff"],
                  torque_cutoff: float = L1_GAINS["torque_cutoff"],
                  torque_second_cutoff: float = L1_GAINS["torque_second_cutoff"],
-                 **gains: ArrayLike) -> None:
-        super().__init__(tuple(L1_GAINS), **gains)
+                 compensation: str = "full", **gains: ArrayLike) -> None:
+        super().__init__((*L1_GAINS, "compensation"), **gains)
+        if compensation not in COMPENSATIONS:
+            raise ValueError(f"unknown L1AdaptiveController.compensation {compensation!r}; "
+                             f"valid: {', '.join(COMPENSATIONS)}")
+        self.compensation = compensation
         self.adaptive = {key: as_finite(value, f"L1AdaptiveController.{key}", 0.0,
                                         strictly=True)
                          for key, value in (("predictor_rate", predictor_rate),
@@ -226,6 +240,12 @@ class L1AdaptiveController(EstimatingGeometricController):
     def _advance(self, state: VehicleState, rows: NDArray[np.bool_]) -> None:
         l1_adapt(rows, state.velocity, state.rotation, state.angular_velocity, self._wrench,
                  *self._l1_arguments)
+        if self.compensation == "matched":
+            # only the part along the thrust axis is compensated (σ̂x stays whole in the
+            # predictor): d̂x = (C(s)σ̂x · R e3) R e3
+            axis = state.rotation[rows, :, 2]
+            along = np.einsum("ij,ij->i", self._force[rows], axis)
+            self._force[rows] = along[:, None] * axis
 
     def describe(self) -> dict[str, Any]:
-        return {**super().describe(), **self.adaptive}
+        return {**super().describe(), **self.adaptive, "compensation": self.compensation}

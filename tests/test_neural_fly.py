@@ -95,3 +95,57 @@ def test_a_steady_force_is_learnt_and_the_law_is_lees_with_composite_gains():
         NeuralFlyConstant(kx_per_mass=10.0)
     with pytest.raises(ValueError, match="allowed λ Δt < 1"):
         NeuralFlyConstant(forgetting=60.0).reset(1, VEHICLE, DT)
+
+
+def test_nf_baselines_integral_is_the_composite_error_clamped():
+    controller = make_controller("nf-baseline", VEHICLE, k_per_mass=2.0, composite_rate=1.5,
+                                 ki_per_mass=4.0, integral_limit_per_weight=0.5)
+    assert controller.gains["kx_per_mass"] == pytest.approx(np.full(3, 3.0))
+    assert controller.gains["kv_per_mass"] == pytest.approx(np.full(3, 3.5))
+    controller.reset(1, VEHICLE, DT)
+    m, weight = VEHICLE.mass, VEHICLE.hover_thrust
+    position, velocity = np.array([0.3, -0.1, 2.2]), np.array([0.5, 0.2, -0.4])
+    state = Measurement(position[None], velocity[None], np.eye(3)[None], np.zeros((1, 3)))
+    integral = np.zeros(3)
+    limit = 0.5 * weight / (4.0 * m)
+    for _ in range(100):
+        controller.compute(np.zeros(1), state, _reference(1))
+        integral = np.clip(integral + (velocity + 1.5 * (position - [0.0, 0.0, 2.0])) * DT,
+                           -limit, limit)
+        np.testing.assert_allclose(controller.diagnostics["force_estimate"][0],
+                                   4.0 * m * integral, rtol=1e-12)
+        controller.applied(state, np.array([weight]), np.zeros((1, 3)))
+    assert np.any(np.abs(integral) == limit)  # the clamp was reached
+
+
+def test_l1_matched_compensates_the_thrust_axis_part_alone():
+    """The same L1 flown twice on the same readings: l1-matched's estimate is l1's
+    projected on the thrust axis, and its predictor (which takes the whole σ̂) the same."""
+    full = make_controller("l1", VEHICLE)
+    matched = make_controller("l1-matched", VEHICLE)
+    assert matched.name == "l1-matched" and matched.compensation == "matched"
+    for controller in (full, matched):
+        controller.reset(1, VEHICLE, DT)
+    rotation = _tilted(0.3)
+    for k in range(20):
+        state = Measurement(np.array([[0.0, 0.0, 2.0]]),
+                            np.array([[0.05 * k, 0.0, -0.02 * k]]), rotation[None],
+                            np.zeros((1, 3)))
+        for controller in (full, matched):
+            controller.compute(np.zeros(1), state, _reference(1))
+            controller.applied(state, np.array([VEHICLE.hover_thrust]), np.zeros((1, 3)))
+    axis = rotation[:, 2]
+    whole = full.diagnostics["force_estimate"][0]
+    np.testing.assert_allclose(matched.diagnostics["force_estimate"][0],
+                               (whole @ axis) * axis, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(matched.sigma_force, full.sigma_force)
+    assert np.linalg.norm(whole - (whole @ axis) * axis) > 0.1  # there was a part to drop
+    with pytest.raises(ValueError, match="compensation 'half'; valid: full, matched"):
+        make_controller("l1", VEHICLE, compensation="half")
+
+
+def test_l1_matched_flies_l1s_sets_until_it_has_its_own():
+    from quad_dob_baselines import gain_set
+
+    for benchmark in ("v2", "v3", "v4"):
+        assert gain_set("l1-matched", benchmark, VEHICLE) == gain_set("l1", benchmark, VEHICLE)
