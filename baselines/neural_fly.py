@@ -15,7 +15,8 @@ with Q = q I, R = r I, P(0) = p0 I), in the discrete form of their supplement §
 (eqs. 15-19), per control step Δt, each vehicle's covariance a scalar times I:
 
 - propagate: ``â⁻ = (1 - λΔt) â``, ``p⁻ = (1 - λΔt)² p + q Δt``;
-- gain: ``k = p⁻ / (p⁻ + r Δt)``;
+- gain: ``k = p⁻ / (p⁻ + r Δt)``, ``r = q / ω_a²`` for the estimate's steady bandwidth
+  ``ω_a = √(q/r)`` [1/s] (``adaptation_rate``);
 - update: ``â = â⁻ - k (â⁻ - y) + p⁻ s Δt``, ``p = (1 - k)² p⁻ + k² r Δt`` (Joseph form).
 
 The tracking term's sign and Δt are their continuous law's (eq. 8, ``+P φᵀ s``, which their
@@ -49,9 +50,12 @@ from quad_dob_env.trajectories import Reference
 from quad_dob_env.validation import as_finite
 
 # Neural-Fly's own adaptation values where their supplement gives them (§S6: "Q on the
-# order of 0.1", λ = 0.01); the rest, p0 and r, ``quad-dob tune`` sets
+# order of 0.1", λ = 0.01). r, "similar to the measurement noise" and unpublished, is set
+# through the estimate's steady bandwidth, √(q/r) (a scalar Kalman filter on a random walk:
+# p = √(q r), gain p / r), which ``quad-dob tune`` searches under the cap every estimator
+# keeps; p0 its steady value at that bandwidth's start, 1 (their P(0) is unpublished)
 NF_CONSTANT_ADAPTATION = {"process_noise": 0.1, "forgetting": 0.01, "initial_covariance": 1.0,
-                          "measurement_noise": 1.0}
+                          "adaptation_rate": 5.0}
 # the composite law's gains to start a search from: the paper vehicle's Lee gains (16, 5.6
 # per kg) have no real factorization K Λ, K + m Λ (5.6² < 4 x 16); Λ = 2 /s, K = 2.8 m
 # give kx = 5.6 and kv = 4.8 per kg
@@ -62,15 +66,15 @@ class NeuralFlyConstant(EstimatingGeometricController):
     """NF-C (module docstring): the composite law ``-K s`` with the force ``f̂`` adapted by
     NF-C's composite adaptation. Gains: ``k_per_mass`` (K / m) [1/s], ``composite_rate``
     (Λ) [1/s], the attitude law's ``kR`` and ``kOmega``, and the adaptation's
-    ``process_noise`` q, ``measurement_noise`` r, ``initial_covariance`` p0 and
-    ``forgetting`` λ."""
+    ``process_noise`` q, ``adaptation_rate`` ω_a [1/s] (the measurement noise r = q / ω_a²),
+    ``initial_covariance`` p0 and ``forgetting`` λ."""
 
     name = "nf-constant"
 
     def __init__(self, k_per_mass: float = NF_CONSTANT_GAINS["k_per_mass"],
                  composite_rate: float = NF_CONSTANT_GAINS["composite_rate"],
                  process_noise: float = NF_CONSTANT_ADAPTATION["process_noise"],
-                 measurement_noise: float = NF_CONSTANT_ADAPTATION["measurement_noise"],
+                 adaptation_rate: float = NF_CONSTANT_ADAPTATION["adaptation_rate"],
                  initial_covariance: float = NF_CONSTANT_ADAPTATION["initial_covariance"],
                  forgetting: float = NF_CONSTANT_ADAPTATION["forgetting"],
                  **gains: ArrayLike) -> None:
@@ -86,10 +90,12 @@ class NeuralFlyConstant(EstimatingGeometricController):
         super().__init__(own, kx_per_mass=self.k_per_mass * self.composite_rate,
                          kv_per_mass=self.k_per_mass + self.composite_rate, **gains)
         self.name = "nf-constant"
-        self.process_noise = as_finite(process_noise, "NeuralFlyConstant.process_noise", 0.0)
-        self.measurement_noise = as_finite(measurement_noise,
-                                           "NeuralFlyConstant.measurement_noise", 0.0,
-                                           strictly=True)
+        self.process_noise = as_finite(process_noise, "NeuralFlyConstant.process_noise", 0.0,
+                                       strictly=True)
+        self.adaptation_rate = as_finite(adaptation_rate, "NeuralFlyConstant.adaptation_rate",
+                                         0.0, strictly=True)
+        # r from the bandwidth: ω_a = √(q/r)
+        self.measurement_noise = self.process_noise / self.adaptation_rate**2
         self.initial_covariance = as_finite(initial_covariance,
                                             "NeuralFlyConstant.initial_covariance", 0.0)
         self.forgetting = as_finite(forgetting, "NeuralFlyConstant.forgetting", 0.0)
@@ -151,7 +157,7 @@ class NeuralFlyConstant(EstimatingGeometricController):
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "k_per_mass": self.k_per_mass,
                 "composite_rate": self.composite_rate, "process_noise": self.process_noise,
-                "measurement_noise": self.measurement_noise,
+                "adaptation_rate": self.adaptation_rate,
                 "initial_covariance": self.initial_covariance, "forgetting": self.forgetting}
 
 
@@ -161,7 +167,7 @@ class NeuralFlyConstant(EstimatingGeometricController):
 # with a margin of a quarter: the figure-8's own airspeed swing (12.1 ± 1.25 m/s, a drag of
 # V^1.44 15 % above the mean at the swing's top) and the tunnel's gusts (4 % turbulence: two
 # σ of airspeed, 12 % more drag) on top of the mean. 0.59 x 1.25 = 0.74, rounded up.
-NF_BASELINE_INTEGRAL = {"ki_per_mass": 1.0, "integral_limit_per_weight": 0.75}
+NF_BASELINE_INTEGRAL = {"composite_ki_per_mass": 1.0, "integral_limit_per_weight": 0.75}
 
 
 class NeuralFlyBaseline(GeometricIntegralController):
@@ -171,27 +177,29 @@ class NeuralFlyBaseline(GeometricIntegralController):
     estimate's slot. ``∫ s dt`` is advanced by forward Euler once per flown step and clamped
     so that ``K_I |∫ s dt|`` stays within ``integral_limit_per_weight · m g`` per axis
     (``NF_BASELINE_INTEGRAL``: the limit from physics, none being published). Gains:
-    ``k_per_mass`` (K / m), ``composite_rate`` (Λ), ``ki_per_mass`` (K_I / m) [1/s²], the
-    limit, and the attitude law's ``kR``, ``kOmega``. Their supplement's Fig. S3 caption
+    ``k_per_mass`` (K / m), ``composite_rate`` (Λ), ``composite_ki_per_mass`` (K_I / m)
+    [1/s²: ∫ s dt is in metres, where ``geometric-integral``'s ∫ ex dt is in metre-seconds],
+    the limit, and the attitude law's ``kR``, ``kOmega``. Their supplement's Fig. S3 caption
     writes the integral on p̃; their eq. 11, the law, on s: this is eq. 11."""
 
     name = "nf-baseline"
 
     def __init__(self, k_per_mass: float = NF_CONSTANT_GAINS["k_per_mass"],
                  composite_rate: float = NF_CONSTANT_GAINS["composite_rate"],
-                 ki_per_mass: float = NF_BASELINE_INTEGRAL["ki_per_mass"],
+                 composite_ki_per_mass: float = NF_BASELINE_INTEGRAL["composite_ki_per_mass"],
                  integral_limit_per_weight: float = NF_BASELINE_INTEGRAL[
                      "integral_limit_per_weight"],
                  **gains: ArrayLike) -> None:
-        for name in ("kx_per_mass", "kv_per_mass"):
+        for name in ("kx_per_mass", "kv_per_mass", "ki_per_mass"):
             if name in gains:
-                raise ValueError(f"nf-baseline's position gains are k_per_mass and "
-                                 f"composite_rate (kx = K Λ, kv = K + m Λ), not {name}")
+                raise ValueError(f"nf-baseline's position gains are k_per_mass, "
+                                 f"composite_rate (kx = K Λ, kv = K + m Λ) and "
+                                 f"composite_ki_per_mass, not {name}")
         self.k_per_mass = as_finite(k_per_mass, "NeuralFlyBaseline.k_per_mass", 0.0,
                                     strictly=True)
         self.composite_rate = as_finite(composite_rate, "NeuralFlyBaseline.composite_rate",
                                         0.0, strictly=True)
-        super().__init__(ki_per_mass=ki_per_mass,
+        super().__init__(ki_per_mass=composite_ki_per_mass,
                          integral_limit_per_weight=integral_limit_per_weight,
                          kx_per_mass=self.k_per_mass * self.composite_rate,
                          kv_per_mass=self.k_per_mass + self.composite_rate, **gains)
@@ -203,5 +211,7 @@ class NeuralFlyBaseline(GeometricIntegralController):
             state.position - reference.position)
 
     def describe(self) -> dict[str, Any]:
-        return {**super().describe(), "k_per_mass": self.k_per_mass,
+        described = super().describe()
+        described["composite_ki_per_mass"] = described.pop("ki_per_mass")
+        return {**described, "k_per_mass": self.k_per_mass,
                 "composite_rate": self.composite_rate}

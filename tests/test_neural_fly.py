@@ -34,9 +34,9 @@ def _tilted(angle: float) -> np.ndarray:
 def _oracle(states, thrusts, gains):
     """NF-C's estimate after each step, from the equations (φ = I, P = p I)."""
     m, g = VEHICLE.mass, VEHICLE.gravity
-    q, r, p, lam, rate = (gains["process_noise"], gains["measurement_noise"],
-                          gains["initial_covariance"], gains["forgetting"],
-                          gains["composite_rate"])
+    q, p, lam, rate = (gains["process_noise"], gains["initial_covariance"],
+                       gains["forgetting"], gains["composite_rate"])
+    r = q / gains["adaptation_rate"] ** 2  # the bandwidth √(q/r)
     a = np.zeros(3)
     out = [a.copy()]
     for k in range(1, len(states)):
@@ -54,7 +54,7 @@ def _oracle(states, thrusts, gains):
 
 def test_nf_constants_estimate_is_its_update_written_out():
     gains = {"k_per_mass": 3.0, "composite_rate": 1.5, "process_noise": 0.3,
-             "measurement_noise": 2.0, "initial_covariance": 0.7, "forgetting": 0.05}
+             "adaptation_rate": 0.4, "initial_covariance": 0.7, "forgetting": 0.05}
     controller = NeuralFlyConstant(**gains)
     controller.reset(1, VEHICLE, DT)
     rng = np.random.default_rng(3)
@@ -99,7 +99,7 @@ def test_a_steady_force_is_learnt_and_the_law_is_lees_with_composite_gains():
 
 def test_nf_baselines_integral_is_the_composite_error_clamped():
     controller = make_controller("nf-baseline", VEHICLE, k_per_mass=2.0, composite_rate=1.5,
-                                 ki_per_mass=4.0, integral_limit_per_weight=0.5)
+                                 composite_ki_per_mass=4.0, integral_limit_per_weight=0.5)
     assert controller.gains["kx_per_mass"] == pytest.approx(np.full(3, 3.0))
     assert controller.gains["kv_per_mass"] == pytest.approx(np.full(3, 3.5))
     controller.reset(1, VEHICLE, DT)

@@ -85,6 +85,11 @@ from quad_dob_baselines.gain_sets import INERTIA_SCALED, INHERITED_FROM, gain_se
 from quad_dob_baselines.geometric import INTEGRAL_GAINS, PAPER_GAINS
 from quad_dob_baselines.indi import INDI_FILTER
 from quad_dob_baselines.l1 import L1_GAINS
+from quad_dob_baselines.neural_fly import (
+    NF_BASELINE_INTEGRAL,
+    NF_CONSTANT_ADAPTATION,
+    NF_CONSTANT_GAINS,
+)
 from quad_dob_baselines.pid import PID_GAINS
 from quad_dob_baselines.smc import SMC_GAINS
 from quad_dob_env.benchmark import TOOLS_BENCHMARK
@@ -128,7 +133,8 @@ TIME_ORDER = {
     "kx_per_mass": 2, "kv_per_mass": 1, "kR": 2, "kOmega": 1, "ki_per_mass": 3,
     "translational_rate": 1, "rotational_rate": 1, "filter_bandwidth": 1,
     "force_cutoff": 1, "torque_cutoff": 1, "torque_second_cutoff": 1, "predictor_rate": 1,
-    "rotational_predictor_rate": 1,
+    "rotational_predictor_rate": 1, "k_per_mass": 1, "composite_rate": 1,
+    "adaptation_rate": 1, "composite_ki_per_mass": 2,
     "position_kp": 2, "position_kd": 1, "position_ki": 3, "attitude_kp": 1, "rate_kp": 1,
     "rate_ki": 2, "rate_kd": 0,
     "position_lambda": 1, "position_boundary": -1, "attitude_lambda": 1, "attitude_eta": 2,
@@ -154,6 +160,8 @@ OBSERVER_RATES = {"translational_rate": (1.0, 2.0, 5.0, 10.0, 20.0, 40.0),
 BANDWIDTH_CAP = 40.0
 BANDWIDTH_CAPS = {**dict.fromkeys(OBSERVER_RATES, BANDWIDTH_CAP),
                   "force_cutoff": BANDWIDTH_CAP, "torque_cutoff": BANDWIDTH_CAP,
+                  # NF-C's estimate, a first-order filter at its steady bandwidth √(q/r)
+                  "adaptation_rate": BANDWIDTH_CAP,
                   "filter_bandwidth": round(BANDWIDTH_CAP * 2 ** 0.5, 1)}
 BANDWIDTHS = tuple(BANDWIDTH_CAPS)
 GEOMETRIC = ("kx_per_mass", "kv_per_mass", "kR", "kOmega")
@@ -164,6 +172,11 @@ SEARCHED = {
     "indi": (*GEOMETRIC, "filter_bandwidth"),
     "l1": (*GEOMETRIC, "force_cutoff", "torque_cutoff", "predictor_rate",
            "rotational_predictor_rate"),
+    "l1-matched": (*GEOMETRIC, "force_cutoff", "torque_cutoff", "predictor_rate",
+                   "rotational_predictor_rate"),
+    # Neural-Fly's composite law: K and Λ in place of kx and kv (kx = K Λ, kv = K + m Λ)
+    "nf-constant": ("k_per_mass", "composite_rate", "kR", "kOmega", "adaptation_rate"),
+    "nf-baseline": ("k_per_mass", "composite_rate", "kR", "kOmega", "composite_ki_per_mass"),
     "pid": ("position_kp", "position_kd", "position_ki", "attitude_kp", "rate_kp", "rate_ki",
             "rate_kd"),
     "smc": ("position_lambda", "position_boundary", "attitude_lambda", "attitude_eta",
@@ -180,6 +193,13 @@ START = {
     "geometric-integral": {**PAPER_GAINS, **INTEGRAL_GAINS},
     "indi": {**PAPER_GAINS, **INDI_FILTER},
     "l1": {**PAPER_GAINS, **L1_GAINS},
+    "l1-matched": {**PAPER_GAINS, **L1_GAINS},
+    # Neural-Fly's composite gains to start from (NF_CONSTANT_GAINS: no published K, Λ) with
+    # Lee's attitude gains, and NF-C's adaptation at its start
+    "nf-constant": {**NF_CONSTANT_GAINS, "kR": PAPER_GAINS["kR"],
+                    "kOmega": PAPER_GAINS["kOmega"], **NF_CONSTANT_ADAPTATION},
+    "nf-baseline": {**NF_CONSTANT_GAINS, "kR": PAPER_GAINS["kR"],
+                    "kOmega": PAPER_GAINS["kOmega"], **NF_BASELINE_INTEGRAL},
     "pid": {**PID_GAINS, "position_kp": 16.0, "position_kd": 6.0, "position_ki": 6.0,
             "attitude_kp": 10.0, "rate_kp": 25.0, "rate_ki": 20.0, "rate_kd": 0.3},
     "smc": {**SMC_GAINS, "position_lambda": 2.8, "position_boundary": 0.35,
