@@ -10,7 +10,9 @@ the logs' span), scores each flight with ``flight_statistics`` over its first
 statistic, then for each variant the mean of v4 - variant over the seeds both kept, with
 its 95 % interval (Student's t on the paired differences; a phase's difference wrapped to
 ±180°), and the flights each lost. A mechanism whose interval excludes 0 moves that
-statistic. Seeds 9701-9720 are v4's report seeds (docs/benchmark-v4.md).
+statistic. Seeds 9701-9720 are v4's report seeds (docs/benchmark-v4.md). The counterparts
+are part 1's, today's controllers at v3's gains (``wind_tunnel.COUNTERPARTS``), as the
+issue asks of part 1.
 """
 
 from __future__ import annotations
@@ -136,7 +138,8 @@ def main() -> None:
     for label in wanted:
         options, inputs = table[label]
         with indi_inputs(inputs):
-            flown[label] = per_seed(simulate("v4", seeds, DURATION, {LAPS}, options))
+            flown[label] = per_seed(simulate("v4", seeds, DURATION, {LAPS}, options,
+                                             COUNTERPARTS))
         print(f"flown: {label}", flush=True)
     base = flown["Benchmark v4"]
     document: dict[str, Any] = {}

@@ -408,11 +408,27 @@ def test_the_adapter_takes_the_envs_thrust_setpoint_where_it_reports_one():
 
 def test_the_wind_tunnel_counterparts_and_benchmark():
     from quad_dob_env.benchmark import TOOLS_BENCHMARK
-    from quad_dob_training.wind_tunnel.tool import SIMULATED_OF
+    from quad_dob_training.wind_tunnel.flight_logs import NEURAL_FLY_METHODS
+    from quad_dob_training.wind_tunnel.published import counterparts
 
     assert TOOLS_BENCHMARK == "v3"
-    assert SIMULATED_OF == {"baseline": "geometric-integral", "indi": "indi", "L1": "l1",
-                            "NF-C": "geometric-ndob:tuned"}
+
+    def simulated_of(pairs):  # Neural-Fly's method -> the controller flown for it
+        return {method: spec for method, label in NEURAL_FLY_METHODS.items()
+                for spec, real in pairs.items() if real == label}
+
+    stand_ins = {"baseline": "geometric-integral", "indi": "indi", "L1": "l1",
+                 "NF-C": "geometric-ndob:tuned"}
+    for benchmark in ("v1", "v2", "v3"):
+        assert simulated_of(counterparts(benchmark)) == stand_ins
+    assert simulated_of(counterparts("v3", "stand-ins")) == stand_ins
+    # v4's: the laws Neural-Fly flew, by names of their own
+    assert simulated_of(counterparts("v4")) == {"baseline": "nf-baseline", "indi": "indi",
+                                                "L1": "l1-matched", "NF-C": "nf-constant"}
+    assert counterparts("v4", "stand-ins") == counterparts("v3")
+    with pytest.raises(ValueError, match="unknown counterparts 'nf'; valid: stand-ins, "
+                                         "neural-fly"):
+        counterparts("v4", "nf")
 
 
 @pytest.mark.slow

@@ -29,6 +29,7 @@ from quad_dob_training.cli.checks import (
 from quad_dob_training.cli.listing import ALGORITHMS, print_hyperparams
 from quad_dob_training.cli.listing import main as list_main
 from quad_dob_training.evaluation.margins import DELAY_GRID, DELAY_PATHS
+from quad_dob_training.wind_tunnel.published import COUNTERPART_SETS
 
 MAX_VIDEO_WIDTH = 4096  # a panel's pixels
 MAX_FPS = 1000.0
@@ -169,7 +170,7 @@ def _wind_tunnel(args: argparse.Namespace) -> int:
 
     writable_folder(args.out, "--out")
     return wind_tunnel_main(args.benchmark, args.seeds, args.neural_fly, args.out,
-                            args.duration)
+                            args.duration, args.counterparts)
 
 
 def _benchmark_option(parser: argparse.ArgumentParser) -> None:
@@ -410,6 +411,11 @@ def build_parser() -> argparse.ArgumentParser:
     tunnel.add_argument("--out", type=Path, default=Path("results/wind-tunnel"),
                         help="folder for wind_tunnel.json and the PNG figures "
                         "(default: %(default)s)")
+    tunnel.add_argument("--counterparts", default=None, choices=list(COUNTERPART_SETS),
+                        help="the controllers flown for Neural-Fly's: stand-ins (v1-v3's: "
+                        "geometric-ndob:tuned, geometric-integral, indi, l1) or neural-fly "
+                        "(v4's, the laws they flew: nf-constant, nf-baseline, indi, "
+                        "l1-matched) (default: the benchmark's)")
     tunnel.set_defaults(handler=_wind_tunnel)
     listing = commands.add_parser(
         "list", help="list env ids, scenarios with their feasibility margins, wind presets, "

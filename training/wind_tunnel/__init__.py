@@ -24,6 +24,7 @@ order: docs/design.md, "Layers"); not ``cli``.
 # what ``quad_dob_training.wind_tunnel`` held when it was one module (before 2026-12-05)
 from quad_dob_training.wind_tunnel.published import (
     COUNTERPARTS,
+    COUNTERPARTS_V4,
     FACTOR,
     NEURAL_FLY_RMS,
     WIND_SPEEDS,
@@ -31,5 +32,5 @@ from quad_dob_training.wind_tunnel.published import (
     side_by_side,
 )
 
-__all__ = ["COUNTERPARTS", "FACTOR", "NEURAL_FLY_RMS", "WIND_SPEEDS", "rms_by_wind",
-           "side_by_side"]
+__all__ = ["COUNTERPARTS", "COUNTERPARTS_V4", "FACTOR", "NEURAL_FLY_RMS", "WIND_SPEEDS",
+           "rms_by_wind", "side_by_side"]

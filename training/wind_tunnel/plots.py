@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from quad_dob_training.wind_tunnel.published import COUNTERPARTS, NEURAL_FLY_RMS, WIND_SPEEDS
+from quad_dob_training.wind_tunnel.published import NEURAL_FLY_RMS, WIND_SPEEDS
 
 WINDS = [float(speed) for speed in WIND_SPEEDS]
 
@@ -39,11 +39,17 @@ def _own(run: dict) -> dict:
     return run["mean"].get(str(run["laps"])) or {}
 
 
+def _pairs(simulated: list[dict]) -> dict[str, str]:
+    """The counterparts flown, simulated -> real, in the order flown."""
+    return {run["policy"]: run["counterpart"] for run in simulated}
+
+
 def rms_by_wind(simulated: list[dict], real_rows: list[dict], path: Path) -> Path:
     """Per counterpart: the RMS after 5 s against the wind, simulated (mean, the seeds'
     range as a bar), published and, given the logs, real."""
+    pairs = _pairs(simulated)
     fig, axes = plt.subplots(2, 2, figsize=(9, 7), sharex=True)
-    for ax, spec in zip(axes.flat, COUNTERPARTS, strict=True):
+    for ax, spec in zip(axes.flat, pairs, strict=True):
         runs = _mine(simulated, spec)
         values = [1e3 * np.array(run["rms_after_skip"]) for run in runs]
         means = [v.mean() for v in values]
@@ -51,8 +57,8 @@ def rms_by_wind(simulated: list[dict], real_rows: list[dict], path: Path) -> Pat
                            [v.max() - m for m, v in zip(means, values, strict=True)]])
         ax.errorbar([run["wind_speed"] for run in runs], means, yerr=spread, marker="o",
                     capsize=3, label=f"{spec} (sim)")
-        ax.plot(WINDS, 1e3 * np.array(NEURAL_FLY_RMS[COUNTERPARTS[spec]]), "s--",
-                label=f"{COUNTERPARTS[spec]} (published)")
+        ax.plot(WINDS, 1e3 * np.array(NEURAL_FLY_RMS[pairs[spec]]), "s--",
+                label=f"{pairs[spec]} (published)")
         real = _real(real_rows, spec)
         if real:
             ax.plot([row["wind_speed"] for row in real],
@@ -71,7 +77,7 @@ def axes_by_wind(simulated: list[dict], real_rows: list[dict], path: Path) -> Pa
     """Per counterpart: the RMS per axis over the whole laps against the wind (sim: solid,
     real: dotted)."""
     fig, axes = plt.subplots(2, 2, figsize=(9, 7), sharex=True)
-    for ax, spec in zip(axes.flat, COUNTERPARTS, strict=True):
+    for ax, spec in zip(axes.flat, _pairs(simulated), strict=True):
         runs, real = _mine(simulated, spec), _real(real_rows, spec)
         for k, axis in enumerate("xyz"):
             ax.plot([run["wind_speed"] for run in runs],
@@ -92,8 +98,9 @@ def axes_by_wind(simulated: list[dict], real_rows: list[dict], path: Path) -> Pa
 
 def forces_by_wind(simulated: list[dict], real_rows: list[dict], path: Path) -> Path:
     """The mean fa_x and the fa_z fit's thrust lag τ against the wind, per counterpart."""
+    pairs = _pairs(simulated)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for k, spec in enumerate(COUNTERPARTS):
+    for k, spec in enumerate(pairs):
         runs, real = _mine(simulated, spec), _real(real_rows, spec)
         for ax, key, scale in ((axes[0], "mean_fa_x", 1.0), (axes[1], "fa_z_fit.tau", 1e3)):
             ax.plot([run["wind_speed"] for run in runs],
@@ -102,7 +109,7 @@ def forces_by_wind(simulated: list[dict], real_rows: list[dict], path: Path) -> 
             if real:
                 ax.plot([row["wind_speed"] for row in real],
                         [scale * row["statistics"][key] for row in real], "^:",
-                        color=f"C{k}", label=f"{COUNTERPARTS[spec]} (real)")
+                        color=f"C{k}", label=f"{pairs[spec]} (real)")
     axes[0].set_ylabel("mean reconstructed fa_x [N]")
     axes[1].set_ylabel("τ = b / (4 m) of the fa_z fit [ms]")
     for ax in axes:

@@ -19,9 +19,29 @@ NEURAL_FLY_RMS: dict[str, tuple[float, float, float, float]] = {
     "NF-C": (0.052, 0.059, 0.073, 0.122),
     "NF": (0.031, 0.048, 0.059, 0.094),
 }
-# simulated controller -> the real controller it is the counterpart of
+# simulated controller -> the real controller it is the counterpart of: v1-v3's stand-ins
 COUNTERPARTS = {"geometric-ndob:tuned": "NF-C", "geometric-integral": "nonlinear baseline",
                 "indi": "INDI", "l1": "L1 adaptive"}
+# v4's: the laws Neural-Fly flew (issue 55), under names of their own (v1-v3's names keep
+# their laws): NF-C itself, their baseline's law and integral, the L1 they cite, which
+# compensates the thrust axis's part alone; INDI, on its actuator model in v4
+COUNTERPARTS_V4 = {"nf-constant": "NF-C", "nf-baseline": "nonlinear baseline",
+                   "indi": "INDI", "l1-matched": "L1 adaptive"}
+
+
+# the two sets by name (``quad-dob wind-tunnel --counterparts``)
+COUNTERPART_SETS = {"stand-ins": COUNTERPARTS, "neural-fly": COUNTERPARTS_V4}
+
+
+def counterparts(benchmark: str, chosen: str | None = None) -> dict[str, str]:
+    """The simulated counterpart of each of Neural-Fly's controllers: the set ``chosen``
+    names (``COUNTERPART_SETS``), else ``benchmark``'s."""
+    if chosen is not None:
+        if chosen not in COUNTERPART_SETS:
+            raise ValueError(f"unknown counterparts {chosen!r}; valid: "
+                             + ", ".join(COUNTERPART_SETS))
+        return COUNTERPART_SETS[chosen]
+    return COUNTERPARTS_V4 if benchmark == "v4" else COUNTERPARTS
 FACTOR = 2.0  # the agreement asked for: within a factor of 2 at every wind speed
 
 
@@ -37,15 +57,17 @@ def grows_with_wind(values: list[float | None]) -> bool:
     return None not in (values[0], values[-1]) and values[-1] > values[0]
 
 
-def side_by_side(rows: list[dict], label: str = "") -> str:
+def side_by_side(rows: list[dict], label: str = "",
+                 pairs: dict[str, str] | None = None) -> str:
     """A markdown table: each simulated counterpart's mm per wind speed (lost flights
     named), the real controller's, and their ratio; then whether each pair is within
-    ``FACTOR`` everywhere and grows with the wind."""
+    ``FACTOR`` everywhere and grows with the wind. ``pairs``: simulated -> real
+    (``COUNTERPARTS`` by default)."""
     crashes = {(row["scenario"], row["policy"]): int(row.get("crashes", 0)) for row in rows}
     header = f"| {label or 'controller'} | " + " | ".join(f"{s} m/s" for s in WIND_SPEEDS)
     lines = [header + " | within 2x everywhere | grows with wind |",
              "|---|" + "---|" * (len(WIND_SPEEDS) + 2)]
-    for simulated, real in COUNTERPARTS.items():
+    for simulated, real in (pairs or COUNTERPARTS).items():
         values = rms_by_wind(rows, simulated)
         if all(value is None for value in values):
             continue

@@ -1,5 +1,6 @@
 """``quad-dob wind-tunnel``: the four simulated counterparts of Neural-Fly's controllers
-(``wind_tunnel.COUNTERPARTS``) on the figure-8 in 0, 4.2, 8.5 and 12.1 m/s of wind, and,
+(``published.counterparts``: v1-v3's stand-ins, ``COUNTERPARTS``; v4's, the laws they
+flew, ``COUNTERPARTS_V4``) on the figure-8 in 0, 4.2, 8.5 and 12.1 m/s of wind, and,
 given a folder of Neural-Fly's experiment CSVs, their real flights, each side scored by the
 same code (``flight_statistics``) over the same whole laps after 5 s.
 
@@ -33,16 +34,13 @@ from quad_dob_training.wind_tunnel.flight_statistics import (
     log_statistics,
 )
 from quad_dob_training.wind_tunnel.published import (
-    COUNTERPARTS,
     NEURAL_FLY_RMS,
     WIND_SPEEDS,
+    counterparts,
     side_by_side,
 )
 from quad_dob_training.wind_tunnel.verdicts import verdicts
 
-# Neural-Fly's method -> the simulated controller that stands for it (NF, NF-T: none)
-SIMULATED_OF = {method: spec for method, label in NEURAL_FLY_METHODS.items()
-                for spec, real in COUNTERPARTS.items() if real == label}
 # the sim's first whole lap after 5 s ends at 4π s: a shorter flight has none to score
 MIN_DURATION = 4 * math.pi
 
@@ -58,7 +56,7 @@ def fly_logs(spec: str, scenario: Any, seeds: list[int], wind_speed: float | Non
     policy = make_policy(spec, benchmark=scenario.loop.benchmark)
     if policy.model is not None:
         raise ValueError(f"{spec!r} is a trained model; the wind tunnel flies controllers "
-                         f"by name: {', '.join(COUNTERPARTS)}")
+                         f"by name: {', '.join(counterparts(scenario.loop.benchmark))}")
     env = make_vector_env(len(seeds), scenario, **policy.env_kwargs())
     _, info = env.reset(seed=[int(seed) for seed in seeds])
     recorder, actions = InfoRecorder(len(seeds)), np.zeros((len(seeds), 4))
@@ -114,12 +112,14 @@ def rms_after_skip(log: FlightLog) -> float:
 
 
 def simulate(benchmark: str, seeds: list[int], duration: float | None,
-             laps_wanted: set[int], scenario_options: dict[str, Any] | None = None
-             ) -> list[dict[str, Any]]:
+             laps_wanted: set[int], scenario_options: dict[str, Any] | None = None,
+             pairs: dict[str, str] | None = None) -> list[dict[str, Any]]:
     """Every counterpart in every wind: per seed the RMS after 5 s and the statistics over
     its own whole laps, and over each count in ``laps_wanted`` (a real log's).
     ``scenario_options`` go to every figure-8 (``make_scenario``'s keywords: the ablation
-    switches a factor with them)."""
+    switches a factor with them); ``pairs`` (simulated -> real) the counterparts flown,
+    the benchmark's by default (``published.counterparts``)."""
+    pairs = counterparts(benchmark) if pairs is None else pairs
     from quad_dob_env.scenarios import make_scenario
 
     options: dict[str, Any] = {"benchmark": benchmark, **(scenario_options or {})}
@@ -128,14 +128,14 @@ def simulate(benchmark: str, seeds: list[int], duration: float | None,
     results = []
     for wind in WIND_SPEEDS:
         scenario = make_scenario(f"figure8-wind-{wind}", **options)
-        for spec in COUNTERPARTS:
+        for spec in pairs:
             logs = fly_logs(spec, scenario, seeds, float(wind))
             scored = [log for log in logs if not log.crashed]
             own = lap_window(scored[0]).laps if scored else 0
             by_laps = {str(laps): [flat(log_statistics(log, laps)) for log in scored]
                        for laps in {own, *laps_wanted} if 1 <= laps <= own}
             results.append({
-                "policy": spec, "counterpart": COUNTERPARTS[spec], "wind_speed": float(wind),
+                "policy": spec, "counterpart": pairs[spec], "wind_speed": float(wind),
                 "scenario": scenario.name, "duration": scenario.duration,
                 "flights": len(logs), "crashes": int(sum(log.crashed for log in logs)),
                 # the seeds of the per-seed statistics: a lost flight is not scored on laps
@@ -151,10 +151,12 @@ def simulate(benchmark: str, seeds: list[int], duration: float | None,
 def compare_real(real: list[FlightLog], simulated: list[dict[str, Any]]
                  ) -> list[dict[str, Any]]:
     """Each real log's statistics, its fa reconstruction's RMS against its own fa, and its
-    counterpart's mean over the same number of whole laps (None: no counterpart)."""
+    counterpart's mean over the same number of whole laps (None: no counterpart: NF,
+    NF-T). The counterparts are the ones ``simulated`` flew."""
+    flown = {run["counterpart"]: run["policy"] for run in simulated}
     rows = []
     for log in real:
-        spec = SIMULATED_OF.get(log.method)
+        spec = flown.get(NEURAL_FLY_METHODS.get(log.method))
         match = next((run for run in simulated if run["policy"] == spec
                       and run["wind_speed"] == log.wind_speed), None)
         laps = lap_window(log).laps
@@ -213,7 +215,8 @@ def report(benchmark: str, simulated: list[dict], real_rows: list[dict]) -> str:
              "crashes": run["crashes"]} for run in simulated]
     parts = [f"Benchmark {benchmark}: RMS position error after {SKIP:g} s [mm], the "
              "simulated mean over the seeds beside Neural-Fly's published figure",
-             side_by_side(rows, "controller"), "",
+             side_by_side(rows, "controller",
+                          {run["policy"]: run["counterpart"] for run in simulated}), "",
              "Simulated, over the whole laps after 5 s (mean over the seeds; z share "
              "pooled: Σ rms_z² / Σ rms²)",
              statistics_table(["controller", "wind [m/s]", "lost"], [
@@ -264,7 +267,7 @@ def _plain(value: Any) -> Any:
 
 
 def main(benchmark: str | None, seeds: str, neural_fly: Path | None, out: Path,
-         duration: float | None = None) -> int:
+         duration: float | None = None, chosen: str | None = None) -> int:
     """The command: fly, score, print, and write ``wind_tunnel.json`` and the figures."""
     from quad_dob_training.evaluation.evaluate import parse_seeds
     from quad_dob_training.wind_tunnel.flight_logs import read_neural_fly_folder
@@ -281,7 +284,8 @@ def main(benchmark: str | None, seeds: str, neural_fly: Path | None, out: Path,
                          f"{MIN_DURATION:.2f} s or more")
     seed_list = parse_seeds(seeds, round((duration or 30.0) / 0.01))
     simulated = simulate(benchmark, seed_list, duration,
-                         {lap_window(log).laps for log in real})
+                         {lap_window(log).laps for log in real},
+                         pairs=counterparts(benchmark, chosen))
     real_rows = compare_real(real, simulated)
     print(report(benchmark, simulated, real_rows))
     out.mkdir(parents=True, exist_ok=True)
