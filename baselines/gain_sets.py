@@ -129,6 +129,27 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
     ("smc", "v3", "paper"): {"position_lambda": 0.784, "disturbance_bound": 33.0,
                              "position_boundary": 1.75, "attitude_lambda": 6.272,
                              "attitude_eta": 25.6, "attitude_boundary": 0.56},
+    # Benchmark v4's sets, the wind tunnel's counterparts on the neural-fly vehicle:
+    # `quad-dob tune --benchmark v4 --vehicle neural-fly --controllers NAME` (seeds 100-109,
+    # v3's margin; docs/tuning-v4/), 2026-12-06 at commit 2dc03fe, each keeping all 50
+    # tuning flights under the margin. The other names fly v3's sets in v4 (INHERITED_FROM).
+    ("nf-constant", "v4", "neural-fly"): {"k_per_mass": 4.48, "composite_rate": 2.24,
+                                          "kR": 3.617716, "kOmega": 0.465633,
+                                          "process_noise": 0.1, "forgetting": 0.01,
+                                          "initial_covariance": 1.0, "adaptation_rate": 1.96},
+    ("nf-baseline", "v4", "neural-fly"): {"k_per_mass": 2.8, "composite_rate": 2.8,
+                                          "kR": 4.037629, "kOmega": 0.582042,
+                                          "composite_ki_per_mass": 1.4,
+                                          "integral_limit_per_weight": 0.75},
+    ("l1-matched", "v4", "neural-fly"): {"kx_per_mass": 3.758096, "kv_per_mass": 1.605632,
+                                         "kR": 1.327707, "kOmega": 0.233636,
+                                         "force_cutoff": 4.3008, "torque_cutoff": 5.619712,
+                                         "predictor_rate": 2.048,
+                                         "rotational_predictor_rate": 2.048,
+                                         "torque_second_cutoff": 6.144},
+    ("indi", "v4", "neural-fly"): {"kx_per_mass": 18.35008, "kv_per_mass": 4.917248,
+                                   "kR": 2.315337, "kOmega": 0.260755,
+                                   "filter_bandwidth": 44.8},
 }
 
 # The sets the search left short of admissible: tuning flights (of 50) each still loses

@@ -88,8 +88,9 @@ def test_v4s_indi_models_its_actuators_at_the_classes_time_constant():
     assert make_controller("indi", "neural-fly", "v3").actuator_state == "telemetry"
     given = make_controller("indi", "neural-fly", "v4", actuator_state="telemetry")
     assert given.actuator_state == "telemetry"  # a user's option wins
-    # v4 flies v3's gains
-    assert v4.gain_set.tuned_for == ("v3", "neural-fly")
+    # the tunnel's INDI flies v4's own set; a name without one flies v3's
+    assert v4.gain_set.tuned_for == ("v4", "neural-fly")
+    assert make_controller("pid", "neural-fly", "v4").gain_set.tuned_for == ("v3", "neural-fly")
 
 
 def test_the_tunnels_reference_starts_from_rest_in_v4_alone():
