@@ -201,21 +201,22 @@ BENCHMARK_INPUTS: dict[tuple[str, str], dict[str, object]] = {
 }
 
 
-# A law that varies another's and keeps its gains' meaning flies that law's sets until it
-# has its own: l1-matched is l1 compensating the thrust axis's part alone.
+# A law that varies another's and keeps its gains' meaning flies that law's sets in a
+# benchmark where it has none of its own: l1-matched is l1 compensating the thrust axis's
+# part alone.
 VARIANT_OF = {"l1-matched": "l1"}
 
 
 def gain_set(name: str, benchmark: str, vehicle: VehicleParams | str) -> GainSet:
     """The gain set ``name`` means in ``benchmark`` on ``vehicle`` (module docstring), looked
     up by the vehicle's name; a benchmark with no set of that name for the vehicle nor the
-    fallback vehicle takes ``INHERITED_FROM``'s; a variant with none of its own in any
-    benchmark, the sets of the law it varies (``VARIANT_OF``)."""
+    fallback vehicle takes ``INHERITED_FROM``'s; a variant with none of its own in
+    ``benchmark``, the sets of the law it varies (``VARIANT_OF``)."""
     if benchmark not in BENCHMARKS:
         raise unknown_name_error("benchmark", benchmark, BENCHMARKS)
     params = get_vehicle(vehicle)
     parent = VARIANT_OF.get(name)
-    if parent is not None and not any(key[0] == name for key in GAIN_SETS):
+    if parent is not None and not any(key[:2] == (name, benchmark) for key in GAIN_SETS):
         return gain_set(parent, benchmark, params)
     earlier = INHERITED_FROM.get(benchmark)
     if earlier is not None and not any(

@@ -101,8 +101,8 @@ OFF = {**V3_OFF, **V4_OFF}
 def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str,
                 name: str, vehicle: Any = None) -> dict[str, Any]:
     """The loop fields of a scenario flown under ``benchmark``: those ``given`` (not None)
-    as they are, the rest the benchmark's; ``inner_rate`` 0 means none, and v3's own fields
-    given "off" their ``V3_OFF`` value."""
+    as they are, the rest the benchmark's; ``inner_rate`` 0 means none, and v3's and v4's fields
+    given "off" their ``OFF`` value (``V3_OFF``, ``V4_OFF``)."""
     if benchmark not in BENCHMARKS:
         raise unknown_name_error("benchmark", benchmark, BENCHMARKS)
     loop = benchmark in ("v2", *REAL_LOOP_BENCHMARKS)
