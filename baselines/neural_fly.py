@@ -62,6 +62,13 @@ NF_CONSTANT_ADAPTATION = {"process_noise": 0.1, "forgetting": 0.01, "initial_cov
 NF_CONSTANT_GAINS = {"k_per_mass": 2.8, "composite_rate": 2.0}
 
 
+def lee_gains(k_per_mass: float, composite_rate: float) -> dict[str, float]:
+    """Lee's position gains per kg of the composite law ``-K s``, ``s = ṽ + Λ p̃``:
+    ``kx = K Λ``, ``kv = K + m Λ`` (per kg: ``K/m · Λ`` and ``K/m + Λ``)."""
+    return {"kx_per_mass": k_per_mass * composite_rate,
+            "kv_per_mass": k_per_mass + composite_rate}
+
+
 class NeuralFlyConstant(EstimatingGeometricController):
     """NF-C (module docstring): the composite law ``-K s`` with the force ``f̂`` adapted by
     NF-C's composite adaptation. Gains: ``k_per_mass`` (K / m) [1/s], ``composite_rate``
@@ -87,8 +94,7 @@ class NeuralFlyConstant(EstimatingGeometricController):
                                     strictly=True)
         self.composite_rate = as_finite(composite_rate, "NeuralFlyConstant.composite_rate",
                                         0.0, strictly=True)
-        super().__init__(own, kx_per_mass=self.k_per_mass * self.composite_rate,
-                         kv_per_mass=self.k_per_mass + self.composite_rate, **gains)
+        super().__init__(own, **lee_gains(self.k_per_mass, self.composite_rate), **gains)
         self.name = "nf-constant"
         self.process_noise = as_finite(process_noise, "NeuralFlyConstant.process_noise", 0.0,
                                        strictly=True)
@@ -201,8 +207,7 @@ class NeuralFlyBaseline(GeometricIntegralController):
                                         0.0, strictly=True)
         super().__init__(ki_per_mass=composite_ki_per_mass,
                          integral_limit_per_weight=integral_limit_per_weight,
-                         kx_per_mass=self.k_per_mass * self.composite_rate,
-                         kv_per_mass=self.k_per_mass + self.composite_rate, **gains)
+                         **lee_gains(self.k_per_mass, self.composite_rate), **gains)
         self.name = "nf-baseline"
 
     def integrated_error(self, state: VehicleState, reference: Reference) -> NDArray:

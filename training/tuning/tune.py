@@ -89,6 +89,7 @@ from quad_dob_baselines.neural_fly import (
     NF_BASELINE_INTEGRAL,
     NF_CONSTANT_ADAPTATION,
     NF_CONSTANT_GAINS,
+    lee_gains,
 )
 from quad_dob_baselines.pid import PID_GAINS
 from quad_dob_baselines.smc import SMC_GAINS
@@ -210,6 +211,34 @@ START = {
 # v2's descent of the geometric + NDOB starts from v1's tuned rates too
 START_V2 = {"geometric-ndob:tuned": dict(TUNED_OBSERVER_RATES)}
 
+# Neural-Fly flew every method with the baseline's P and D gains and PX4's one attitude
+# controller (their supplement §S6: "the same P and D gains", tuned with the baseline). In
+# v4 the tunnel's counterparts therefore fly nf-baseline's position and attitude gains, and
+# their search covers their own estimator's values alone (OWN_GAINS), from the shared set
+# unslowed.
+SHARES_GAINS_OF = {"v4": {"nf-constant": "nf-baseline", "l1-matched": "nf-baseline",
+                          "indi": "nf-baseline"}}
+OWN_GAINS = {"nf-constant": ("adaptation_rate",),
+             "l1-matched": ("force_cutoff", "torque_cutoff", "predictor_rate",
+                            "rotational_predictor_rate"),
+             "indi": ("filter_bandwidth",)}
+
+
+def shared_gains(controller: str, benchmark: str, vehicle: str) -> dict[str, float] | None:
+    """The position and attitude gains ``controller`` shares in ``benchmark``, in its own
+    parametrization (``SHARES_GAINS_OF``); None where it shares none."""
+    owner = SHARES_GAINS_OF.get(benchmark, {}).get(controller)
+    if owner is None:
+        return None
+    base = gain_set(owner, benchmark, vehicle).options
+    if not base:
+        raise ValueError(f"{controller} shares {owner}'s gains in {benchmark}, which has no "
+                         f"{benchmark} set on {vehicle!r}: tune {owner} first")
+    position = ({"k_per_mass": base["k_per_mass"], "composite_rate": base["composite_rate"]}
+                if controller in ("nf-constant", "nf-baseline") else
+                lee_gains(base["k_per_mass"], base["composite_rate"]))
+    return {**position, "kR": base["kR"], "kOmega": base["kOmega"]}
+
 
 def declared(controller: str) -> tuple[dict[str, float], tuple[str, ...]] | None:
     """A user controller's ``tunable_gains`` and ``estimator_bandwidths`` (``plugins``),
@@ -236,6 +265,8 @@ def searched_gains(controller: str, benchmark: str = "v1") -> tuple[str, ...]:
     user = declared(controller)
     if user is not None:
         return tuple(user[0])
+    if controller in SHARES_GAINS_OF.get(benchmark, {}):
+        return OWN_GAINS[controller]
     return SEARCHED_V2.get(controller, SEARCHED[controller]) if benchmark != "v1" else \
         SEARCHED[controller]
 
@@ -262,6 +293,9 @@ def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
     user = declared(controller)
     if user is not None:
         return dict(user[0])
+    shared = shared_gains(controller, benchmark, vehicle)
+    if shared is not None:
+        return {**start_gains(controller, INHERITED_FROM[benchmark], vehicle), **shared}
     inherited = gain_set(controller, INHERITED_FROM[benchmark], vehicle) if (
         benchmark in INHERITED_FROM) else None
     if inherited is not None and inherited.tuned_for is not None:
@@ -379,7 +413,8 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
         return (f"objective {value[2]:.4f} m, {value[0]} lost under the margin"
                 + (f", shortfall {value[1]:.2f}" if finer and value[0] else ""))
 
-    if finer and controller in SEARCHED:
+    if finer and controller in SEARCHED and controller not in SHARES_GAINS_OF.get(benchmark,
+                                                                                   {}):
         # the slowed start: the best of the start set at each time scale
         best = None
         start = gains
