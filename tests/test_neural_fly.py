@@ -152,3 +152,36 @@ def test_l1_matched_flies_l1s_sets_where_it_has_none_of_its_own():
     # v4's own on the neural-fly vehicle; on the paper vehicle, none in v4: v3's l1 set
     assert gain_set("l1-matched", "v4", VEHICLE).tuned_for == ("v4", "neural-fly")
     assert gain_set("l1-matched", "v4", "paper") == gain_set("l1", "v3", "paper")
+
+
+def test_v4s_counterparts_start_from_the_baselines_shared_gains_and_search_their_own():
+    """Neural-Fly's methods shared the baseline's P and D and PX4's attitude loop: in v4
+    the tunnel's counterparts start from nf-baseline's set, each in its own terms, and the
+    search touches only their estimators' values."""
+    from quad_dob_baselines import gain_set
+    from quad_dob_baselines.neural_fly import lee_gains
+    from quad_dob_training.tuning import tune
+
+    base = gain_set("nf-baseline", "v4", "neural-fly").options
+    lee = lee_gains(base["k_per_mass"], base["composite_rate"])
+    assert lee == {"kx_per_mass": base["k_per_mass"] * base["composite_rate"],
+                   "kv_per_mass": base["k_per_mass"] + base["composite_rate"]}
+    for name, own in (("nf-constant", ("adaptation_rate",)), ("indi", ("filter_bandwidth",)),
+                      ("l1-matched", ("force_cutoff", "torque_cutoff", "predictor_rate",
+                                      "rotational_predictor_rate"))):
+        assert tune.searched_gains(name, "v4") == own
+        start = tune.start_gains(name, "v4", "neural-fly")
+        assert start["kR"] == base["kR"] and start["kOmega"] == base["kOmega"]
+        earlier = gain_set(name, "v3", "neural-fly")
+        for key in own:  # its own values from where v3's search left them, where it has one
+            if earlier.tuned_for is not None:
+                assert start[key] == earlier.options[key], (name, key)
+        if name == "nf-constant":
+            assert (start["k_per_mass"], start["composite_rate"]) == (
+                base["k_per_mass"], base["composite_rate"])
+        else:
+            assert (start["kx_per_mass"], start["kv_per_mass"]) == (
+                lee["kx_per_mass"], lee["kv_per_mass"])
+    # elsewhere, and for the baseline itself, the search is the law's whole set
+    assert tune.searched_gains("indi", "v3") == tune.SEARCHED["indi"]
+    assert tune.searched_gains("nf-baseline", "v4") == tune.SEARCHED["nf-baseline"]

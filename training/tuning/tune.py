@@ -295,7 +295,12 @@ def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
         return dict(user[0])
     shared = shared_gains(controller, benchmark, vehicle)
     if shared is not None:
-        return {**start_gains(controller, INHERITED_FROM[benchmark], vehicle), **shared}
+        # its own values where the earlier benchmark's search left them (else where that
+        # search would start), under the shared gains
+        earlier = gain_set(controller, INHERITED_FROM[benchmark], vehicle)
+        own = (dict(earlier.options) if earlier.tuned_for is not None
+               else start_gains(controller, INHERITED_FROM[benchmark], vehicle))
+        return {**own, **shared}
     inherited = gain_set(controller, INHERITED_FROM[benchmark], vehicle) if (
         benchmark in INHERITED_FROM) else None
     if inherited is not None and inherited.tuned_for is not None:
