@@ -192,8 +192,9 @@ def test_v3s_sets_keep_their_margin_on_both_vehicles(monkeypatch):
 
 def test_v4s_tunnel_counterparts_fly_their_own_sets_and_keep_their_margin():
     """The wind tunnel's v4 counterparts fly the sets v4's search chose on the neural-fly
-    vehicle, each keeping seed 100's tuning flights under v4's margin (v3's)."""
-    from quad_dob_baselines import make_controller
+    vehicle, each keeping seed 100's tuning flights under v4's margin (v3's), but for the
+    flights a set is stated to lose (MARGIN_LOSSES, of its 50)."""
+    from quad_dob_baselines import MARGIN_LOSSES, make_controller
     from quad_dob_baselines.gain_sets import gain_set
     from quad_dob_training.tuning import tune
     from quad_dob_training.wind_tunnel.published import COUNTERPARTS_V4
@@ -204,7 +205,7 @@ def test_v4s_tunnel_counterparts_fly_their_own_sets_and_keep_their_margin():
         under = tune.score(lambda name=name, shipped=shipped: make_controller(
             name, "neural-fly", "v4", **shipped.options), "v4", "neural-fly", (100,),
             **tune.MARGINS["v4"])
-        assert under["lost"] == 0, (name, under)
+        assert under["lost"] <= MARGIN_LOSSES.get((name, "v4", "neural-fly"), 0), (name, under)
     # a name without a v4 set flies v3's
     assert gain_set("pid", "v4", "neural-fly") == gain_set("pid", "v3", "neural-fly")
 

@@ -164,6 +164,11 @@ def test_v4s_counterparts_start_from_the_baselines_shared_gains_and_search_their
 
     base = gain_set("nf-baseline", "v4", "neural-fly").options
     lee = lee_gains(base["k_per_mass"], base["composite_rate"])
+    for name in ("l1-matched", "indi"):  # the shipped sets carry the shared gains
+        shipped = gain_set(name, "v4", "neural-fly").options
+        assert shipped["kx_per_mass"] == pytest.approx(lee["kx_per_mass"], rel=1e-12)
+        assert shipped["kv_per_mass"] == pytest.approx(lee["kv_per_mass"], rel=1e-12)
+        assert (shipped["kR"], shipped["kOmega"]) == (base["kR"], base["kOmega"])
     assert lee == {"kx_per_mass": base["k_per_mass"] * base["composite_rate"],
                    "kv_per_mass": base["k_per_mass"] + base["composite_rate"]}
     for name, own in (("nf-constant", ("adaptation_rate",)), ("indi", ("filter_bandwidth",)),
