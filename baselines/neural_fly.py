@@ -69,6 +69,25 @@ def lee_gains(k_per_mass: float, composite_rate: float) -> dict[str, float]:
             "kv_per_mass": k_per_mass + composite_rate}
 
 
+def composite_error(state: VehicleState, reference: Reference, composite_rate: float
+                    ) -> NDArray:
+    """Their composite error ``s = ṽ + Λ p̃`` (eq. 10), (N, 3)."""
+    return (state.velocity - reference.velocity) + composite_rate * (
+        state.position - reference.position)
+
+
+def composite_gains(k_per_mass: float, composite_rate: float, law: str,
+                    gains: dict[str, Any], refused: tuple[str, ...]) -> tuple[float, float]:
+    """``(K/m, Λ)`` checked, refusing Lee's gains among ``gains`` (``refused``): the
+    composite law's are K and Λ."""
+    for name in refused:
+        if name in gains:
+            raise ValueError(f"{law}'s position gains are k_per_mass and composite_rate "
+                             f"(kx = K Λ, kv = K + m Λ), not {name}")
+    return (as_finite(k_per_mass, f"{law}.k_per_mass", 0.0, strictly=True),
+            as_finite(composite_rate, f"{law}.composite_rate", 0.0, strictly=True))
+
+
 class NeuralFlyConstant(EstimatingGeometricController):
     """NF-C (module docstring): the composite law ``-K s`` with the force ``f̂`` adapted by
     NF-C's composite adaptation. Gains: ``k_per_mass`` (K / m) [1/s], ``composite_rate``
@@ -86,14 +105,8 @@ class NeuralFlyConstant(EstimatingGeometricController):
                  forgetting: float = NF_CONSTANT_ADAPTATION["forgetting"],
                  **gains: ArrayLike) -> None:
         own = ("k_per_mass", "composite_rate", *NF_CONSTANT_ADAPTATION)
-        for name in ("kx_per_mass", "kv_per_mass"):
-            if name in gains:
-                raise ValueError(f"nf-constant's position gains are k_per_mass and "
-                                 f"composite_rate (kx = K Λ, kv = K + m Λ), not {name}")
-        self.k_per_mass = as_finite(k_per_mass, "NeuralFlyConstant.k_per_mass", 0.0,
-                                    strictly=True)
-        self.composite_rate = as_finite(composite_rate, "NeuralFlyConstant.composite_rate",
-                                        0.0, strictly=True)
+        self.k_per_mass, self.composite_rate = composite_gains(
+            k_per_mass, composite_rate, "nf-constant", gains, ("kx_per_mass", "kv_per_mass"))
         super().__init__(own, **lee_gains(self.k_per_mass, self.composite_rate), **gains)
         self.name = "nf-constant"
         self.process_noise = as_finite(process_noise, "NeuralFlyConstant.process_noise", 0.0,
@@ -126,8 +139,7 @@ class NeuralFlyConstant(EstimatingGeometricController):
     def compute(self, time: NDArray, state: VehicleState, reference: Reference,
                 acceleration_correction: NDArray | None = None) -> tuple[NDArray, NDArray]:
         # s = ṽ + Λ p̃ now, which the estimate's tracking term reads
-        self._composite = (state.velocity - reference.velocity) + self.composite_rate * (
-            state.position - reference.position)
+        self._composite = composite_error(state, reference, self.composite_rate)
         return super().compute(time, state, reference, acceleration_correction)
 
     def _advance(self, state: VehicleState, rows: NDArray[np.bool_]) -> None:
@@ -196,15 +208,10 @@ class NeuralFlyBaseline(GeometricIntegralController):
                  integral_limit_per_weight: float = NF_BASELINE_INTEGRAL[
                      "integral_limit_per_weight"],
                  **gains: ArrayLike) -> None:
-        for name in ("kx_per_mass", "kv_per_mass", "ki_per_mass"):
-            if name in gains:
-                raise ValueError(f"nf-baseline's position gains are k_per_mass, "
-                                 f"composite_rate (kx = K Λ, kv = K + m Λ) and "
-                                 f"composite_ki_per_mass, not {name}")
-        self.k_per_mass = as_finite(k_per_mass, "NeuralFlyBaseline.k_per_mass", 0.0,
-                                    strictly=True)
-        self.composite_rate = as_finite(composite_rate, "NeuralFlyBaseline.composite_rate",
-                                        0.0, strictly=True)
+        # its integral gain is composite_ki_per_mass (its own units), not ki_per_mass
+        self.k_per_mass, self.composite_rate = composite_gains(
+            k_per_mass, composite_rate, "nf-baseline", gains,
+            ("kx_per_mass", "kv_per_mass", "ki_per_mass"))
         super().__init__(ki_per_mass=composite_ki_per_mass,
                          integral_limit_per_weight=integral_limit_per_weight,
                          **lee_gains(self.k_per_mass, self.composite_rate), **gains)
@@ -212,8 +219,7 @@ class NeuralFlyBaseline(GeometricIntegralController):
 
     def integrated_error(self, state: VehicleState, reference: Reference) -> NDArray:
         """What the integral accumulates: the composite error s = ṽ + Λ p̃."""
-        return (state.velocity - reference.velocity) + self.composite_rate * (
-            state.position - reference.position)
+        return composite_error(state, reference, self.composite_rate)
 
     def describe(self) -> dict[str, Any]:
         described = super().describe()

@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 
 from quad_dob_env.benchmark_v3 import REAL_LOOPS
 from quad_dob_env.dynamics.throttle import ThrottleMap
-from quad_dob_env.params import AirframeDrag
+from quad_dob_env.params import VEHICLES, AirframeDrag
 from quad_dob_env.sensing.vibration import VibrationTones
 
 
@@ -56,13 +56,14 @@ _THROTTLE = replace(REAL_LOOPS["neural-fly"].throttle_map,
 # reconstruction on both sides): `python -m quad_dob_training.wind_tunnel.drag_fit
 # --neural-fly DIR` (tuning seeds 100-103, 2026-12-06). Its residuals +0.7, -5.2, +2.9 %;
 # |fa_x| ∝ V^1.44, the logs' 1.44 (v3's drag in v4's loop: -2.64, -8.68, -17.38 N, V^1.77).
-# The body's quadratic drag (z keeps the preset's ratio 0.1/0.06) and the rotors' k_d, 1.9x
-# PX4's x500 Gazebo value (a modelling guess, not a measurement: params.py).
-_Z_OVER_X = 0.1 / 0.06
+# The body's quadratic drag (z keeps the preset's ratio of z over x) and the rotors' k_d,
+# 1.9x PX4's x500 Gazebo value (a modelling guess, not a measurement: params.py).
+BODY_DRAG_Z_OVER_X = (VEHICLES["neural-fly"].drag_quadratic[2]
+                      / VEHICLES["neural-fly"].drag_quadratic[0])
 _FITTED_BODY_DRAG = 0.05120
 _FITTED_ROTOR_DRAG = 1.5448e-4
 _DRAG = AirframeDrag(body_quadratic=(_FITTED_BODY_DRAG, _FITTED_BODY_DRAG,
-                                     _FITTED_BODY_DRAG * _Z_OVER_X),
+                                     _FITTED_BODY_DRAG * BODY_DRAG_Z_OVER_X),
                      rotor_drag_coefficient=_FITTED_ROTOR_DRAG)
 
 # The tones' level: no tone-resolved accelerometer level of a 10-12-inch vehicle was found

@@ -235,7 +235,7 @@ def shared_gains(controller: str, benchmark: str, vehicle: str) -> dict[str, flo
         raise ValueError(f"{controller} shares {owner}'s gains in {benchmark}, which has no "
                          f"{benchmark} set on {vehicle!r}: tune {owner} first")
     position = ({"k_per_mass": base["k_per_mass"], "composite_rate": base["composite_rate"]}
-                if controller in ("nf-constant", "nf-baseline") else
+                if "k_per_mass" in START[controller] else
                 lee_gains(base["k_per_mass"], base["composite_rate"]))
     return {**position, "kR": base["kR"], "kOmega": base["kOmega"]}
 

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from quad_dob_env.benchmark_v4 import BODY_DRAG_Z_OVER_X
 from quad_dob_env.params import AirframeDrag
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.trajectories import Harmonic
@@ -41,7 +42,6 @@ FIT_SEEDS = [100, 101, 102, 103]  # tuning seeds
 HOLD = 20.0  # [s] each equilibrium flight
 AVERAGED = 10.0  # [s] the last part of it, averaged
 COUNTERPART = "geometric-ndob:tuned"
-Z_OVER_X = 0.1 / 0.06  # the preset's body drag z over x (params.VEHICLES["neural-fly"])
 
 
 @dataclass(frozen=True)
@@ -53,7 +53,8 @@ class DragCoefficients:
     rotor: float
 
     def airframe(self) -> AirframeDrag:
-        return AirframeDrag(body_quadratic=(self.body, self.body, self.body * Z_OVER_X),
+        return AirframeDrag(body_quadratic=(self.body, self.body,
+                                            self.body * BODY_DRAG_Z_OVER_X),
                             rotor_drag_coefficient=self.rotor)
 
 
@@ -130,7 +131,8 @@ def main(neural_fly: Path, start: DragCoefficients) -> None:
     print(f"start: body {start.body:.5f}, rotor k_d {start.rotor:.4e}: "
           + ", ".join(f"{f:.2f}" for f in before) + " N")
     fitted, forces = fit(targets, start)
-    print(f"\nfitted: body c = {fitted.body:.5f} N/(m/s)² (z {fitted.body * Z_OVER_X:.5f}), "
+    z = fitted.body * BODY_DRAG_Z_OVER_X
+    print(f"\nfitted: body c = {fitted.body:.5f} N/(m/s)² (z {z:.5f}), "
           f"rotor k_d = {fitted.rotor:.4e} N/(rad/s·m/s)")
     print("| wind [m/s] | logs' mean fa_x [N] | v3's drag in v4's loop [N] | fitted [N] | "
           "residual |")
