@@ -29,7 +29,9 @@ envs, residual or wrappers, nor ``quad_dob_composition`` or ``quad_dob_training`
 residual wrapper use: ``geometric``, ``geometric-ndob`` (the paper's observer gains),
 ``geometric-ndob:tuned`` (tuned observer rates, the paper's gains: the recommended base),
 ``geometric-ndob:gains-tuned`` (its gains tuned too), ``geometric-integral`` (integral
-action on position instead of an observer), ``indi``, ``l1``, ``l1-matched`` (L1 compensating
+action on position instead of an observer), ``indi``, ``indi-outer`` (INDI's outer loop
+alone under Lee's attitude law, first-order 5 Hz filter: the INDI Neural-Fly flew), ``l1``,
+``l1-matched`` (L1 compensating
 the thrust axis's part alone, as Neural-Fly's), ``nf-constant`` (Neural-Fly's NF-C),
 ``nf-baseline`` (their nonlinear baseline), ``pid``, ``smc``.
 """
@@ -49,7 +51,7 @@ from quad_dob_baselines.gain_sets import (
     gain_set,
 )
 from quad_dob_baselines.geometric import GeometricController, GeometricIntegralController
-from quad_dob_baselines.indi import IncrementalNDI
+from quad_dob_baselines.indi import NEURAL_FLY_INDI, IncrementalNDI
 from quad_dob_baselines.l1 import L1AdaptiveController
 from quad_dob_baselines.neural_fly import NeuralFlyBaseline, NeuralFlyConstant
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
@@ -108,6 +110,8 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
         "geometric-ndob:gains-tuned"),
     "geometric-integral": lambda vehicle, **options: GeometricIntegralController(**options),
     "indi": lambda vehicle, **options: IncrementalNDI(**options),
+    "indi-outer": lambda vehicle, **options: _named(
+        IncrementalNDI(**{**NEURAL_FLY_INDI, **options}), "indi-outer"),
     "l1": lambda vehicle, **options: L1AdaptiveController(**options),
     "l1-matched": lambda vehicle, **options: _named(
         L1AdaptiveController(**{"compensation": "matched", **options}), "l1-matched"),

@@ -8,7 +8,9 @@
   INDI use, docs/research/issue-27-indi.md §3). Unit gain at DC, -3 dB at ω_c.
 - ``first_order_lowpass``: ``C(s) = ω / (s + ω)`` discretised exactly for a held input,
   ``y_k = e^{-ω dt} y_{k-1} + (1 - e^{-ω dt}) x_k``, L1's filter on its adaptive input
-  (docs/research/issue-27-l1.md §3).
+  (docs/research/issue-27-l1.md §3); INDI's with ``filter_order=1`` runs the same form.
+- ``NEURAL_FLY_FILTER_BANDWIDTH``: the 5 Hz of Neural-Fly's INDI and L1 (``indi-outer``,
+  ``l1-matched`` in v4).
 """
 
 from __future__ import annotations
@@ -20,6 +22,10 @@ from numba import njit
 from numpy.typing import NDArray
 
 from quad_dob_env.validation import as_finite
+
+# [rad/s] the first-order low-pass Neural-Fly's INDI and L1 ran on their estimates, 5 Hz
+# (O'Connell et al., Sci. Robot. 2022, supplement §S6; docs/research/issue-27-indi.md, [NF])
+NEURAL_FLY_FILTER_BANDWIDTH = 2.0 * math.pi * 5.0
 
 
 def butterworth_lowpass(bandwidth: float, dt: float, owner: str) -> NDArray[np.float64]:

@@ -23,6 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from quad_dob_baselines.filters import NEURAL_FLY_FILTER_BANDWIDTH
 from quad_dob_env.benchmark import BENCHMARKS
 from quad_dob_env.benchmark_v4 import V4_INDI_ACTUATOR_TIME_CONSTANT
 from quad_dob_env.params import VehicleParams, get_vehicle
@@ -152,11 +153,12 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
     ("nf-constant", "v4", "neural-fly"): {**_NEURAL_FLY_SHARED_V4, "process_noise": 0.1,
                                           "forgetting": 0.01, "initial_covariance": 1.0,
                                           "adaptation_rate": 1.75},
-    ("l1-matched", "v4", "neural-fly"): {**_NEURAL_FLY_SHARED_LEE_V4, "force_cutoff": 3.36,
+    ("l1-matched", "v4", "neural-fly"): {**_NEURAL_FLY_SHARED_LEE_V4,
+                                         "force_cutoff": NEURAL_FLY_FILTER_BANDWIDTH,
                                          "torque_cutoff": 0.5488, "predictor_rate": 1.12,
                                          "rotational_predictor_rate": 2.24,
                                          "torque_second_cutoff": 9.6},
-    ("indi", "v4", "neural-fly"): {**_NEURAL_FLY_SHARED_LEE_V4, "filter_bandwidth": 43.904},
+    ("indi-outer", "v4", "neural-fly"): dict(_NEURAL_FLY_SHARED_LEE_V4),  # its filter, 5 Hz
 }
 
 # The sets the search left short of admissible: tuning flights (of 50) each still loses
@@ -167,7 +169,6 @@ MARGIN_LOSSES: dict[tuple[str, str, str], int] = {
     ("geometric-ndob:gains-tuned", "v2", "neural-fly"): 1,
     ("pid", "v2", "neural-fly"): 1,
     ("smc", "v2", "neural-fly"): 1,
-    ("indi", "v4", "neural-fly"): 2,  # with the shared gains, its filter alone searched
 }
 
 # the vehicle whose sets stand in where a vehicle has none of its own
@@ -204,8 +205,9 @@ INHERITED_FROM = {"v3": "v2", "v4": "v3"}
 # models its actuators, at the class's measured motor time constant, as Paparazzi's is
 # identified on its vehicle (quad_dob_env.benchmark_v4.V4_SOURCES, "indi.actuator_state").
 BENCHMARK_INPUTS: dict[tuple[str, str], dict[str, object]] = {
-    ("indi", "v4"): {"actuator_state": "model",
-                     "actuator_time_constant": V4_INDI_ACTUATOR_TIME_CONSTANT},
+    (name, "v4"): {"actuator_state": "model",
+                   "actuator_time_constant": V4_INDI_ACTUATOR_TIME_CONSTANT}
+    for name in ("indi", "indi-outer")
 }
 
 

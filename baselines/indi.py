@@ -33,6 +33,12 @@ vehicle's nominal), as Paparazzi's INDI does without RPM feedback with its ident
 ``estimator_wrench="commanded"`` tells it the command), ``u_f`` starting at hover.
 ``"telemetry"`` (v1-v3) reads the rotor speeds.
 
+``loops="outer"`` closes the outer loop alone: the attitude is Lee's law with no torque
+estimate, as a position loop over an autopilot's own attitude controller flies.
+``filter_order=1`` runs a first-order low-pass ``y ← y + (1 − e^{−ω dt})(x − y)`` in the
+Butterworth's place. The name ``indi-outer`` is both, at 5 Hz: the INDI Neural-Fly flew
+(``NEURAL_FLY_INDI``).
+
 Timing: the telemetry is each rotor's speed over the last step and the gyroscope's
 difference spans the same step, so the two describe one interval. Both readings come once
 per control step (that is how this simulator draws them), so the increments are formed at
@@ -51,7 +57,13 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from quad_dob_baselines.filters import butterworth_lowpass, butterworth_settle, butterworth_step
+from quad_dob_baselines.filters import (
+    NEURAL_FLY_FILTER_BANDWIDTH,
+    butterworth_lowpass,
+    butterworth_settle,
+    butterworth_step,
+    first_order_lowpass,
+)
 from quad_dob_baselines.geometric import EstimatingGeometricController
 from quad_dob_baselines.geometric_kernels import matrix_at, vector_at
 from quad_dob_env.dynamics import VehicleState
@@ -65,6 +77,35 @@ INDI_FILTER = {"filter_bandwidth": 50.0}
 # where INDI reads the rotors' state: their speeds' telemetry (v1-v3), or a first-order
 # model of the commanded wrench (a vehicle without telemetry: module docstring)
 ACTUATOR_STATES = ("telemetry", "model")
+# the loops INDI closes: both (Tal & Karaman §III-A and B), or the outer alone, its attitude
+# Lee's law with no torque estimate (a position loop over an autopilot's attitude loop)
+INDI_LOOPS = ("both", "outer")
+# the estimate's low-pass: 1, first order; 2, the second-order Butterworth
+FILTER_ORDERS = (1, 2)
+# The INDI Neural-Fly flew (O'Connell et al., Sci. Robot. 2022, supplement §S6; docs/research/
+# issue-27-indi.md, [NF]): Tal & Karaman's outer loop alone, its 50 Hz position loop over
+# PX4's attitude controller, and their first-order 5 Hz filter. The name indi-outer.
+NEURAL_FLY_INDI = {"loops": "outer", "filter_order": 1,
+                   "filter_bandwidth": NEURAL_FLY_FILTER_BANDWIDTH}
+
+
+class IndiFilter(NamedTuple):
+    """The low-pass every INDI residual passes, one channel per residual (3 force, 3
+    torque) and vehicle."""
+
+    section: NDArray  # (b0, b1, b2, a1, a2) of the Butterworth section (filter_order 2)
+    inputs: NDArray  # (N, 2, 6) the last two inputs, newest first
+    outputs: NDArray  # (N, 2, 6) the last two outputs, newest first (first order: [:, 0])
+    first_order: float  # the share of the gap closed a step, 1 - e^{-ω dt}; 0: Butterworth
+
+
+@njit(cache=True, inline="always")
+def _filter_step(low_pass, value, i, k):
+    section, inputs, outputs, first_order = low_pass
+    if first_order > 0.0:
+        outputs[i, 0, k] += first_order * (value - outputs[i, 0, k])
+        return outputs[i, 0, k]
+    return butterworth_step(section, value, inputs, outputs, i, k)
 
 
 class ActuatorModel(NamedTuple):
@@ -78,15 +119,16 @@ class ActuatorModel(NamedTuple):
 @njit(cache=True)
 def indi_measured_disturbances(rows, rotation, gyroscope, accelerometer, rotor_speeds, wrench,
                                from_rotors, mass, inertia, thrust_coefficient, allocation, dt,
-                               section, previous_gyro, fresh, inputs, outputs, force_estimate,
-                               torque_estimate, model):
+                               low_pass, previous_gyro, fresh, force_estimate, torque_estimate,
+                               model):
     """d̂x, d̂Ω (module docstring) for the vehicles ``rows`` marks after one control step;
     a ``fresh`` vehicle starts its filters settled on its first force residual and a zero
     torque one (no earlier gyroscope reading to difference). ``model`` (an
     ``ActuatorModel`` as a plain tuple) with a rate above 0: the actuators' state is its
     first-order model of the told ``wrench``; else the telemetry (``from_rotors``) or the
-    told wrench itself."""
+    told wrench itself. ``low_pass`` is an ``IndiFilter`` as a plain tuple."""
     J = matrix_entries(inertia)
+    inputs, outputs = low_pass[1], low_pass[2]
     modelled, model_rate, hover_thrust = ActuatorModel(*model)
     for i in range(rotation.shape[0]):
         if not rows[i]:
@@ -132,9 +174,8 @@ def indi_measured_disturbances(rows, rotation, gyroscope, accelerometer, rotor_s
         for k in range(3):
             # J Ω̇ + Ω × JΩ - M: the body torque beyond the rotors' moment (TK eq. 29)
             torque = inertial[k] + gyroscopic[k] - thrust_moment[1 + k]
-            force_estimate[i, k] = butterworth_step(section, force[k], inputs, outputs, i, k)
-            torque_estimate[i, k] = butterworth_step(section, torque, inputs, outputs, i,
-                                                     3 + k)
+            force_estimate[i, k] = _filter_step(low_pass, force[k], i, k)
+            torque_estimate[i, k] = _filter_step(low_pass, torque, i, 3 + k)
             previous_gyro[i, k] = rate[k]
 
 
@@ -147,15 +188,24 @@ class IncrementalNDI(EstimatingGeometricController):
 
     def __init__(self, filter_bandwidth: float = INDI_FILTER["filter_bandwidth"],
                  actuator_state: str = "telemetry", actuator_time_constant: float | None = None,
-                 **gains: ArrayLike) -> None:
-        super().__init__((*INDI_FILTER, "actuator_state", "actuator_time_constant"), **gains)
+                 loops: str = "both", filter_order: int = 2, **gains: ArrayLike) -> None:
+        super().__init__((*INDI_FILTER, "actuator_state", "actuator_time_constant", "loops",
+                          "filter_order"), **gains)
         # held to the control step's Nyquist rate at reset, when the step is known
         self.filter_bandwidth = as_finite(filter_bandwidth, "IncrementalNDI.filter_bandwidth",
                                           0.0, strictly=True)
         if actuator_state not in ACTUATOR_STATES:
             raise ValueError(f"unknown IncrementalNDI.actuator_state {actuator_state!r}; "
                              f"valid: {', '.join(ACTUATOR_STATES)}")
+        if loops not in INDI_LOOPS:
+            raise ValueError(f"unknown IncrementalNDI.loops {loops!r}; valid: "
+                             f"{', '.join(INDI_LOOPS)}")
+        if filter_order not in FILTER_ORDERS:
+            raise ValueError(f"IncrementalNDI.filter_order must be one of "
+                             f"{', '.join(map(str, FILTER_ORDERS))}, got {filter_order!r}")
         self.actuator_state = actuator_state
+        self.loops = loops
+        self.filter_order = int(filter_order)
         # [s] the model's time constant (None: the vehicle's nominal motor_time_constant)
         self.actuator_time_constant = (None if actuator_time_constant is None else as_finite(
             actuator_time_constant, "IncrementalNDI.actuator_time_constant", 0.0,
@@ -166,10 +216,14 @@ class IncrementalNDI(EstimatingGeometricController):
         super().reset(num_vehicles, vehicle, dt, indices, actuation)
         if indices is None:
             n = int(num_vehicles)
-            self._section = butterworth_lowpass(self.filter_bandwidth, self.dt,
-                                                "IncrementalNDI.filter_bandwidth")
+            section = butterworth_lowpass(self.filter_bandwidth, self.dt,
+                                          "IncrementalNDI.filter_bandwidth")
+            self._filter = IndiFilter(
+                section, np.zeros((n, 2, 6)), np.zeros((n, 2, 6)),
+                1.0 - first_order_lowpass(self.filter_bandwidth, self.dt,
+                                          "IncrementalNDI.filter_bandwidth")
+                if self.filter_order == 1 else 0.0)
             self._previous_gyro = np.zeros((n, 3))
-            self._inputs, self._outputs = np.zeros((n, 2, 6)), np.zeros((n, 2, 6))
             self._modelled = np.zeros((n, 4))  # the actuators' modelled wrench
             # the model's share of the gap a step, 1 - e^{-dt/τ}; 0: no model
             tau = float(vehicle.motor_time_constant if self.actuator_time_constant is None
@@ -190,11 +244,14 @@ class IncrementalNDI(EstimatingGeometricController):
         indi_measured_disturbances(
             rows, state.rotation, state.gyroscope, state.accelerometer, state.rotor_speeds,
             self._wrench, self.actuation == "rotors", vehicle.mass, vehicle.inertia_matrix,
-            vehicle.thrust_coefficient, vehicle.allocation_matrix, self.dt, self._section,
-            self._previous_gyro, self._fresh, self._inputs, self._outputs, self._force,
-            self._torque, (self._modelled, self._model_rate, vehicle.hover_thrust))
+            vehicle.thrust_coefficient, vehicle.allocation_matrix, self.dt, tuple(self._filter),
+            self._previous_gyro, self._fresh, self._force, self._torque,
+            (self._modelled, self._model_rate, vehicle.hover_thrust))
+        if self.loops == "outer":  # the attitude loop is Lee's alone: no torque increment
+            self._torque[rows] = 0.0
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "filter_bandwidth": self.filter_bandwidth,
                 "actuator_state": self.actuator_state,
-                "actuator_time_constant": self.actuator_time_constant}
+                "actuator_time_constant": self.actuator_time_constant, "loops": self.loops,
+                "filter_order": self.filter_order}

@@ -81,6 +81,7 @@ from quad_dob_baselines import (
     user_controller,
 )
 from quad_dob_baselines.base import Controller
+from quad_dob_baselines.filters import NEURAL_FLY_FILTER_BANDWIDTH
 from quad_dob_baselines.gain_sets import INERTIA_SCALED, INHERITED_FROM, gain_set, scaled_to
 from quad_dob_baselines.geometric import INTEGRAL_GAINS, PAPER_GAINS
 from quad_dob_baselines.indi import INDI_FILTER
@@ -171,6 +172,8 @@ SEARCHED = {
     "geometric-ndob:tuned": GEOMETRIC,
     "geometric-integral": (*GEOMETRIC, "ki_per_mass"),
     "indi": (*GEOMETRIC, "filter_bandwidth"),
+    # Neural-Fly's INDI: its 5 Hz filter is published (NEURAL_FLY_INDI), not searched
+    "indi-outer": GEOMETRIC,
     "l1": (*GEOMETRIC, "force_cutoff", "torque_cutoff", "predictor_rate",
            "rotational_predictor_rate"),
     "l1-matched": (*GEOMETRIC, "force_cutoff", "torque_cutoff", "predictor_rate",
@@ -193,6 +196,7 @@ START = {
     "geometric-ndob:tuned": dict(PAPER_GAINS),  # Lee 2010's, which the paper flies
     "geometric-integral": {**PAPER_GAINS, **INTEGRAL_GAINS},
     "indi": {**PAPER_GAINS, **INDI_FILTER},
+    "indi-outer": {**PAPER_GAINS, "filter_bandwidth": NEURAL_FLY_FILTER_BANDWIDTH},
     "l1": {**PAPER_GAINS, **L1_GAINS},
     "l1-matched": {**PAPER_GAINS, **L1_GAINS},
     # Neural-Fly's composite gains to start from (NF_CONSTANT_GAINS: no published K, Λ) with
@@ -215,13 +219,16 @@ START_V2 = {"geometric-ndob:tuned": dict(TUNED_OBSERVER_RATES)}
 # controller (their supplement §S6: "the same P and D gains", tuned with the baseline). In
 # v4 the tunnel's counterparts therefore fly nf-baseline's position and attitude gains, and
 # their search covers their own estimator's values alone (OWN_GAINS), from the shared set
-# unslowed.
+# unslowed. Their filters' 5 Hz is published (PUBLISHED), not searched: indi-outer then has
+# none of its own to search, and its search flies the shared set once, under the margin
+# and in v4.
 SHARES_GAINS_OF = {"v4": {"nf-constant": "nf-baseline", "l1-matched": "nf-baseline",
-                          "indi": "nf-baseline"}}
+                          "indi-outer": "nf-baseline"}}
 OWN_GAINS = {"nf-constant": ("adaptation_rate",),
-             "l1-matched": ("force_cutoff", "torque_cutoff", "predictor_rate",
-                            "rotational_predictor_rate"),
-             "indi": ("filter_bandwidth",)}
+             "l1-matched": ("torque_cutoff", "predictor_rate", "rotational_predictor_rate"),
+             "indi-outer": ()}
+PUBLISHED = {"l1-matched": {"force_cutoff": NEURAL_FLY_FILTER_BANDWIDTH},
+             "indi-outer": {"filter_bandwidth": NEURAL_FLY_FILTER_BANDWIDTH}}
 
 
 def shared_gains(controller: str, benchmark: str, vehicle: str) -> dict[str, float] | None:
@@ -300,7 +307,7 @@ def start_gains(controller: str, benchmark: str = "v1", vehicle: str = "paper"
         earlier = gain_set(controller, INHERITED_FROM[benchmark], vehicle)
         own = (dict(earlier.options) if earlier.tuned_for is not None
                else start_gains(controller, INHERITED_FROM[benchmark], vehicle))
-        return {**own, **shared}
+        return {**own, **shared, **PUBLISHED.get(controller, {})}
     inherited = gain_set(controller, INHERITED_FROM[benchmark], vehicle) if (
         benchmark in INHERITED_FROM) else None
     if inherited is not None and inherited.tuned_for is not None:

@@ -24,9 +24,10 @@ COUNTERPARTS = {"geometric-ndob:tuned": "NF-C", "geometric-integral": "nonlinear
                 "indi": "INDI", "l1": "L1 adaptive"}
 # v4's: the laws Neural-Fly flew (issue 55), under names of their own (v1-v3's names keep
 # their laws): NF-C itself, their baseline's law and integral, the L1 they cite, which
-# compensates the thrust axis's part alone; INDI, on its actuator model in v4
+# compensates the thrust axis's part alone; their INDI, the outer loop alone over the
+# attitude law, on its actuator model in v4
 COUNTERPARTS_V4 = {"nf-constant": "NF-C", "nf-baseline": "nonlinear baseline",
-                   "indi": "INDI", "l1-matched": "L1 adaptive"}
+                   "indi-outer": "INDI", "l1-matched": "L1 adaptive"}
 
 
 # the two sets by name (``quad-dob wind-tunnel --counterparts``)
