@@ -48,6 +48,14 @@ _NEURAL_FLY_SHARED_V4 = {key: _NEURAL_FLY_BASELINE_V4[key]
 _NEURAL_FLY_SHARED_LEE_V4 = {"kx_per_mass": 7.84, "kv_per_mass": 5.6,
                              "kR": _NEURAL_FLY_BASELINE_V4["kR"],
                              "kOmega": _NEURAL_FLY_BASELINE_V4["kOmega"]}
+_PAPER_BASELINE_V4 = {"k_per_mass": 2.24, "composite_rate": 2.24, "kR": 7.89376,
+                      "kOmega": 2.032, "composite_ki_per_mass": 2.56,
+                      "integral_limit_per_weight": 0.75}
+_PAPER_SHARED_V4 = {key: _PAPER_BASELINE_V4[key]
+                    for key in ("k_per_mass", "composite_rate", "kR", "kOmega")}
+# kx = 2.24 x 2.24, kv = 2.24 + 2.24 per kg
+_PAPER_SHARED_LEE_V4 = {"kx_per_mass": 5.0176, "kv_per_mass": 4.48,
+                        "kR": _PAPER_BASELINE_V4["kR"], "kOmega": _PAPER_BASELINE_V4["kOmega"]}
 # v3 (below): the search slowed the v2 set's loop (training/tuning/tune.py, SLOWED_SEARCH), then
 # descended; the observer's rates are searched with the gains, as in v2
 _NEURAL_FLY_NDOB_V3 = {"kx_per_mass": 14.336, "kv_per_mass": 4.48, "kR": 2.584083,
@@ -159,6 +167,7 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
                                          "rotational_predictor_rate": 2.24,
                                          "torque_second_cutoff": 9.6},
     ("indi-outer", "v4", "neural-fly"): dict(_NEURAL_FLY_SHARED_LEE_V4),  # its filter, 5 Hz
+    ("nf-baseline", "v4", "paper"): _PAPER_BASELINE_V4,
 }
 
 # The sets the search left short of admissible: tuning flights (of 50) each still loses

@@ -423,7 +423,7 @@ def test_the_wind_tunnel_counterparts_and_benchmark():
         assert simulated_of(counterparts(benchmark)) == stand_ins
     assert simulated_of(counterparts("v3", "stand-ins")) == stand_ins
     # v4's: the laws Neural-Fly flew, by names of their own
-    assert simulated_of(counterparts("v4")) == {"baseline": "nf-baseline", "indi": "indi",
+    assert simulated_of(counterparts("v4")) == {"baseline": "nf-baseline", "indi": "indi-outer",
                                                 "L1": "l1-matched", "NF-C": "nf-constant"}
     assert counterparts("v4", "stand-ins") == counterparts("v3")
     with pytest.raises(ValueError, match="unknown counterparts 'nf'; valid: stand-ins, "

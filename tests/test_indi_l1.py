@@ -124,10 +124,24 @@ def test_indi_measures_a_constant_force_and_torque_through_its_filter():
     assert abs(estimates[-1, 3] - torque[0]) < 1e-3 * torque[0]
 
 
-def test_indi_residuals_are_the_equations_on_arbitrary_readings():
+def first_order(signal, bandwidth, dt):
+    """ω/(s + ω) discretised exactly for a held input: y_k = p y_{k-1} + (1 - p) x_k with
+    the pole p = e^{-ω dt}, started at rest on the signal's first value."""
+    pole = math.exp(-bandwidth * dt)
+    out, y = [], signal[0]
+    for value in signal:
+        y = pole * y + (1.0 - pole) * value
+        out.append(y)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("loops, filter_order", [("both", 2), ("outer", 1), ("both", 1)])
+def test_indi_residuals_are_the_equations_on_arbitrary_readings(loops, filter_order):
     """Tilted and turning, unequal rotor speeds, rates off every principal axis: the
     estimates are the filtered residuals written out here, the allocation from the
-    geometry (``oracle.Vehicle``), the gyroscopic torque on the step's mean rate."""
+    geometry (``oracle.Vehicle``), the gyroscopic torque on the step's mean rate; through
+    the Butterworth or a first-order low-pass (``filter_order``). The outer loop alone
+    (``loops="outer"``, indi-outer's) leaves the torque estimate at zero."""
     rng = np.random.default_rng(5)
     steps, bandwidth = 40, 60.0
     m, J, k_f = PAPER.mass, PAPER.inertia_matrix, PAPER.thrust_coefficient
@@ -136,7 +150,8 @@ def test_indi_residuals_are_the_equations_on_arbitrary_readings():
     rates = [np.array([1.5, -0.8, 0.6]) * np.sin(0.2 * k) + 0.3 for k in range(steps)]
     accelerometers = [np.array([0.4, -0.2, 9.8]) + rng.normal(0, 0.5, 3) for _ in range(steps)]
     speeds = [800.0 + rng.uniform(-60, 60, 4) for _ in range(steps)]
-    controller = IncrementalNDI(filter_bandwidth=bandwidth)
+    controller = IncrementalNDI(filter_bandwidth=bandwidth, loops=loops,
+                                filter_order=filter_order)
     controller.reset(1, PAPER, DT)
     forces, torques = [], []
     for R, rate, accelerometer, speed in zip(rotations, rates, accelerometers, speeds,
@@ -158,14 +173,32 @@ def test_indi_residuals_are_the_equations_on_arbitrary_readings():
         torque_residual.append(J @ (rates[k] - rates[k - 1]) / DT + np.cross(mean, J @ mean)
                                - wrench[k][1:])
     torque_residual = np.array(torque_residual)
+    if loops == "outer":
+        torque_residual[:] = 0.0
     numerator, denominator = analog_butterworth(bandwidth, DT)
+    low_pass = ((lambda signal: filtered(signal, numerator, denominator)) if filter_order == 2
+                else (lambda signal: first_order(signal, bandwidth, DT)))
     for axis in range(3):
-        np.testing.assert_allclose(np.array(forces)[:, axis],
-                                   filtered(force_residual[:, axis], numerator, denominator),
+        np.testing.assert_allclose(np.array(forces)[:, axis], low_pass(force_residual[:, axis]),
                                    rtol=1e-9, atol=1e-9)
         np.testing.assert_allclose(np.array(torques)[:, axis],
-                                   filtered(torque_residual[:, axis], numerator, denominator),
-                                   rtol=1e-9, atol=1e-9)
+                                   low_pass(torque_residual[:, axis]), rtol=1e-9, atol=1e-9)
+
+
+def test_indi_outer_is_neural_flys_indi_and_bad_options_name_what_is_allowed():
+    from quad_dob_baselines.filters import NEURAL_FLY_FILTER_BANDWIDTH
+
+    outer = make_controller("indi-outer", "neural-fly", "v4")
+    assert (outer.name, outer.loops, outer.filter_order) == ("indi-outer", "outer", 1)
+    assert outer.filter_bandwidth == pytest.approx(2 * math.pi * 5.0)
+    assert outer.filter_bandwidth == NEURAL_FLY_FILTER_BANDWIDTH
+    assert outer.actuator_state == "model"  # v4's INDI inputs: no telemetry on their vehicle
+    assert make_controller("indi", "neural-fly", "v4").loops == "both"
+    with pytest.raises(ValueError, match="unknown IncrementalNDI.loops 'inner'; valid: both, "
+                                         "outer"):
+        IncrementalNDI(loops="inner")
+    with pytest.raises(ValueError, match="filter_order must be one of 1, 2, got 3"):
+        IncrementalNDI(filter_order=3)
 
 
 @pytest.mark.parametrize("benchmark", ["v1", "v2"])  # ideal sensing, mocap in v2's loop

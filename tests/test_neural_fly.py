@@ -164,15 +164,15 @@ def test_v4s_counterparts_start_from_the_baselines_shared_gains_and_search_their
 
     base = gain_set("nf-baseline", "v4", "neural-fly").options
     lee = lee_gains(base["k_per_mass"], base["composite_rate"])
-    for name in ("l1-matched", "indi"):  # the shipped sets carry the shared gains
+    for name in ("l1-matched", "indi-outer"):  # the shipped sets carry the shared gains
         shipped = gain_set(name, "v4", "neural-fly").options
         assert shipped["kx_per_mass"] == pytest.approx(lee["kx_per_mass"], rel=1e-12)
         assert shipped["kv_per_mass"] == pytest.approx(lee["kv_per_mass"], rel=1e-12)
         assert (shipped["kR"], shipped["kOmega"]) == (base["kR"], base["kOmega"])
     assert lee == {"kx_per_mass": base["k_per_mass"] * base["composite_rate"],
                    "kv_per_mass": base["k_per_mass"] + base["composite_rate"]}
-    for name, own in (("nf-constant", ("adaptation_rate",)), ("indi", ("filter_bandwidth",)),
-                      ("l1-matched", ("force_cutoff", "torque_cutoff", "predictor_rate",
+    for name, own in (("nf-constant", ("adaptation_rate",)), ("indi-outer", ()),
+                      ("l1-matched", ("torque_cutoff", "predictor_rate",
                                       "rotational_predictor_rate"))):
         assert tune.searched_gains(name, "v4") == own
         start = tune.start_gains(name, "v4", "neural-fly")
@@ -187,6 +187,12 @@ def test_v4s_counterparts_start_from_the_baselines_shared_gains_and_search_their
         else:
             assert (start["kx_per_mass"], start["kv_per_mass"]) == (
                 lee["kx_per_mass"], lee["kv_per_mass"])
-    # elsewhere, and for the baseline itself, the search is the law's whole set
+    # their published 5 Hz filters start, and ship, unsearched
+    for name, key in (("l1-matched", "force_cutoff"), ("indi-outer", "filter_bandwidth")):
+        assert tune.start_gains(name, "v4", "neural-fly")[key] == 2 * math.pi * 5.0
+        assert gain_set(name, "v4", "neural-fly").options.get(key, 2 * math.pi * 5.0) == (
+            2 * math.pi * 5.0)
+    # elsewhere, and for the baseline and the classical names, the search is the whole set
+    assert tune.searched_gains("indi", "v4") == tune.SEARCHED["indi"]
     assert tune.searched_gains("indi", "v3") == tune.SEARCHED["indi"]
     assert tune.searched_gains("nf-baseline", "v4") == tune.SEARCHED["nf-baseline"]

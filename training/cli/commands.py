@@ -414,7 +414,7 @@ def build_parser() -> argparse.ArgumentParser:
     tunnel.add_argument("--counterparts", default=None, choices=list(COUNTERPART_SETS),
                         help="the controllers flown for Neural-Fly's: stand-ins (v1-v3's: "
                         "geometric-ndob:tuned, geometric-integral, indi, l1) or neural-fly "
-                        "(v4's, the laws they flew: nf-constant, nf-baseline, indi, "
+                        "(v4's, the laws they flew: nf-constant, nf-baseline, indi-outer, "
                         "l1-matched) (default: the benchmark's)")
     tunnel.set_defaults(handler=_wind_tunnel)
     listing = commands.add_parser(
