@@ -190,23 +190,35 @@ def test_v3s_sets_keep_their_margin_on_both_vehicles(monkeypatch):
     assert inherited.tuned_for == ("v2", "paper")
 
 
-def test_v4s_tunnel_counterparts_fly_their_own_sets_and_keep_their_margin():
-    """The wind tunnel's v4 counterparts fly the sets v4's search chose on the neural-fly
-    vehicle, each keeping seed 100's tuning flights under v4's margin (v3's), but for the
-    flights a set is stated to lose (MARGIN_LOSSES, of its 50)."""
+@pytest.mark.slow
+def test_v4s_sets_keep_their_margin_on_both_vehicles():
+    """Every name the suite and the tunnel fly has a v4 set of its own on each vehicle
+    (the classical six searched whole, the four counterparts sharing nf-baseline's gains),
+    each keeping seed 100's tuning flights under v4's margin (v3's), but for the flights a
+    set is stated to lose (MARGIN_LOSSES, of its 50)."""
     from quad_dob_baselines import MARGIN_LOSSES, make_controller
     from quad_dob_baselines.gain_sets import gain_set
     from quad_dob_training.tuning import tune
     from quad_dob_training.wind_tunnel.published import COUNTERPARTS_V4
 
-    for name in COUNTERPARTS_V4:
-        shipped = gain_set(name, "v4", "neural-fly")
-        assert shipped.tuned_for == ("v4", "neural-fly") and not shipped.scaled, name
-        under = tune.score(lambda name=name, shipped=shipped: make_controller(
-            name, "neural-fly", "v4", **shipped.options), "v4", "neural-fly", (100,),
-            **tune.MARGINS["v4"])
-        assert under["lost"] <= MARGIN_LOSSES.get((name, "v4", "neural-fly"), 0), (name, under)
-    # a name without a v4 set flies v3's
+    for vehicle in ("paper", "neural-fly"):
+        for name in (*tune.DEFAULT_CONTROLLERS["v3"], *COUNTERPARTS_V4):
+            shipped = gain_set(name, "v4", vehicle)
+            assert shipped.tuned_for == ("v4", vehicle) and not shipped.scaled, (vehicle, name)
+            under = tune.score(lambda name=name, vehicle=vehicle, shipped=shipped:
+                               make_controller(name, vehicle, "v4", **shipped.options),
+                               "v4", vehicle, (100,), **tune.MARGINS["v4"])
+            assert under["lost"] <= MARGIN_LOSSES.get((name, "v4", vehicle), 0), (
+                vehicle, name, under)
+
+
+def test_a_name_without_a_v4_set_flies_v3s(monkeypatch):
+    from quad_dob_baselines import gain_sets
+    from quad_dob_baselines.gain_sets import gain_set
+
+    assert gain_set("pid", "v4", "neural-fly").tuned_for == ("v4", "neural-fly")
+    monkeypatch.setattr(gain_sets, "GAIN_SETS", {
+        key: value for key, value in gain_sets.GAIN_SETS.items() if key[:2] != ("pid", "v4")})
     assert gain_set("pid", "v4", "neural-fly") == gain_set("pid", "v3", "neural-fly")
 
 

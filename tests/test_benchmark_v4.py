@@ -88,9 +88,9 @@ def test_v4s_indi_models_its_actuators_at_the_classes_time_constant():
     assert make_controller("indi", "neural-fly", "v3").actuator_state == "telemetry"
     given = make_controller("indi", "neural-fly", "v4", actuator_state="telemetry")
     assert given.actuator_state == "telemetry"  # a user's option wins
-    # the tunnel's INDI flies v4's own set; a name without one flies v3's
+    # v4's own set, searched whole; the tunnel's INDI, indi-outer, models them too
     assert v4.gain_set.tuned_for == ("v4", "neural-fly")
-    assert make_controller("pid", "neural-fly", "v4").gain_set.tuned_for == ("v3", "neural-fly")
+    assert make_controller("indi-outer", "neural-fly", "v4").actuator_state == "model"
 
 
 def test_the_tunnels_reference_starts_from_rest_in_v4_alone():
@@ -128,6 +128,11 @@ def test_every_ablation_variant_flies_a_valid_v4_scenario(monkeypatch):
         with module.indi_inputs(inputs):
             indi = make_controller("indi", "neural-fly", "v4")
         assert indi.actuator_state == ("telemetry" if inputs == {} else "model"), label
+    # part 1's counterparts fly v3's sets in the ablation, and v4's are back after it
+    with module.v3_gains():
+        assert make_controller("l1", "neural-fly", "v4").gain_set.tuned_for == ("v3",
+                                                                               "neural-fly")
+    assert make_controller("l1", "neural-fly", "v4").gain_set.tuned_for == ("v4", "neural-fly")
     # the paired interval: a constant difference has none, a mixed one straddles it
     assert module.paired({1: 2.0, 2: 3.0}, {1: 1.0, 2: 2.0}, False) == (1.0, 0.0, 2)
     mean, half, count = module.paired({1: 1.0, 2: -1.0, 3: 0.0}, {1: 0.0, 2: 0.0, 3: 0.0},

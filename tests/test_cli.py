@@ -15,8 +15,8 @@ def test_list_names_ids_and_scenarios(capsys):
     assert out.count("margins thrust") == out.count("actuation; margins") >= 11
     assert "rotors +22%" in out  # the wind helix: its tightest axis
     assert ("Controllers: geometric, geometric-ndob, geometric-ndob:tuned, "
-            "geometric-ndob:gains-tuned, geometric-integral, indi, l1, l1-matched, nf-constant, "
-            "nf-baseline, pid, smc") in out
+            "geometric-ndob:gains-tuned, geometric-integral, indi, indi-outer, l1, l1-matched, "
+            "nf-constant, nf-baseline, pid, smc") in out
     assert "moderate" in out and "Policies:" in out
     assert "torque_coefficient" in out and "APC 10x4.7" in out  # vehicle numbers, sourced
 

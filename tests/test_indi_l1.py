@@ -194,8 +194,8 @@ def test_indi_outer_is_neural_flys_indi_and_bad_options_name_what_is_allowed():
     assert outer.filter_bandwidth == NEURAL_FLY_FILTER_BANDWIDTH
     assert outer.actuator_state == "model"  # v4's INDI inputs: no telemetry on their vehicle
     assert make_controller("indi", "neural-fly", "v4").loops == "both"
-    with pytest.raises(ValueError, match="unknown IncrementalNDI.loops 'inner'; valid: both, "
-                                         "outer"):
+    with pytest.raises(ValueError, match=r"unknown IncrementalNDI\.loops 'inner'; valid: "
+                                         "both, outer"):
         IncrementalNDI(loops="inner")
     with pytest.raises(ValueError, match="filter_order must be one of 1, 2, got 3"):
         IncrementalNDI(filter_order=3)

@@ -13,7 +13,9 @@ equation.
 
 Re-record only for a change meant to move flights: ``python tests/test_recorded_flights.py``.
 A new id is recorded without touching the others: ``python tests/test_recorded_flights.py
---new-ids`` (the -v4 ids, 2026-12-06).
+--new-ids`` (the -v4 ids, 2026-12-06); one benchmark's ids again, for a change meant to
+move that benchmark's flights alone, ``--ids-again -v4`` (issue 55: v4's own gain sets
+replaced the v3 sets its ids' bases flew, 2026-12-07).
 One such change so far (issue 43): ``residual:v2`` flown in v1 and v3 flew v2's loop, its
 training config's benchmark rebuilding the scenario; its eight flights there were recorded
 again after the fix (their final states moved by 3-105 mm), every other entry is as before.
@@ -188,11 +190,12 @@ def test_every_id_steps_bit_for_bit(env_id):
     _close(step_id(env_id), recorded[env_id], 1e-6)
 
 
-def record_new_ids() -> dict:
-    """The records as they are, with each registered id that has none stepped and added."""
+def record_ids(again: str | None = None) -> dict:
+    """The records as they are, with each registered id that has none stepped and added;
+    ``again``: the ids ending in it stepped and recorded again too."""
     records = _recorded()
     for env_id in QUAD_IDS:
-        if env_id not in records["ids"]:
+        if env_id not in records["ids"] or (again and env_id.endswith(again)):
             records["ids"][env_id] = step_id(env_id)
             print(f"recorded {env_id}", file=sys.stderr)
     return records
@@ -200,6 +203,12 @@ def record_new_ids() -> dict:
 
 if __name__ == "__main__":
     RECORDS.parent.mkdir(exist_ok=True)
-    records = record_new_ids() if "--new-ids" in sys.argv[1:] else record()
+    arguments = sys.argv[1:]
+    if "--new-ids" in arguments:
+        records = record_ids()
+    elif "--ids-again" in arguments:  # e.g. --ids-again -v4
+        records = record_ids(arguments[arguments.index("--ids-again") + 1])
+    else:
+        records = record()
     RECORDS.write_text(json.dumps(records, indent=1) + "\n")
     print(f"wrote {RECORDS}", file=sys.stderr)

@@ -327,10 +327,11 @@ def build_parser() -> argparse.ArgumentParser:
         "(100-109), by the procedure in training/tuning/tune.py")
     tune.add_argument("--controllers", default=None,
                       help="comma-separated: pid, smc, geometric-integral, indi, l1, "
-                      "l1-matched, nf-constant, nf-baseline (Neural-Fly's laws, their K and "
-                      "Λ), geometric-ndob:tuned (the geometric gains; in v2 with the observer's "
-                      "rates), in v1 geometric-ndob (the observer's rates alone), or a user "
-                      "controller py:package.module:Name that declares tunable_gains "
+                      "l1-matched, indi-outer, nf-constant, nf-baseline (Neural-Fly's laws, "
+                      "their K and Λ), geometric-ndob:tuned (the geometric gains; in v2 with "
+                      "the observer's rates), in v1 geometric-ndob (the observer's rates "
+                      "alone), or a user controller py:package.module:Name that declares "
+                      "tunable_gains "
                       "(default: v2's six, v1's geometric-ndob,pid,smc)")
     _benchmark_option(tune)
     tune.add_argument("--vehicle", default="paper",
