@@ -193,8 +193,18 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
                                                  "kR": 4.037628, "kOmega": 0.570401,
                                                  "ki_per_mass": 5.488,
                                                  "integral_limit_per_weight": 0.3},
+    ("pid", "v4", "neural-fly"): {"position_kp": 12.845056, "position_kd": 7.5264,
+                                  "position_ki": 8.808038, "position_integral_limit": 0.3,
+                                  "attitude_kp": 8.96, "rate_kp": 31.36, "rate_ki": 91.7504,
+                                  "rate_kd": 0.57624, "rate_integral_limit": 0.2},
     ("geometric-ndob:tuned", "v4", "paper"): _PAPER_NDOB_V4,
     ("geometric-ndob:gains-tuned", "v4", "paper"): _PAPER_NDOB_V4,
+    ("indi", "v4", "paper"): {"kx_per_mass": 18.35008, "kv_per_mass": 4.917248, "kR": 5.052006,
+                              "kOmega": 0.796544, "filter_bandwidth": 44.8},
+    ("geometric-integral", "v4", "paper"): {"kx_per_mass": 14.336, "kv_per_mass": 4.3904,
+                                            "kR": 7.89376, "kOmega": 1.4224,
+                                            "ki_per_mass": 5.7344,
+                                            "integral_limit_per_weight": 0.3},
 }
 
 # The sets the search left short of admissible: tuning flights (of 50) each still loses
