@@ -155,13 +155,14 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
     ("smc", "v3", "paper"): {"position_lambda": 0.784, "disturbance_bound": 33.0,
                              "position_boundary": 1.75, "attitude_lambda": 6.272,
                              "attitude_eta": 25.6, "attitude_boundary": 0.56},
-    # Benchmark v4's sets, the wind tunnel's counterparts on the neural-fly vehicle:
-    # `quad-dob tune --benchmark v4 --vehicle neural-fly --controllers NAME` (seeds 100-109,
-    # v3's margin; docs/tuning-v4/), 2026-12-06. nf-baseline's at commit 2dc03fe; the
-    # others share its position and attitude gains, as Neural-Fly's methods shared the
-    # baseline's P and D (tune.SHARES_GAINS_OF), their own values searched at 4ebeff6 (their
-    # first sets, each searched whole, were pre-registered at 6d31f63 and replaced for that
-    # defect: docs/benchmark-v4.md). The other names fly v3's sets in v4 (INHERITED_FROM).
+    # Benchmark v4's sets: `quad-dob tune --benchmark v4 --vehicle VEHICLE --controllers
+    # NAME` (seeds 100-109, v3's margin; docs/tuning-v4/ has the logs and commits). The wind
+    # tunnel's four counterparts share nf-baseline's position and attitude gains, as
+    # Neural-Fly's methods shared the baseline's P and D (tune.SHARES_GAINS_OF), with their
+    # published 5 Hz filters (l1-matched, indi-outer) and their other values searched; the
+    # sets flown on the report seeds were pre-registered at df7708c (earlier ones at 6d31f63
+    # and 4ebeff6, each replaced for a defect: docs/benchmark-v4.md). The six classical
+    # names are searched whole, from where v3's search left them (2026-12-07).
     ("nf-baseline", "v4", "neural-fly"): _NEURAL_FLY_BASELINE_V4,
     ("nf-constant", "v4", "neural-fly"): {**_NEURAL_FLY_SHARED_V4,
                                           "adaptation_rate": 1.75},
@@ -197,10 +198,21 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
                                   "position_ki": 8.808038, "position_integral_limit": 0.3,
                                   "attitude_kp": 8.96, "rate_kp": 31.36, "rate_ki": 91.7504,
                                   "rate_kd": 0.57624, "rate_integral_limit": 0.2},
+    ("smc", "v4", "neural-fly"): {"position_lambda": 0.87808, "disturbance_bound": 33.0,
+                                  "position_boundary": 2.1875, "attitude_lambda": 5.12,
+                                  "attitude_eta": 32.11264, "attitude_boundary": 0.64},
     ("geometric-ndob:tuned", "v4", "paper"): _PAPER_NDOB_V4,
     ("geometric-ndob:gains-tuned", "v4", "paper"): _PAPER_NDOB_V4,
     ("indi", "v4", "paper"): {"kx_per_mass": 18.35008, "kv_per_mass": 4.917248, "kR": 5.052006,
                               "kOmega": 0.796544, "filter_bandwidth": 44.8},
+    ("l1", "v4", "paper"): {"kx_per_mass": 20.0704, "kv_per_mass": 4.3904, "kR": 5.6384,
+                            "kOmega": 0.99568, "force_cutoff": 33.6, "torque_cutoff": 1.96,
+                            "predictor_rate": 4.0, "rotational_predictor_rate": 2.0,
+                            "torque_second_cutoff": 12.0},
+    ("pid", "v4", "paper"): {"position_kp": 15.68, "position_kd": 4.2, "position_ki": 8.4,
+                             "position_integral_limit": 0.3, "attitude_kp": 7.0,
+                             "rate_kp": 34.3, "rate_ki": 109.76, "rate_kd": 0.84,
+                             "rate_integral_limit": 0.2},
     ("geometric-integral", "v4", "paper"): {"kx_per_mass": 14.336, "kv_per_mass": 4.3904,
                                             "kR": 7.89376, "kOmega": 1.4224,
                                             "ki_per_mass": 5.7344,

@@ -146,6 +146,9 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
       chain, an identified throttle curve, and the tunnel's reference from rest. Its
       controllers fly v3's gains (``INHERITED_FROM``); v3 stays the tools' default. The
       v1-v3 ids stay registered and fly as before, bit for bit.
+    - v4 (2026-12-07, issue 55): the v4 ids' base controllers fly v4's own gain sets,
+      searched under v3's margin on both vehicles (docs/tuning-v4/), in place of v3's; the
+      v4 ids' recorded flights were recorded again. v1-v3 unchanged.
     - all versions, residual options removed (2026-12, issue 42; no flight without them
       changes): ``lookahead`` and ``residual_cutoff``, measured in Benchmark v3 and of no
       help there. Naming either raises an error that points at

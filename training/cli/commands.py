@@ -177,7 +177,7 @@ def _benchmark_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--benchmark", default=None, choices=list(BENCHMARKS),
                         help="the loop every scenario is flown in: v4, v3's loop with five "
                         "mechanisms corrected against Neural-Fly's logs (docs/benchmark-v4.md; "
-                        "v3's gains), v3, the real vehicle's "
+                        "its own gains), v3, the real vehicle's "
                         "lag and thrust path on v2's loop (docs/benchmark-v3.md; the gains "
                         "tuned for it), v2, the vehicle's own loop (mocap sensing, inner "
                         "loop, motors, thrust uncertainty, rotor aerodynamics), to reproduce "
