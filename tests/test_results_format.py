@@ -145,3 +145,16 @@ def test_quad_dob_leaderboard_merges_files_and_refuses_a_bad_one(runs, tmp_path,
         main(["leaderboard", str(tmp_path / "not.json")])
     assert "not.json is not a valid quad_dob_env.evaluation file: at the top level: 'schema' " \
            "is a required property" in capsys.readouterr().err
+
+
+def test_the_schema_takes_every_benchmark_the_tools_fly():
+    """A benchmark the tools fly whose results the schema refused would fail every
+    evaluation in it after its flights (v4's did, until issue 55)."""
+    import json
+
+    from quad_dob_env.benchmark import BENCHMARKS
+    from quad_dob_training.evaluation.results import SCHEMA_PATH
+
+    provenance = json.loads(SCHEMA_PATH.read_text())["$defs"]["provenance"]["properties"]
+    assert provenance["benchmark"]["enum"] == list(BENCHMARKS)
+    assert provenance["env"]["properties"]["version"]["enum"] == list(BENCHMARKS)
