@@ -2,7 +2,7 @@
 ``quad-dob tune``'s tuning scenarios, on its tuning seeds (100-109), of the largest extra
 latency of ``margins.DELAY_GRID`` that keeps every flight.
 
-``python benchmarks/gain_set_delay_margins.py [--benchmark v3] [--vehicle neural-fly]
+``python benchmarks/gain_set_delay_margins.py [--benchmark v3|v4] [--vehicle neural-fly]
 [--on pose|readings] [--controllers a,b]`` prints per name the margin on each tuning
 scenario and their minimum. The latency goes where the benchmark's own tuning margin puts it
 unless ``--on`` says otherwise (v3: on the pose fix, unknown to the estimator; v2: on every
@@ -31,7 +31,7 @@ from quad_dob_training.tuning.tune import (
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--benchmark", default="v3", choices=("v2", "v3"))
+    parser.add_argument("--benchmark", default="v3", choices=("v2", "v3", "v4"))
     parser.add_argument("--vehicle", default="neural-fly")
     parser.add_argument("--on", choices=tuple(DELAY_PATHS), default=None)
     parser.add_argument("--controllers", default=None)
