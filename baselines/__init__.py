@@ -31,9 +31,9 @@ residual wrapper use: ``geometric``, ``geometric-ndob`` (the paper's observer ga
 ``geometric-ndob:gains-tuned`` (its gains tuned too), ``geometric-integral`` (integral
 action on position instead of an observer), ``indi``, ``indi-outer`` (INDI's outer loop
 alone under Lee's attitude law, first-order 5 Hz filter: the INDI Neural-Fly flew), ``l1``,
-``l1-matched`` (L1 compensating
-the thrust axis's part alone, as Neural-Fly's), ``nf-constant`` (Neural-Fly's NF-C),
-``nf-baseline`` (their nonlinear baseline), ``pid``, ``smc``.
+``l1-matched`` (L1 compensating the thrust axis's part alone, as Neural-Fly's),
+``nf-constant`` (Neural-Fly's NF-C), ``nf-baseline`` (their nonlinear baseline), ``pid``,
+``smc``.
 """
 
 from __future__ import annotations

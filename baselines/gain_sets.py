@@ -226,8 +226,8 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
 # under the margin. Every other v2 set loses none (tests/test_gain_sets.py flies them all).
 MARGIN_LOSSES: dict[tuple[str, str, str], int] = {
     ("geometric-integral", "v2", "paper"): 10,
-    # v4's counterparts flying Neural-Fly's published 5 Hz filters, not searched: the
-    # margin's motors x1.5 against their first-order actuator and thrust paths
+    # v4's counterparts flying Neural-Fly's published 5 Hz filters, not searched
+    # (indi-outer's losses are the margin's motors x1.5's: docs/benchmark-v4.md)
     ("l1-matched", "v4", "neural-fly"): 8,
     ("l1-matched", "v4", "paper"): 1,
     ("indi-outer", "v4", "neural-fly"): 10,
