@@ -52,7 +52,7 @@ from quad_dob_baselines.gain_sets import (
 )
 from quad_dob_baselines.geometric import GeometricController, GeometricIntegralController
 from quad_dob_baselines.indi import NEURAL_FLY_INDI, IncrementalNDI
-from quad_dob_baselines.l1 import L1AdaptiveController
+from quad_dob_baselines.l1 import NEURAL_FLY_L1, L1AdaptiveController
 from quad_dob_baselines.neural_fly import NeuralFlyBaseline, NeuralFlyConstant
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_baselines.pid import CascadedPID
@@ -114,7 +114,7 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
         IncrementalNDI(**{**NEURAL_FLY_INDI, **options}), "indi-outer"),
     "l1": lambda vehicle, **options: L1AdaptiveController(**options),
     "l1-matched": lambda vehicle, **options: _named(
-        L1AdaptiveController(**{"compensation": "matched", **options}), "l1-matched"),
+        L1AdaptiveController(**{**NEURAL_FLY_L1, **options}), "l1-matched"),
     "nf-constant": lambda vehicle, **options: NeuralFlyConstant(**options),
     "nf-baseline": lambda vehicle, **options: NeuralFlyBaseline(**options),
     "pid": lambda vehicle, **options: CascadedPID(**options),

@@ -23,7 +23,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from quad_dob_baselines.filters import NEURAL_FLY_FILTER_BANDWIDTH
 from quad_dob_env.benchmark import BENCHMARKS
 from quad_dob_env.benchmark_v4 import V4_INDI_ACTUATOR_TIME_CONSTANT
 from quad_dob_env.params import VehicleParams, get_vehicle
@@ -166,18 +165,16 @@ GAIN_SETS: dict[tuple[str, str, str], dict[str, float]] = {
     ("nf-baseline", "v4", "neural-fly"): _NEURAL_FLY_BASELINE_V4,
     ("nf-constant", "v4", "neural-fly"): {**_NEURAL_FLY_SHARED_V4,
                                           "adaptation_rate": 1.75},
-    ("l1-matched", "v4", "neural-fly"): {**_NEURAL_FLY_SHARED_LEE_V4,
-                                         "force_cutoff": NEURAL_FLY_FILTER_BANDWIDTH,
-                                         "torque_cutoff": 1.53664, "predictor_rate": 3.2,
+    # l1-matched's and indi-outer's filters are their names' own, Neural-Fly's 5 Hz
+    ("l1-matched", "v4", "neural-fly"): {**_NEURAL_FLY_SHARED_LEE_V4, "torque_cutoff": 1.53664,
+                                         "predictor_rate": 3.2,
                                          "rotational_predictor_rate": 4.48,
                                          "torque_second_cutoff": 9.6},
-    ("indi-outer", "v4", "neural-fly"): dict(_NEURAL_FLY_SHARED_LEE_V4),  # its filter, 5 Hz
+    ("indi-outer", "v4", "neural-fly"): dict(_NEURAL_FLY_SHARED_LEE_V4),
     ("nf-baseline", "v4", "paper"): _PAPER_BASELINE_V4,
     ("nf-constant", "v4", "paper"): {**_PAPER_SHARED_V4, "adaptation_rate": 1.25},
-    ("l1-matched", "v4", "paper"): {**_PAPER_SHARED_LEE_V4,
-                                    "force_cutoff": NEURAL_FLY_FILTER_BANDWIDTH,
-                                    "torque_cutoff": 3.92, "predictor_rate": 5.6,
-                                    "rotational_predictor_rate": 8.0,
+    ("l1-matched", "v4", "paper"): {**_PAPER_SHARED_LEE_V4, "torque_cutoff": 3.92,
+                                    "predictor_rate": 5.6, "rotational_predictor_rate": 8.0,
                                     "torque_second_cutoff": 12.0},
     ("indi-outer", "v4", "paper"): dict(_PAPER_SHARED_LEE_V4),
     # the classical names, searched whole in v4 from where v3's search left them

@@ -49,7 +49,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from quad_dob_baselines.filters import first_order_lowpass
+from quad_dob_baselines.filters import NEURAL_FLY_FILTER_BANDWIDTH, first_order_lowpass
 from quad_dob_baselines.geometric import EstimatingGeometricController
 from quad_dob_baselines.geometric_kernels import store_vector, vector_at
 from quad_dob_env.dynamics import VehicleState
@@ -71,6 +71,9 @@ L1_GAINS = {"predictor_rate": 5.0, "rotational_predictor_rate": 10.0, "force_cut
 # al., RA-L 2022, whose L1 compensates the matched uncertainty, the thrust axis's force and
 # the moments, and leaves the unmatched horizontal force to the baseline's position loop)
 COMPENSATIONS = ("full", "matched")
+# The L1 Neural-Fly flew, the name l1-matched: the matched part compensated, through their
+# first-order 5 Hz filter (supplement §S6); its other values are l1's sets' or v4's own
+NEURAL_FLY_L1 = {"compensation": "matched", "force_cutoff": NEURAL_FLY_FILTER_BANDWIDTH}
 
 
 def adaptation_gain(predictor_rate: float, dt: float) -> float:
