@@ -122,6 +122,12 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
 }
 
 
+# the six classical names every benchmark's suite and tuning compare, and the laws
+# Neural-Fly flew (v4's wind-tunnel counterparts, issue 55)
+CLASSICAL_NAMES = ("geometric-ndob:tuned", "geometric-integral", "indi", "l1", "pid", "smc")
+NEURAL_FLY_LAWS = ("nf-constant", "nf-baseline", "indi-outer", "l1-matched")
+
+
 def controller_names() -> list[str]:
     """Every name ``make_controller`` takes: the built-in ones, then those installed
     packages register (``plugins.ENTRY_POINT_GROUP``); ``py:package.module:Name`` too."""
@@ -166,9 +172,11 @@ def make_controller(name: str, vehicle: VehicleParams | str = "paper",
 
 __all__ = [
     "BENCHMARK_INPUTS",
+    "CLASSICAL_NAMES",
     "CONTROLLERS",
     "GAIN_SETS",
     "MARGIN_LOSSES",
+    "NEURAL_FLY_LAWS",
     "TUNED_GEOMETRIC_GAINS",
     "TUNED_OBSERVER_RATES",
     "CascadedPID",

@@ -1,8 +1,9 @@
 """Residual policies against the strongest classical baseline of each scenario (issue 29).
 
-Flies every classical baseline (``CLASSICAL_BASELINES``) and each residual given on the same
-seeds, takes the strongest baseline per scenario (fewest lost flights, then lowest mean RMS
-position error after the settle time), and prints, per scenario: the strongest, each
+Flies every classical name the benchmark compares (``evaluation.ranking.candidates``) and
+each residual given on the same seeds, takes the strongest per scenario by the one rule
+(``evaluation.ranking``: fewest lost flights, then lowest mean RMS position error after the
+settle time), and prints, per scenario: the strongest, each
 residual's change against it with the 95 % bootstrap interval of the paired per-seed
 difference, their mean and spread over the residuals (training seeds), the lost flights (and
 of each residual's, those its base keeps), and the RMS rotor-command rate against the
@@ -28,8 +29,8 @@ import numpy as np
 
 from quad_dob_training.cli.checks import key_values
 from quad_dob_training.evaluation.evaluate import SUITES, evaluate, parse_seeds
+from quad_dob_training.evaluation.ranking import Standing, candidates, strongest
 from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
-from quad_dob_training.learning.baseline_evaluation import CLASSICAL_BASELINES
 from quad_dob_training.policies import make_policy
 from quad_dob_training.rl.vec_env import loop_scenario_options
 
@@ -79,15 +80,17 @@ def main() -> None:
           + (f" {args.before}: mm, vs strongest, lost, command rate |" if before else ""))
     print("|---|---|---|---|---|---|---|---|" + ("---|" if before else ""))
     per_seed: dict[tuple[str, str], list[dict]] = {}
-    specs = list(dict.fromkeys((*CLASSICAL_BASELINES, *residual_specs, *before)))
+    classical = candidates(str(options["benchmark"]))
+    specs = list(dict.fromkeys((*classical, *residual_specs, *before)))
     for name in scenario_names:
         # one scenario at a time, so each row prints as soon as it is flown
         evaluate(specs, [name], seeds, baseline=None, scenario_options=options,
                  per_seed=per_seed)
         flown = {spec: scores(per_seed.pop((name, spec))) for spec in specs}
-        strongest = min(CLASSICAL_BASELINES, key=lambda spec: (flown[spec]["lost"].sum(),
-                                                               flown[spec]["rms"].mean()))
-        bar = flown[strongest]
+        best = strongest({spec: Standing(int(flown[spec]["lost"].sum()),
+                                         float(flown[spec]["rms"].mean()))
+                          for spec in classical}, classical)
+        bar = flown[best]
         base = flown[base_spec]
         rows = []
         for spec in residual_specs:
@@ -102,10 +105,10 @@ def main() -> None:
                          # issue 29's margin target: no flight lost that the base keeps
                          "lost_base_kept": int((mine["lost"] & ~base["lost"]).sum()),
                          "rate": float(np.nanmean(mine["rate"]))})
-        report[name] = {"strongest": strongest, "strongest_rms": bootstrap_mean(
+        report[name] = {"strongest": best, "strongest_rms": bootstrap_mean(
             bar["rms"])._asdict(), "strongest_lost": int(bar["lost"].sum()),
             "base_lost": int(base["lost"].sum()), "base_rate": float(np.nanmean(base["rate"])),
-            "baselines": {spec: float(flown[spec]["rms"].mean()) for spec in CLASSICAL_BASELINES},
+            "baselines": {spec: float(flown[spec]["rms"].mean()) for spec in classical},
             "residuals": rows}
         extra = ""
         if before:
@@ -124,7 +127,7 @@ def main() -> None:
         vs_base = [100 * row["change_vs_base"] for row in rows]
         below_base = sum(row["paired_vs_base"]["high"] < 0 for row in rows)
         strong = report[name]["strongest_rms"]
-        print(f"| {name} | {strongest} {1e3 * strong['mean']:.1f} "
+        print(f"| {name} | {best} {1e3 * strong['mean']:.1f} "
               f"[{1e3 * strong['low']:.1f}, {1e3 * strong['high']:.1f}] | "
               f"{np.mean(means):.1f} [{min(means):.1f}, {max(means):.1f}] | "
               f"{np.mean(changes):+.0f} % [{min(changes):+.0f}, {max(changes):+.0f}] | "

@@ -6,8 +6,9 @@ the RMS position error after the scenario's settle time in mm with its 95 % boot
 interval, the delay margin, the flights lost of the seeds, and the distinct flights where
 fewer than the seeds (a scenario whose seeds vary nothing flies one flight).
 
-``--strongest`` prints instead, per scenario, the classical baseline with the lowest mean
-RMS error (what a learned policy has to beat) and the runner-up, and whether the two are
+``--strongest`` prints instead, per scenario, the strongest classical row by the one rule
+(``evaluation.ranking``: fewest flights lost, then the lowest mean RMS error; what a learned
+policy has to beat) and the runner-up, and whether the two are
 told apart: by the paired interval of their difference where one of them is the run's
 ``--baseline`` (the CSV holds only those), else by whether their 95 % intervals overlap.
 Learned policies (``residual``, ``ppo:``, ``sac:``) are left out.
@@ -18,6 +19,8 @@ from __future__ import annotations
 import argparse
 import csv
 from pathlib import Path
+
+from quad_dob_training.evaluation.ranking import Standing, ranked
 
 
 def main() -> None:
@@ -72,15 +75,17 @@ def _interval(row: dict) -> str:
 
 
 def strongest(rows: list[dict]) -> None:
-    """Per scenario: the lowest mean settled RMS error of the classical baselines flown,
-    the runner-up, and whether they are told apart (module docstring)."""
+    """Per scenario: the strongest classical row flown and the runner-up
+    (``evaluation.ranking``), and whether they are told apart (module docstring)."""
     print("| scenario | strongest classical baseline [mm] | runner-up [mm] | told apart by |")
     print("|---|---|---|---|")
     for scenario in dict.fromkeys(row["scenario"] for row in rows):
-        flown = sorted((row for row in rows if row["scenario"] == scenario
-                        and not row["policy"].startswith(LEARNED) and not int(row["crashes"])),
-                       key=lambda row: float(row["rms_position_settled_mean"]))
-        best, second = flown[0], flown[1]
+        flown = {row["policy"]: row for row in rows if row["scenario"] == scenario
+                 and not row["policy"].startswith(LEARNED)}
+        order = ranked({policy: Standing(int(row["crashes"]),
+                                         float(row["rms_position_settled_mean"]))
+                        for policy, row in flown.items()})
+        best, second = flown[order[0]], flown[order[1]]
         paired = next((row for row in (second, best) if row.get("baseline")
                        and row["baseline"] in (best["policy"], second["policy"])
                        and row["baseline"] != row["policy"]

@@ -24,6 +24,12 @@ def test_the_suite_flies_every_family_and_writes_a_leaderboard_with_intervals(tm
             # five scores, each "mean [low, high]" with low <= mean <= high
             for mean, low, high in re.findall(r"([\d.]+) \[([\d.]+), ([\d.]+)\]", rows[1]):
                 assert float(low) <= float(mean) <= float(high)
+    # every scenario's rows in rank by the one rule (evaluation.ranking)
+    for scenarios in SUITE.values():
+        for scenario in scenarios:
+            (ranking,) = [line for line in board.splitlines()
+                          if line.startswith(f"| {scenario} | 1. ")]
+            assert " 2. " in ranking and "lost" in ranking
     # geometric without the observer is worse than its tuned NDOB wherever wind or forces act
     summary = next(line for line in board.splitlines() if line.startswith("| geometric |"))
     worse = summary.split("|")[3]

@@ -6,6 +6,8 @@
 - ``metrics``: the scores every report uses (position; geodesic, tilt and heading errors).
 - ``statistics``: bootstrap intervals and paired differences over seeds.
 - ``margins``: delay margins (the extra latency a policy's flights take).
+- ``ranking``: the one rule every ranking uses (flights lost, then RMS error) and the
+  names a benchmark's strongest is chosen from.
 - ``results``: ``evaluation.json`` (its schema in ``schemas/``) and leaderboards merged from
   many users' files.
 - ``report``: the self-contained interactive ``report.html``.

@@ -34,6 +34,7 @@ from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.evaluation.margins import benchmark_delay_path, check_grid, delay_margin
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.evaluation.plots import evaluation_bars
+from quad_dob_training.evaluation.ranking import Standing, ranked
 from quad_dob_training.evaluation.report import write_report
 from quad_dob_training.evaluation.results import (
     merged_leaderboard,
@@ -320,9 +321,10 @@ def _one_flight(row: dict) -> bool:
 
 def leaderboard(rows: list[dict], benchmark: str = TOOLS_BENCHMARK) -> str:
     """The suite's leaderboard: per family and scenario, each policy's mean and 95 %
-    bootstrap interval of every score, and its paired difference to the baseline; then, per
-    policy, the scenarios where it is better or worse than the baseline (interval excluding
-    zero)."""
+    bootstrap interval of every score, and its paired difference to the baseline; then each
+    scenario's policies in rank, learned and classical by one rule (``ranking``: fewest
+    flights lost, then the lowest mean RMS error); then, per policy, the scenarios where it
+    is better or worse than the baseline (interval excluding zero)."""
     baseline = rows[0].get("baseline") if rows else ""
     family_of = {name: family for family, names in SUITES[benchmark].items()
                  for name in names}
@@ -343,6 +345,14 @@ def leaderboard(rows: list[dict], benchmark: str = TOOLS_BENCHMARK) -> str:
         if baseline:
             cells.append(_difference_cell(row, baseline))
         lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "| scenario | in rank: flights lost, then mean RMS ‖e_x‖ [m] |", "|---|---|"]
+    for scenario in dict.fromkeys(row["scenario"] for row in rows):
+        standings = {row["policy"]: Standing(int(row["crashes"]),
+                                             float(row["rms_position_settled_mean"]))
+                     for row in rows if row["scenario"] == scenario}
+        lines.append(f"| {scenario} | " + ", ".join(
+            f"{rank}. {name} ({standings[name].lost:g} lost, {standings[name].rms:.4f})"
+            for rank, name in enumerate(ranked(standings), 1)) + " |")
     if baseline:
         lines += ["", f"| policy | better than {baseline} | worse | not significant | "
                       "flights lost (its own / the baseline's) |", "|---|---|---|---|---|"]

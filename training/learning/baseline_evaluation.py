@@ -24,14 +24,11 @@ from stable_baselines3.common.vec_env import VecNormalize
 import quad_dob_env
 from quad_dob_env.benchmark import scenario_options_for
 from quad_dob_training.evaluation.metrics import flight_metrics
+from quad_dob_training.evaluation.ranking import Standing, beats, candidates, strongest
 from quad_dob_training.policies import Policy, fly_policy
 from quad_dob_training.rl.run_folder import save_model, write_text_atomically
 
 EVAL_SEEDS = list(range(10_000, 10_008))  # held out: training seeds count up from --seed
-# the classical baselines a policy trained in Benchmark v2's loop is timed against: the
-# strongest of them on the evaluation seeds (fewest crashes, then lowest error) is the bar
-# the log's "first better than the strongest baseline" line refers to
-CLASSICAL_BASELINES = ("geometric-ndob:tuned", "geometric-integral", "indi", "l1", "pid", "smc")
 
 
 def normalization(venv: Any) -> dict[str, Any] | None:
@@ -48,8 +45,9 @@ class BaselineEvaluation(BaseCallback):
     """Every ``every`` timesteps: fly the policy on held-out seeds, beside the base
     controller (flown once), and log both RMS position errors (t >= 2 s) and crash rates.
     The best policy so far (fewest crashes, then lowest error) is saved as ``best_model.zip``
-    with its ``best_model.yaml``. In Benchmark v2's loop the classical baselines
-    (``CLASSICAL_BASELINES``) are flown once too, and the strongest of them is logged beside
+    with its ``best_model.yaml``. From Benchmark v2's loop on, the classical names the
+    benchmark compares (``evaluation.ranking.candidates``) are flown once too, and the
+    strongest of them (``evaluation.ranking``'s one rule, as every ranking) is logged beside
     the base, with when the policy first beat it.
 
     The rows live here and the CSV is rewritten from them, so that it holds exactly this
@@ -82,8 +80,9 @@ class BaselineEvaluation(BaseCallback):
         self.strongest: tuple[str, float, float] | None = None
         self.first_beat_strongest: str | None = None
         if benchmark in ("v2", "v3", "v4"):
-            scores = {name: self._score(Policy(name, name)) for name in CLASSICAL_BASELINES}
-            name = min(scores, key=lambda key: (scores[key][1], scores[key][0]))
+            scores = {name: self._score(Policy(name, name)) for name in candidates(benchmark)}
+            name = strongest({key: Standing(crashes, rms)
+                              for key, (rms, crashes) in scores.items()}, scores)
             self.strongest = (name, *scores[name])
 
     def checkpoint_state(self) -> dict[str, Any]:
@@ -145,7 +144,7 @@ class BaselineEvaluation(BaseCallback):
             row.update(base_rms_position=self.base_scores[0], base_crash_rate=self.base_scores[1])
             base_rms, base_crashes = self.base_scores
             if (self.first_better is None and self.num_timesteps > 0
-                    and (crashes, rms) < (base_crashes, base_rms)):
+                    and beats(Standing(crashes, rms), Standing(base_crashes, base_rms))):
                 self.first_better = (f"first better than the base at {self.num_timesteps:,} "
                                      f"timesteps, {time.perf_counter() - self._started:.1f} s "
                                      f"after training (re)started ({rms:.4f} m against "
@@ -155,14 +154,15 @@ class BaselineEvaluation(BaseCallback):
             name, strongest_rms, strongest_crashes = self.strongest
             row.update(strongest_baseline=name, strongest_rms_position=strongest_rms)
             if (self.first_beat_strongest is None and self.num_timesteps > 0
-                    and (crashes, rms) < (strongest_crashes, strongest_rms)):
+                    and beats(Standing(crashes, rms),
+                              Standing(strongest_crashes, strongest_rms))):
                 self.first_beat_strongest = (
                     f"first better than the strongest classical baseline ({name}) at "
                     f"{self.num_timesteps:,} timesteps, "
                     f"{time.perf_counter() - self._started:.1f} s after training (re)started "
                     f"({rms:.4f} m against {strongest_rms:.4f} m)")
                 print(self.first_beat_strongest, flush=True)
-        if self._best is None or (crashes, rms) < self._best:
+        if self._best is None or beats(Standing(crashes, rms), Standing(*self._best)):
             self._best = (crashes, rms)
             save_model(self.model, self.out / "best_model.zip", self.config.get("run_id"))
             write_text_atomically(self.out / "best_model.yaml", yaml.safe_dump(

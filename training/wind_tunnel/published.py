@@ -11,6 +11,8 @@ beside the real one, with each ratio and whether it lies within ``FACTOR`` of it
 
 from __future__ import annotations
 
+from quad_dob_baselines import NEURAL_FLY_LAWS
+
 WIND_SPEEDS = ("0", "4.2", "8.5", "12.1")  # [m/s], as the scenarios name them
 NEURAL_FLY_RMS: dict[str, tuple[float, float, float, float]] = {
     "nonlinear baseline": (0.114, 0.102, 0.158, 0.235),
@@ -26,8 +28,8 @@ COUNTERPARTS = {"geometric-ndob:tuned": "NF-C", "geometric-integral": "nonlinear
 # their laws): NF-C itself, their baseline's law and integral, the L1 they cite, which
 # compensates the thrust axis's part alone; their INDI, the outer loop alone over the
 # attitude law, on its actuator model in v4
-COUNTERPARTS_V4 = {"nf-constant": "NF-C", "nf-baseline": "nonlinear baseline",
-                   "indi-outer": "INDI", "l1-matched": "L1 adaptive"}
+COUNTERPARTS_V4 = dict(zip(NEURAL_FLY_LAWS, ("NF-C", "nonlinear baseline", "INDI",
+                                             "L1 adaptive"), strict=True))
 
 
 # the two sets by name (``quad-dob wind-tunnel --counterparts``)
