@@ -120,13 +120,14 @@ class ActuatorModel(NamedTuple):
 def indi_measured_disturbances(rows, rotation, gyroscope, accelerometer, rotor_speeds, wrench,
                                from_rotors, mass, inertia, thrust_coefficient, allocation, dt,
                                low_pass, previous_gyro, fresh, force_estimate, torque_estimate,
-                               model):
+                               model, torque_loop):
     """d̂x, d̂Ω (module docstring) for the vehicles ``rows`` marks after one control step;
     a ``fresh`` vehicle starts its filters settled on its first force residual and a zero
     torque one (no earlier gyroscope reading to difference). ``model`` (an
     ``ActuatorModel`` as a plain tuple) with a rate above 0: the actuators' state is its
     first-order model of the told ``wrench``; else the telemetry (``from_rotors``) or the
-    told wrench itself. ``low_pass`` is an ``IndiFilter`` as a plain tuple."""
+    told wrench itself. ``low_pass`` is an ``IndiFilter`` as a plain tuple. Without the
+    ``torque_loop`` (``loops="outer"``) the torque estimate stays zero and is not formed."""
     J = matrix_entries(inertia)
     inputs, outputs = low_pass[1], low_pass[2]
     modelled, model_rate, hover_thrust = ActuatorModel(*model)
@@ -172,10 +173,11 @@ def indi_measured_disturbances(rows, rotation, gyroscope, accelerometer, rotor_s
         inertial = mat_vec_tuple(J, change)
         gyroscopic = cross_tuple(mean_rate, mat_vec_tuple(J, mean_rate))
         for k in range(3):
-            # J Ω̇ + Ω × JΩ - M: the body torque beyond the rotors' moment (TK eq. 29)
-            torque = inertial[k] + gyroscopic[k] - thrust_moment[1 + k]
             force_estimate[i, k] = _filter_step(low_pass, force[k], i, k)
-            torque_estimate[i, k] = _filter_step(low_pass, torque, i, 3 + k)
+            if torque_loop:
+                # J Ω̇ + Ω × JΩ - M: the body torque beyond the rotors' moment (TK eq. 29)
+                torque = inertial[k] + gyroscopic[k] - thrust_moment[1 + k]
+                torque_estimate[i, k] = _filter_step(low_pass, torque, i, 3 + k)
             previous_gyro[i, k] = rate[k]
 
 
@@ -246,9 +248,7 @@ class IncrementalNDI(EstimatingGeometricController):
             self._wrench, self.actuation == "rotors", vehicle.mass, vehicle.inertia_matrix,
             vehicle.thrust_coefficient, vehicle.allocation_matrix, self.dt, tuple(self._filter),
             self._previous_gyro, self._fresh, self._force, self._torque,
-            (self._modelled, self._model_rate, vehicle.hover_thrust))
-        if self.loops == "outer":  # the attitude loop is Lee's alone: no torque increment
-            self._torque[rows] = 0.0
+            (self._modelled, self._model_rate, vehicle.hover_thrust), self.loops == "both")
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "filter_bandwidth": self.filter_bandwidth,
