@@ -10,7 +10,8 @@
   ``y_k = e^{-ω dt} y_{k-1} + (1 - e^{-ω dt}) x_k``, L1's filter on its adaptive input
   (docs/research/issue-27-l1.md §3); INDI's with ``filter_order=1`` runs the same form.
 - ``NEURAL_FLY_FILTER_BANDWIDTH``: the 5 Hz of Neural-Fly's INDI and L1 (``indi-outer``,
-  ``l1-matched`` in v4).
+  ``l1-matched`` in v4), from the simulator's ``quad_dob_env.filters`` (the residual's
+  thrust-path input runs the same filter).
 """
 
 from __future__ import annotations
@@ -21,11 +22,11 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from quad_dob_env.filters import NEURAL_FLY_FILTER_BANDWIDTH
 from quad_dob_env.validation import as_finite
 
-# [rad/s] the first-order low-pass Neural-Fly's INDI and L1 ran on their estimates, 5 Hz
-# (O'Connell et al., Sci. Robot. 2022, supplement §S6; docs/research/issue-27-indi.md, [NF])
-NEURAL_FLY_FILTER_BANDWIDTH = 2.0 * math.pi * 5.0
+__all__ = ["NEURAL_FLY_FILTER_BANDWIDTH", "butterworth_lowpass", "butterworth_settle",
+           "butterworth_step", "first_order_lowpass"]
 
 
 def butterworth_lowpass(bandwidth: float, dt: float, owner: str) -> NDArray[np.float64]:

@@ -1,10 +1,16 @@
 """The digital filters an autopilot runs, as their coefficients: one source for the
 inner loop's gyro low-pass (``envs.ticks``) and the IMU chain the vibration tones pass
-(``sensing.vibration``). Imports nothing of the package."""
+(``sensing.vibration``), and Neural-Fly's 5 Hz low-pass (``NEURAL_FLY_FILTER_BANDWIDTH``:
+INDI's and L1's in ``quad_dob_baselines``, the residual's thrust-path input in
+``residual.loop_view``). Imports nothing of the package."""
 
 from __future__ import annotations
 
 import math
+
+# [rad/s] the first-order low-pass Neural-Fly's INDI and L1 ran on their estimates, 5 Hz
+# (O'Connell et al., Sci. Robot. 2022, supplement §S6; docs/research/issue-27-indi.md, [NF])
+NEURAL_FLY_FILTER_BANDWIDTH = 2.0 * math.pi * 5.0
 
 
 def butterworth_coefficients(cutoff: float, rate: float) -> tuple[float, ...]:

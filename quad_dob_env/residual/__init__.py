@@ -11,8 +11,14 @@
 - ``modes``: the command's two modes, ``AccelerationMode`` and its guard.
 - ``gate``: ``AuthorityGate``, the gate on the observed disturbance, its state and factor.
 - ``floor_fade``: ``FloorFade``, the fade near the floor.
-- ``observation``: the residual's observation entries, named (``RESIDUAL_ENTRIES``), which
-  ``ResidualOptions.observation_entries`` hands to the env's observation table.
+- ``supervisor``: ``Supervisor`` and its ``SupervisorLimits``, the safety net that fades the
+  residual on measured signals (body rate, attitude error, the residual's share), with
+  hysteresis.
+- ``loop_view``: ``LoopView``, what a residual sees of its loop beyond one instant: the last
+  K steps' residuals and velocity errors, the measured thrust-path residual, the period.
+- ``observation``: the residual's observation entries, named (``RESIDUAL_ENTRIES``, and the
+  loop view's, ``loop_entries``), which ``ResidualOptions.observation_entries`` hands to the
+  env's observation table.
 - ``residual_kernels``: the compiled per-vehicle command, reward and extra observation
   (``quad_dob_composition.fused`` runs them in its single pass).
 

@@ -74,6 +74,7 @@ from numpy.typing import NDArray
 
 from quad_dob_env.residual.floor_fade import FloorFade
 from quad_dob_env.residual.gate import AuthorityGate
+from quad_dob_env.residual.loop_view import LoopView
 from quad_dob_env.residual.modes import AccelerationMode
 from quad_dob_env.residual.observation import RESIDUAL_ENTRIES
 from quad_dob_env.residual.options import ResidualOptions
@@ -84,6 +85,7 @@ from quad_dob_env.residual.residual_kernels import (
     residual_observation_kernel,
     residual_reward_kernel,
 )
+from quad_dob_env.residual.supervisor import Supervisor, attitude_angle
 
 if TYPE_CHECKING:
     from quad_dob_env.envs.core import QuadrotorBatch
@@ -167,7 +169,20 @@ class ResidualCommand:
                                                1.0 / limit])
         self.base_thrust, self.base_moment = np.zeros(n), np.zeros((n, 3))
         self.requested_thrust = np.zeros(n)  # base + residual, before the actuators' limits
-        self.extra_observation = np.zeros((n, RESIDUAL_OBSERVATION_SIZE), dtype=np.float32)
+        # what it sees of its loop beyond one instant (``loop_view``), and the safety net
+        # (``supervisor``); both None for options that ask for neither
+        self.loop_view = (LoopView(n, dt, options.history_steps, options.thrust_path_input,
+                                   options.period_input, vehicle.mass, vehicle.gravity)
+                          if options.observation_entries != RESIDUAL_ENTRIES else None)
+        self.supervisor = (None if options.supervisor is None else
+                           Supervisor(n, dt, options.supervisor))
+        self.supervision = np.ones(n)  # the supervisor's last factor (1 without it)
+        self._residual_share = np.zeros(n)  # the residual's part of the last command
+        self._fresh = np.ones(n, bool)  # no command since the start: no attitude error yet
+        self._errors_before = np.zeros((n, 3))  # body-frame velocity errors at a step's start
+        self.extra_observation = np.zeros(
+            (n, RESIDUAL_OBSERVATION_SIZE + (0 if self.loop_view is None else self.loop_view.size)),
+            dtype=np.float32)
         self.rewards = np.zeros(n)
         self._body_errors = np.zeros((n, 6))
         self._base_action = np.zeros((n, 4))
@@ -181,8 +196,9 @@ class ResidualCommand:
         self._started = False
         by_acceleration = self.acceleration is not None
         # the compiled pass flies the base's own command (not the acceleration mode's), in
-        # the loops it knows; it answers None for any other
-        self._fused = None if fused_pass is None or by_acceleration else fused_pass(self)
+        # the loops it knows, with no loop view or supervisor; it answers None for any other
+        staged = by_acceleration or self.loop_view is not None or self.supervisor is not None
+        self._fused = None if fused_pass is None or staged else fused_pass(self)
         # with an inner loop, the base's attitude law runs at its rate (installed by
         # ``quad_dob_composition``, ``AttitudeLoop.install``), the residual added each tick
         if attitude_loop is not None:
@@ -214,6 +230,13 @@ class ResidualCommand:
         self.previous_residual[indices] = 0.0  # an episode starts from the base alone
         if self.gate is not None:
             self.gate.restart(indices)
+        if self.supervisor is not None:
+            self.supervisor.restart(indices)
+            self.supervision[indices] = 1.0
+        self._residual_share[indices] = 0.0
+        self._fresh[indices] = True
+        if self.loop_view is not None:
+            self.loop_view.restart(indices)
         if self.residual_mode == "acceleration":
             # the base runs in ``command``: until a vehicle's first one it shows hover, no
             # residual and no estimate
@@ -226,6 +249,7 @@ class ResidualCommand:
             self.plan()
         else:
             self._fused.restart(indices)
+            self._write_loop_view()
 
     def step(self, residual: NDArray[np.float64]) -> None:
         """Step the core with base + ``residual`` (N, 4) and plan the next base command:
@@ -245,6 +269,7 @@ class ResidualCommand:
         core = self.core
         measurement = core.measurement
         self._state_before = measurement.copy()
+        self._errors_before[...] = self.extra_observation[:, 13:16]
         actions = np.empty((core.n, 4))
         residual = np.ascontiguousarray(self._gate_flown(residual), dtype=np.float64)
         if self.acceleration is not None:
@@ -269,17 +294,37 @@ class ResidualCommand:
         return actions
 
     def _gate_flown(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``gated``, the ``"wind"`` filter advanced first: once per flown step."""
+        """``gated``, the ``"wind"`` filter and the supervisor advanced first: once per
+        flown step."""
         if self.gate is not None:  # the "wind" signal's low-pass, at the step's start
             self.gate.advance(self.extra_observation[:, 4:7])
+        if self.supervisor is not None:
+            self.supervision = self.supervisor.advance(*self._supervised_signals())
         return self.gated(residual)
+
+    def _supervised_signals(self) -> tuple[NDArray, NDArray, NDArray]:
+        """The supervisor's measured signals at the step's start (``supervisor``): body rate,
+        the attitude error to the base's last desired attitude, the residual's share."""
+        measurement = self.core.measurement
+        body_rate = np.linalg.norm(measurement.angular_velocity, axis=1)
+        desired = self.controller.diagnostics.get("desired_rotation")
+        if desired is None:
+            if not self._fresh.all():
+                raise ValueError(f"the residual's supervisor reads the attitude the base asks "
+                                 f"for (diagnostics['desired_rotation']), which "
+                                 f"{self.controller.name!r} does not report")
+            attitude_error = np.zeros(self.core.n)
+        else:
+            attitude_error = np.where(self._fresh, 0.0,
+                                      attitude_angle(measurement.rotation, desired))
+        return body_rate, attitude_error, self._residual_share
 
     def gated(self, residual: NDArray[np.float64]) -> NDArray[np.float64]:
         """``residual`` clipped and scaled by the authority the observed disturbance and the
         height above the floor give (``gate``, ``floor_fade``); unchanged without
         ``authority_gate`` and ``floor_fade``. Sets ``gate_authority`` and ``authority``
         only."""
-        if self.gate is None and self.floor_fade is None:
+        if self.gate is None and self.floor_fade is None and self.supervisor is None:
             return residual
         authority = np.ones(self.core.n)
         if self.gate is not None:
@@ -287,6 +332,8 @@ class ResidualCommand:
         self.gate_authority = authority
         if self.floor_fade is not None:
             authority = authority * self.floor_fade.factor(self.core.measurement.position)
+        if self.supervisor is not None:
+            authority = authority * self.supervision
         self.authority = authority
         return np.clip(residual, -1.0, 1.0) * authority[:, None]
 
@@ -300,7 +347,25 @@ class ResidualCommand:
         residual_reward_kernel(0, core.n, self._residual, core.rewards, self.effort_weight,
                                self.rate_weight, self.previous_residual,
                                self.rewards)
+        self._fresh[:] = False
+        if self.supervisor is not None:
+            self._residual_share = self._share_of_command()
+        if self.loop_view is not None:  # previous_residual now holds the residual flown
+            self.loop_view.advance(self._errors_before, self.previous_residual,
+                                   core.measurement.accelerometer[:, 2], core.commanded.thrust)
 
+    def _share_of_command(self) -> NDArray[np.float64]:
+        """The residual's part of the command just flown: ``‖m Δa‖ / ‖F_base‖`` in the
+        acceleration mode (F_base the base's desired force without Δa), ``|ΔT| / T_base``
+        in the thrust-and-moment mode."""
+        if self.acceleration is not None:
+            mass = self.core.vehicle.mass
+            correction = mass * self.acceleration.scale * self._residual[:, :3]
+            base_force = self.controller.diagnostics["desired_force"] - correction
+            return (np.linalg.norm(correction, axis=1)
+                    / np.maximum(np.linalg.norm(base_force, axis=1), 1e-9))
+        return (np.abs(self._residual[:, 0] * self.residual_range[0])
+                / np.maximum(np.abs(self.base_thrust), 1e-9))
     def plan(self) -> None:
         """Every vehicle's base command for the coming step, and the extra observation."""
         core, controller = self.core, self.controller
@@ -325,7 +390,11 @@ class ResidualCommand:
             state.position, state.velocity, state.rotation, core.reference_table,
             core.reference_row, core.action_map.inverse, self._base_action, self._body_errors,
             self.extra_observation)
+        self._write_loop_view()
 
+    def _write_loop_view(self) -> None:
+        if self.loop_view is not None:
+            self.loop_view.write(self.extra_observation, RESIDUAL_OBSERVATION_SIZE)
     def requested_command(self, base_moment: NDArray | None = None
                           ) -> tuple[NDArray, NDArray]:
         """The thrust (N,) and moments (N, 3) of the last ``command``, base plus residual,
@@ -343,6 +412,8 @@ class ResidualCommand:
         ``torque_estimate`` (N, 3; zero without an observer), for the coming step."""
         arrays = {"base_thrust": self.base_thrust, "base_moment": self.base_moment,
                   "force_estimate": self.force_estimate, "torque_estimate": self.torque_estimate}
+        if self.supervisor is not None:
+            arrays["supervision"] = self.supervision
         return {name: value.copy() for name, value in arrays.items()}
 
     def observation(self, core_observation: NDArray[np.float32]) -> NDArray[np.float32]:

@@ -25,3 +25,26 @@ RESIDUAL_ENTRIES = (
     ObservationEntry("body_velocity_error", "velocity error in the body frame, Rᵀ(v - v_d)",
                      "m/s", 3, UNBOUNDED),
 )
+
+
+def loop_entries(history_steps: int, thrust_path_input: bool,
+                 period_input: bool) -> tuple[ObservationEntry, ...]:
+    """The loop view's entries (``loop_view``), after ``RESIDUAL_ENTRIES``, for the options
+    that ask for them; none for the defaults."""
+    entries = []
+    if history_steps:
+        entries += [
+            ObservationEntry("residual_history", f"the residual flown at each of the last "
+                             f"{history_steps} steps (4 each, clipped and faded), newest first",
+                             "-", 4 * history_steps, (-1.0, 1.0)),
+            ObservationEntry("velocity_error_history", f"the body-frame velocity error at the "
+                             f"start of each of the last {history_steps} steps (3 each), newest "
+                             "first", "m/s", 3 * history_steps, UNBOUNDED)]
+    if thrust_path_input:
+        entries.append(ObservationEntry(
+            "thrust_path_residual", "(accelerometer's body-z specific force - commanded "
+            "thrust / m) / g₀, low-passed at 5 Hz", "-", 1, UNBOUNDED))
+    if period_input:
+        entries.append(ObservationEntry("control_period", "the control period / 10 ms", "-", 1,
+                                        (0.0, float("inf"))))
+    return tuple(entries)

@@ -17,6 +17,11 @@ down to ``ResidualCommand``, which hands its parts to the objects that use them.
 | ``authority_gate``       | the disturbance gate [m g] (``gate``); None: off        | no   |
 | ``authority_signal``     | what the gate reads: ``"force"`` or ``"wind"``          | no   |
 | ``floor_fade``           | heights (h₀, h₁) [m] it fades in over (``floor_fade``)  | no   |
+| ``history_steps``        | K: the last K steps' residuals and velocity errors      | no   |
+|                          | in the observation (``loop_view``); 0: none             |      |
+| ``thrust_path_input``    | the measured thrust-path residual in the observation    | no   |
+| ``period_input``         | the control period in the observation                   | no   |
+| ``supervisor``           | the safety net's limits (``supervisor``); None: off      | no   |
 
 Two experimental options, ``lookahead`` (the reference read ahead) and ``residual_cutoff``
 (a low-pass on the residual), were measured in Benchmark v3, helped nowhere and were removed
@@ -37,10 +42,13 @@ from typing import Any
 import numpy as np
 
 from quad_dob_env.observation_entry import ObservationEntry
-from quad_dob_env.residual.observation import RESIDUAL_ENTRIES
+from quad_dob_env.residual.observation import RESIDUAL_ENTRIES, loop_entries
+from quad_dob_env.residual.supervisor import SupervisorLimits, supervisor_limits
 from quad_dob_env.validation import as_finite, unknown_name_error
 
 RESIDUAL_MODES = ("thrust_moments", "acceleration")
+# the longest history a policy may see: 0.5 s at 100 Hz
+MAX_HISTORY_STEPS = 50
 AUTHORITY_SIGNALS = ("force", "wind")
 
 
@@ -72,6 +80,10 @@ class ResidualOptions:
     authority_gate: float | None = None
     authority_signal: str = "force"
     floor_fade: tuple[float, float] | None = None
+    history_steps: int = 0
+    thrust_path_input: bool = False
+    period_input: bool = False
+    supervisor: SupervisorLimits | None = None
 
     def __post_init__(self) -> None:
         if self.residual_mode not in RESIDUAL_MODES:
@@ -99,6 +111,17 @@ class ResidualOptions:
                                                       "residual_effort_weight", 0.0)
         checked["residual_rate_weight"] = as_finite(self.residual_rate_weight,
                                                     "residual_rate_weight", 0.0)
+        steps = self.history_steps
+        if (isinstance(steps, bool) or not isinstance(steps, (int, np.integer))
+                or not 0 <= steps <= MAX_HISTORY_STEPS):
+            raise ValueError(f"history_steps must be a whole number of control steps from 0 to "
+                             f"{MAX_HISTORY_STEPS}, got {steps!r}")
+        checked["history_steps"] = int(steps)
+        for name in ("thrust_path_input", "period_input"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"{name} must be true or false, got {getattr(self, name)!r}")
+            checked[name] = bool(getattr(self, name))
+        checked["supervisor"] = supervisor_limits(self.supervisor)
         for name, value in checked.items():  # frozen: the normalised values, set once
             object.__setattr__(self, name, value)
 
@@ -112,9 +135,10 @@ class ResidualOptions:
         return cls(**keys)
 
     def keys(self) -> dict[str, Any]:
-        """The flat keys that differ from the defaults, as a config writes them."""
+        """The flat keys that differ from the defaults, as a config writes them (the
+        supervisor's limits as a mapping)."""
         return {name: value for name, value in asdict(self).items()
-                if value != getattr(DEFAULT_RESIDUAL_OPTIONS, name)}
+                if value != asdict(DEFAULT_RESIDUAL_OPTIONS)[name]}
 
     def with_keys(self, **keys: Any) -> ResidualOptions:
         """This record with ``keys`` changed (validated again)."""
@@ -122,10 +146,12 @@ class ResidualOptions:
 
     @property
     def observation_entries(self) -> tuple[ObservationEntry, ...]:
-        """The entries an env flying these options appends after its own, the same for every
-        option set (``observation``); ``envs.observation_table`` reads them here, as the
-        envs sit below the residual and do not import it."""
-        return RESIDUAL_ENTRIES
+        """The entries an env flying these options appends after its own: the 16 every
+        residual sees, then the loop view's where asked for (``observation``);
+        ``envs.observation_table`` reads them here, as the envs sit below the residual and
+        do not import it."""
+        return RESIDUAL_ENTRIES + loop_entries(self.history_steps, self.thrust_path_input,
+                                               self.period_input)
 
 
 OPTION_NAMES = tuple(option.name for option in fields(ResidualOptions))
