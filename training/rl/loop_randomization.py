@@ -119,12 +119,13 @@ class LoopRandomization(gym.Wrapper):
         scenario, kwargs = loop_env_kwargs(loop, self._scenario, self._env_kwargs)
         flown = gym.make(self._made, scenario=scenario, **kwargs)
         if (flown.observation_space != self._spaces[0] or flown.action_space != self._spaces[1]
-                or flown.unwrapped.core.scenario.dt != self._clock):
+                or flown.unwrapped.core.scenario.dt != loop.get("dt", self._clock)):
             flown.close()
             raise ValueError(f"loop {loop} flies {scenario!r} with dt="
                              f"{flown.unwrapped.core.scenario.dt:g} and "
                              f"{flown.observation_space}, unlike the env's {self._scenario!r}: "
-                             "a loop must keep the env's dt and spaces")
+                             "a loop must keep the env's spaces, and its dt unless "
+                             "control_rate sets it")
         if seed is not None:
             flown.action_space.seed(seed)  # as SB3's make_vec_env seeds the env it built
         self._holder.env.close()

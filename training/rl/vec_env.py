@@ -9,7 +9,8 @@ way, so ``PPO("MlpPolicy", QuadrotorSB3VecEnv(...))`` trains on N vehicles in on
 ``loop_randomization`` randomises what one batch cannot vary per vehicle, the vehicle loop
 (sensing preset, extra latency, motor time constant), the airframe, where the spec gives
 them the scenarios the groups fly (``scenario``, cycled with the sensing and airframe
-lists) and the scenario's wind scale (``wind_scale``: the ceiling of its per-vehicle wind
+lists), the control rate (``control_rate``, cycled with them: groups at different rates
+share one policy, whose reward and γ stay per step) and the scenario's wind scale (``wind_scale``: the ceiling of its per-vehicle wind
 draw, for scenarios that take one), by splitting the N
 vehicles into ``groups``, each a vector env of its own loop, drawn from the ranges given
 (``draw_loops``); mass, inertia, drag, thrust coefficient and wind are drawn per vehicle by
@@ -33,7 +34,8 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from quad_dob_composition import ResidualVectorEnv, make_vector_env
 from quad_dob_env.benchmark import v3_loop
-from quad_dob_env.benchmark_v3 import REAL_LOOPS
+from quad_dob_env.benchmark_v3 import REAL_LOOPS, TUNING_MARGIN
+from quad_dob_env.benchmark_v4 import V4_LOOPS
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.params import VEHICLES, get_vehicle
 from quad_dob_env.residual import ResidualOptions, ResidualQuadrotorVectorEnv
@@ -50,8 +52,9 @@ V3_LOOP_RANGES = ("unmodelled_pose_latency", "thrust_model_factor", "acceleromet
                   "hover_throttle", "hover_throttle_drift")
 # the keys of ``loop_randomization``: the number of groups, the sensing presets and the
 # vehicles they cycle through, and (low, high) ranges of the scenario options drawn per group
-LOOP_RANDOMIZATION_KEYS = ("groups", "sensing", "vehicle", "scenario", "extra_latency",
-                           "motor_time_constant_scale", "wind_scale", *V3_LOOP_RANGES)
+LOOP_RANDOMIZATION_KEYS = ("groups", "sensing", "vehicle", "scenario", "control_rate",
+                           "extra_latency", "motor_time_constant_scale", "wind_scale",
+                           *V3_LOOP_RANGES, "margin_groups")
 TRAINING_ONLY_KEYS = ("loop_randomization",)
 # training-only keys that were removed (docs/research/removed-experiments.md): configs of runs
 # trained with them still load for evaluation, which never took them
@@ -59,6 +62,10 @@ REMOVED_TRAINING_KEYS = ("termination_penalty",)
 # where a drawn loop names the scenario its group flies instead of the env's (not an option
 # of the scenario: ``QuadrotorSB3VecEnv`` takes it out)
 SCENARIO_KEY = "scenario"
+# the loop a gain set and a residual must hold (benchmark_v3.TUNING_MARGIN: 20 ms of pose
+# latency the estimator does not know, motors 1.5 times slower): ``margin_groups`` groups
+# fly at or beyond it, at the slowest rate listed
+MARGIN_CORNER = dict(TUNING_MARGIN)
 
 
 def env_options(env_kwargs: dict[str, Any]) -> dict[str, Any]:
@@ -70,12 +77,16 @@ def env_options(env_kwargs: dict[str, Any]) -> dict[str, Any]:
 
 def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[str, Any]]:
     """One scenario-options dict per group: group g takes ``sensing[g % len]``,
-    ``vehicle[g % len]`` and ``scenario[g % len]`` (under ``SCENARIO_KEY``) where given
-    (the env's own where not; the lists cycle together, so their tuples are the ones
-    listed, not every combination), and each range is stratified over the groups (each
-    group draws from its own slice of it, the slices shuffled), so a few groups still span
-    it; latencies are drawn on the control grid (multiples of ``dt``), where the loop
-    resolves them anyway."""
+    ``vehicle[g % len]``, ``scenario[g % len]`` (under ``SCENARIO_KEY``) and
+    ``control_rate[g % len]`` [Hz] (as the scenario's ``dt``) where given (the env's own
+    where not; the lists cycle together, so their tuples are the ones listed, not every
+    combination), and each range is stratified over the groups (each group draws from its
+    own slice of it, the slices shuffled), so a few groups still span it; latencies are
+    drawn on each group's control grid (multiples of its ``dt``, the env's ``dt`` without
+    ``control_rate``), where the loop resolves them anyway. ``margin_groups`` = M: the
+    first M groups at the slowest rate listed draw their motor scale and unmodelled pose
+    latency again, between ``MARGIN_CORNER``'s values and the ranges' tops, so every run
+    flies the margin's corner however the strata fall."""
     for key in spec:
         if key not in LOOP_RANDOMIZATION_KEYS:
             raise unknown_name_error("loop_randomization key", key, LOOP_RANDOMIZATION_KEYS)
@@ -97,6 +108,22 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
     for name in scenarios:
         if name not in SCENARIOS:
             raise unknown_name_error("loop_randomization scenario", name, SCENARIOS)
+    rates = list(spec.get("control_rate", []))
+    if "control_rate" in spec and not rates:
+        raise ValueError("loop_randomization control_rate must list one or more rates [Hz], "
+                         "got an empty list (leave it out to fly the scenario's own)")
+    for rate in rates:
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0:
+            raise ValueError(f"loop_randomization control_rate lists rates in Hz > 0, got "
+                             f"{rate!r}")
+    clocks = [1.0 / float(rates[g % len(rates)]) if rates else dt for g in range(groups)]
+    margin_groups = spec.get("margin_groups", 0)
+    slowest = [g for g in range(groups) if clocks[g] == max(clocks)]
+    if (isinstance(margin_groups, bool) or not isinstance(margin_groups, int)
+            or not 0 <= margin_groups <= len(slowest)):
+        raise ValueError(f"loop_randomization margin_groups must be a whole number from 0 to "
+                         f"{len(slowest)} (the groups at the slowest rate), got "
+                         f"{margin_groups!r}")
     ranges = {}
     for key, default in (("extra_latency", (0.0, 0.0)), ("motor_time_constant_scale", (1.0, 1.0)),
                          ("wind_scale", (1.0, 1.0))):
@@ -112,11 +139,15 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
         return (rng.permutation(groups) + rng.uniform(size=groups)) / groups
 
     low, high = ranges["extra_latency"]
-    grid = dt * np.arange(math.ceil(low / dt - 1e-9), math.floor(high / dt + 1e-9) + 1)
-    if grid.size == 0:
-        raise ValueError(f"loop_randomization extra_latency {ranges['extra_latency']} holds no "
-                         f"multiple of the control step {dt:g} s")
-    latency = grid[np.minimum((stratified() * grid.size).astype(int), grid.size - 1)]
+    where = stratified()
+    latency = np.empty(groups)
+    for g, clock in enumerate(clocks):  # each group on its own control grid
+        grid = clock * np.arange(math.ceil(low / clock - 1e-9),
+                                 math.floor(high / clock + 1e-9) + 1)
+        if grid.size == 0:
+            raise ValueError(f"loop_randomization extra_latency {ranges['extra_latency']} "
+                             f"holds no multiple of the control step {clock:g} s")
+        latency[g] = grid[min(int(where[g] * grid.size), grid.size - 1)]
     low, high = ranges["motor_time_constant_scale"]
     motor = low + (high - low) * stratified()
     # drawn last, and only when asked for, so specs without it draw as they did before it
@@ -142,20 +173,32 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
             draws = low + (high - low) * stratified()
             for g in range(groups):
                 v3[g][key] = round(float(draws[g]), 6)
+    # the margin's corner last, only when asked for, so specs without it draw as before
+    for g in slowest[:margin_groups]:
+        for key, corner in MARGIN_CORNER.items():
+            top = max(float((spec.get(key) or (corner, corner))[1]), corner)
+            value = corner + (top - corner) * rng.uniform()
+            if key == "motor_time_constant_scale":
+                motor[g] = value
+            else:
+                v3[g][key] = round(float(value), 6)
     return [{**({"sensing": sensing[g % len(sensing)]} if sensing else {}),
              "extra_latency": round(float(latency[g]), 6),
              "motor_time_constant_scale": round(float(motor[g]), 4),
              **({"vehicle": vehicles[g % len(vehicles)]} if vehicles else {}),
              **({"wind_scale": round(float(wind[g]), 4)} if wind is not None else {}),
              **({SCENARIO_KEY: scenarios[g % len(scenarios)]} if scenarios else {}),
+             **({"dt": clocks[g]} if rates else {}),
              **v3[g]}
             for g in range(groups)]
 
 
-def loop_scenario_options(loop: dict[str, Any], vehicle: str) -> dict[str, Any]:
+def loop_scenario_options(loop: dict[str, Any], vehicle: str,
+                          benchmark: str | None = None) -> dict[str, Any]:
     """A drawn loop as scenario options: v3's thrust-model factor, vibration and battery
     ranges become the throttle map and IMU vibration of ``vehicle``'s v3 loop with those
-    values replaced (``benchmark_v3.REAL_LOOPS``); the rest are options as they are."""
+    values replaced (``benchmark_v3.REAL_LOOPS``; in ``benchmark`` v4 the throttle map is
+    v4's, ``benchmark_v4.V4_LOOPS``); the rest are options as they are."""
     options = {key: value for key, value in loop.items() if key != SCENARIO_KEY}
     throttle = {key: options.pop(key) for key in ("thrust_model_factor", "hover_throttle",
                                                   "hover_throttle_drift") if key in options}
@@ -166,8 +209,9 @@ def loop_scenario_options(loop: dict[str, Any], vehicle: str) -> dict[str, Any]:
             raise ValueError(f"loop_randomization's v3 quantities need a vehicle with a v3 "
                              f"loop ({', '.join(REAL_LOOPS)}), got {vehicle!r}")
         if throttle:
+            own = V4_LOOPS[vehicle].throttle_map if benchmark == "v4" else real.throttle_map
             options["throttle_map"] = dataclasses.replace(
-                real.throttle_map, **{key: tuple(value) if isinstance(value, list) else value
+                own, **{key: tuple(value) if isinstance(value, list) else value
                                       for key, value in throttle.items()})
         if vibration is not None:
             # what the autopilot's filter leaves is linear in the raw level: v3's own
@@ -199,7 +243,8 @@ def loop_env_kwargs(loop: dict[str, Any], scenario: Any,
     return loop.get(SCENARIO_KEY, scenario), {
         **env_kwargs, "scenario_options": {
             **(env_kwargs.get("scenario_options") or {}),
-            **loop_scenario_options(loop, loop.get("vehicle", vehicle))}}
+            **loop_scenario_options(loop, loop.get("vehicle", vehicle),
+                                    env_kwargs.get("benchmark"))}}
 
 
 class QuadrotorSB3VecEnv(VecEnv):
@@ -229,14 +274,15 @@ class QuadrotorSB3VecEnv(VecEnv):
             self.vector_envs.append(make_vector_env(group.stop - group.start, flown, **kwargs))
         first = self.vector_envs[0]
         for loop, venv in zip(self.loops, self.vector_envs, strict=True):
-            # one policy flies every group: the same spaces and the clock the latency draws
-            # were made on
+            # one policy flies every group: the same spaces, and the clock the latency draws
+            # were made on (the group's own rate where control_rate gives one)
             if (venv.single_observation_space != first.single_observation_space
-                    or venv.scenario.dt != (dt or first.scenario.dt)):
+                    or venv.scenario.dt != loop.get("dt", dt or first.scenario.dt)):
                 raise ValueError(f"loop group {loop} flies {venv.scenario.name!r} with "
                                  f"dt={venv.scenario.dt:g} and {venv.single_observation_space},"
                                  f" unlike the first group's {first.scenario.name!r}: the "
-                                 "groups' scenarios must share dt and observation space")
+                                 "groups' scenarios must share the observation space, and "
+                                 "dt unless control_rate sets it")
         super().__init__(num_envs, first.single_observation_space, first.single_action_space)
         self._seed = seed
         self._actions: NDArray | None = None

@@ -1,0 +1,103 @@
+"""The residual supervisor's signals in flight: where to put its limits, and how often they fade.
+
+Flies a residual policy (``--policy residual:PATH``; without one, its base alone: the
+residual options of ``--options`` with a zero residual) on each scenario of the benchmark,
+nominal and under the margin (``benchmark_v3.TUNING_MARGIN``), and prints per scenario the
+99th and 99.9th percentiles and the maximum of the three signals the supervisor reads
+(``quad_dob_env.residual.supervisor``: body rate, attitude error to the base's command,
+the residual's share of the command) over every step flown, and, with the policy's own
+supervisor, the share of steps on which it faded the residual below 0.9.
+
+The supervisor's limits are chosen from these figures on tuning seeds (100-119): each one a
+clear factor above what nominal flight reaches, so that nominal flight keeps its residual,
+and below what the flights lost under the margin reach before they are lost.
+
+    python benchmarks/supervisor_signals.py --seeds 100-119
+    python benchmarks/supervisor_signals.py --policy residual:runs/X --seeds 100-119
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from quad_dob_composition import make_vector_env
+from quad_dob_env.benchmark_v3 import TUNING_MARGIN
+from quad_dob_env.residual.supervisor import SIGNALS
+from quad_dob_env.scenarios import make_scenario
+from quad_dob_training.evaluation.evaluate import parse_seeds
+from quad_dob_training.policies import make_policy
+
+SCENARIOS = ("hover-calm", "gusty-hover", "dryden-helix", "dryden-helix-gusts",
+             "takeoff-landing-wind", "ground-effect-landing", "random-tracks",
+             "figure8-wind-0", "figure8-wind-8.5", "figure8-wind-12.1")
+# limits no flight reaches: the supervisor reads its signals and never trips
+WATCH_ONLY = {"body_rate": 1e9, "attitude_error": 1e9, "residual_share": 1e9}
+
+
+def fly(scenario: str, benchmark: str, seeds: list[int], policy, loop: dict) -> dict:
+    """Every step's signals (steps, 3), the supervisor's factors, and the flights lost."""
+    flown = make_scenario(scenario, benchmark=benchmark, **loop)
+    kwargs = dict(policy.env_kwargs())
+    own = kwargs.get("supervisor")
+    kwargs["supervisor"] = own if own is not None else WATCH_ONLY
+    env = make_vector_env(len(seeds), flown, **kwargs)
+    obs, _ = env.reset(seed=seeds)
+    alive = np.ones(len(seeds), bool)
+    lost = np.zeros(len(seeds), bool)
+    signals, factors = [], []
+    limits = env.residual.supervisor.limits
+    scale = np.array([getattr(limits, name) for name in SIGNALS])
+    for _ in range(flown.steps):
+        actions = (np.zeros((len(seeds), 4)) if policy.model is None else policy.act(obs))
+        obs, _, terminated, truncated, _ = env.step(actions)
+        supervisor = env.residual.supervisor
+        signals.append((supervisor.ratios * scale)[alive])
+        factors.append(supervisor.factor[alive].copy())
+        lost |= alive & terminated
+        alive &= ~(terminated | truncated)
+        if not alive.any():
+            break
+    return {"signals": np.concatenate(signals), "factors": np.concatenate(factors),
+            "lost": int(lost.sum()), "own": own is not None}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--policy", default=None,
+                        help="residual:PATH (default: the base alone, zero residual)")
+    parser.add_argument("--base", default="geometric-ndob:tuned")
+    parser.add_argument("--benchmark", default="v4")
+    parser.add_argument("--seeds", default="100-119")
+    parser.add_argument("--scenarios", default=",".join(SCENARIOS))
+    args = parser.parse_args()
+    seeds = parse_seeds(args.seeds)
+    if args.policy is None:
+        policy = make_policy(args.base)
+        policy.env_kwargs = lambda: {"base_controller": args.base,  # type: ignore[method-assign]
+                                     "residual_mode": "acceleration"}
+    else:
+        policy = make_policy(args.policy, trust_pickle=True)
+    print(f"policy {args.policy or args.base + ' alone'}, benchmark {args.benchmark}, seeds "
+          f"{args.seeds}; per signal: p99 / p99.9 / max over every step flown")
+    header = (f"{'scenario':24} {'loop':7} {'lost':>4}  " + "  ".join(f"{name:>24}"
+                                                                 for name in SIGNALS)
+              + "  faded<0.9")
+    print(header)
+    for scenario in args.scenarios.split(","):
+        for label, loop in (("nominal", {}), ("margin", dict(TUNING_MARGIN))):
+            result = fly(scenario, args.benchmark, seeds, policy, loop)
+            cells = []
+            for k in range(len(SIGNALS)):
+                values = result["signals"][:, k]
+                p99, p999 = np.percentile(values, [99.0, 99.9])
+                cells.append(f"{p99:7.3f} /{p999:7.3f} /{values.max():7.3f}")
+            faded = (f"{100 * np.mean(result['factors'] < 0.9):8.2f} %" if result["own"]
+                     else "       -")
+            print(f"{scenario:24} {label:7} {result['lost']:4d}  " + "  ".join(cells)
+                  + f"  {faded}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
