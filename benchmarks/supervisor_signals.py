@@ -14,6 +14,8 @@ and below what the flights lost under the margin reach before they are lost.
 
     python benchmarks/supervisor_signals.py --seeds 100-119
     python benchmarks/supervisor_signals.py --policy residual:runs/X --seeds 100-119
+    python benchmarks/supervisor_signals.py \
+        --limits body_rate=7,attitude_error=2.2,residual_share=0.45
 """
 
 from __future__ import annotations
@@ -71,12 +73,19 @@ def main() -> None:
     parser.add_argument("--benchmark", default="v4")
     parser.add_argument("--seeds", default="100-119")
     parser.add_argument("--scenarios", default=",".join(SCENARIOS))
+    parser.add_argument("--limits", default=None,
+                        help="body_rate=R,attitude_error=A,residual_share=S: fly the base "
+                             "alone under a supervisor with these limits (its fading "
+                             "counted)")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
     if args.policy is None:
         policy = make_policy(args.base)
-        policy.env_kwargs = lambda: {"base_controller": args.base,  # type: ignore[method-assign]
-                                     "residual_mode": "acceleration"}
+        options = {"base_controller": args.base, "residual_mode": "acceleration"}
+        if args.limits:
+            options["supervisor"] = {key: float(value) for key, value in
+                                     (item.split("=") for item in args.limits.split(","))}
+        policy.env_kwargs = lambda: options  # type: ignore[method-assign]
     else:
         policy = make_policy(args.policy, trust_pickle=True)
     print(f"policy {args.policy or args.base + ' alone'}, benchmark {args.benchmark}, seeds "

@@ -108,10 +108,12 @@ def test_the_supervisor_trips_fades_holds_and_recovers_with_hysteresis():
     assert supervisor.factor[0] == 1.0 and supervisor.trips[0] == 0
 
 
-def test_the_attitude_angle_is_the_rotation_between_the_two():
+def test_the_attitude_error_is_the_tilt_between_the_thrust_axes_not_the_heading():
     desired = np.stack([exp_map(np.array([0.1, -0.2, 0.3]))])
-    turned = desired @ exp_map(np.array([0.0, 0.0, 0.4]))
-    assert attitude_angle(turned, desired) == pytest.approx([0.4])
+    assert attitude_angle(desired @ exp_map(np.array([0.0, 0.0, 0.4])), desired) == (
+        pytest.approx([0.0], abs=1e-7))  # a turn about b3 leaves b3 where it was
+    assert attitude_angle(desired @ exp_map(np.array([0.25, 0.0, 0.0])), desired) == (
+        pytest.approx([0.25]))
 
 
 def test_bad_loop_view_and_supervisor_options_are_named():

@@ -304,7 +304,7 @@ class ResidualCommand:
 
     def _supervised_signals(self) -> tuple[NDArray, NDArray, NDArray]:
         """The supervisor's measured signals at the step's start (``supervisor``): body rate,
-        the attitude error to the base's last desired attitude, the residual's share."""
+        the tilt error to the base's last desired thrust axis, the residual's share."""
         measurement = self.core.measurement
         body_rate = np.linalg.norm(measurement.angular_velocity, axis=1)
         desired = self.controller.diagnostics.get("desired_rotation")

@@ -10,14 +10,14 @@ way, so ``PPO("MlpPolicy", QuadrotorSB3VecEnv(...))`` trains on N vehicles in on
 (sensing preset, extra latency, motor time constant), the airframe, where the spec gives
 them the scenarios the groups fly (``scenario``, cycled with the sensing and airframe
 lists), the control rate (``control_rate``, cycled with them: groups at different rates
-share one policy, whose reward and γ stay per step) and the scenario's wind scale (``wind_scale``: the ceiling of its per-vehicle wind
-draw, for scenarios that take one), by splitting the N
-vehicles into ``groups``, each a vector env of its own loop, drawn from the ranges given
-(``draw_loops``); mass, inertia, drag, thrust coefficient and wind are drawn per vehicle by
-the scenario. It is a training option only: ``env_options`` drops it, so evaluation flies
-the named loop. rl-zoo3, which hands ``env_kwargs`` to ``gym.make`` for each single env, takes
-it as an ``env_wrapper`` (``loop_randomization.LoopRandomization``) drawn from the same
-functions here.
+share one policy, whose reward and γ stay per step) and the scenario's wind scale
+(``wind_scale``: the ceiling of its per-vehicle wind draw, for scenarios that take one), by
+splitting the N vehicles into ``groups``, each a vector env of its own loop, drawn from the
+ranges given (``draw_loops``); mass, inertia, drag, thrust coefficient and wind are drawn
+per vehicle by the scenario. It is a training option only: ``env_options`` drops it, so
+evaluation flies the named loop. rl-zoo3, which hands ``env_kwargs`` to ``gym.make`` for
+each single env, takes it as an ``env_wrapper`` (``loop_randomization.LoopRandomization``)
+drawn from the same functions here.
 """
 
 from __future__ import annotations
