@@ -158,8 +158,7 @@ class GeometricController(Controller):
         info: dict[str, Any] = {"name": self.name,
                                 **{k: v.tolist() for k, v in self.gains.items()}}
         if self.observer is not None:
-            info["Ks"] = self.observer.translational_gain
-            info["Km"] = self.observer.rotational_gain.tolist()
+            info.update(self.observer.describe())
         return info
 
 

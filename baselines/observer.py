@@ -18,11 +18,15 @@ with the thrust direction R e3 and the gyroscopic torque averaged over each step
 A constant disturbance is then the fixed point, and the error decays as ``e^{-L t}`` at the
 samples. The observer is fed the thrust and moment actually applied. The per-vehicle
 equations are compiled in ``quad_dob_baselines.geometric_kernels`` (``observer_*_batch``).
+
+``GivenDisturbance`` takes the observer's place where the estimate is given, not made: the
+loop's floor (``oracle:NAME``) feeds it the simulator's true disturbance.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -127,6 +131,10 @@ class NonlinearDisturbanceObserver:
         self.inner_gains = (np.ascontiguousarray(alpha @ self.vehicle.inertia_matrix / period),
                             np.ascontiguousarray(alpha))
 
+    def describe(self) -> dict[str, Any]:
+        """The gains, as a controller's ``describe`` lists them."""
+        return {"Ks": self.translational_gain, "Km": self.rotational_gain.tolist()}
+
     @property
     def torque_state(self) -> tuple[NDArray, NDArray]:
         """zΩ (N, 3) and the fresh flags (N,), the arrays themselves."""
@@ -164,3 +172,48 @@ class NonlinearDisturbanceObserver:
                          state.angular_velocity.copy(),
                          np.ascontiguousarray(thrust, dtype=float).copy(),
                          np.ascontiguousarray(moment, dtype=float).copy())
+
+
+class GivenDisturbance:
+    """An observer that estimates nothing: it hands the controller the force d_x (world, N)
+    and torque d_Ω (body, N m) that ``source()`` returns, at each ``estimate``. A controller
+    fed the true disturbance this way flies the loop's floor, what a perfect estimate could
+    give (``quad_dob_composition.oracle`` supplies the source from the simulator's truth).
+    The torque is held over an inner loop's ticks, as INDI's and L1's estimates are."""
+
+    def __init__(self) -> None:
+        self.source: Callable[[], tuple[NDArray, NDArray]] | None = None
+        self.force_estimate = np.zeros((0, 3))
+        self.torque_estimate = np.zeros((0, 3))
+        self.inner_gains: tuple[NDArray, NDArray] | None = None
+        self._fresh = np.zeros(0, dtype=bool)
+
+    def reset(self, num_vehicles: int, vehicle: VehicleParams, dt: float,
+              indices: NDArray[np.intp] | None = None) -> None:
+        if indices is None:
+            self.force_estimate = np.zeros((num_vehicles, 3))
+            self.torque_estimate = np.zeros((num_vehicles, 3))
+            self._fresh = np.zeros(num_vehicles, dtype=bool)
+
+    def describe(self) -> dict[str, Any]:
+        return {"observer": "given: the true disturbance (the loop's floor)"}
+
+    def set_inner_period(self, period: float | None) -> None:
+        # zero gains: d̂Ω = zΩ, the given torque, over every tick (``inner.held_torque_estimate``)
+        self.inner_gains = None if period is None else (np.zeros((3, 3)), np.zeros((3, 3)))
+
+    @property
+    def torque_state(self) -> tuple[NDArray, NDArray]:
+        return self.torque_estimate, self._fresh
+
+    def estimate(self, state: VehicleState) -> tuple[NDArray, NDArray]:
+        if self.source is None:
+            raise RuntimeError("GivenDisturbance has no source: quad_dob_composition binds "
+                               "one to the env it flies in (oracle:NAME bases)")
+        force, torque = self.source()
+        self.force_estimate = np.array(force, dtype=float)
+        self.torque_estimate = np.array(torque, dtype=float)
+        return self.force_estimate, self.torque_estimate
+
+    def update(self, state: VehicleState, thrust: NDArray, moment: NDArray) -> None:
+        """Nothing to learn from the step flown."""

@@ -17,6 +17,8 @@ simulator (``quad_dob_env``) and the controllers (``quad_dob_baselines``); the f
   point: ``make_residual_env`` (one vehicle) and ``ResidualVectorEnv`` (N vehicles), both
   taking ``base_controller`` by name; ``make_vector_env`` picks the plain or residual
   vector env; ``residual_command`` builds a ``ResidualCommand`` for a core.
+- ``oracle``: the loop's floor, ``oracle:NAME``: a base whose observer is fed the
+  simulator's true disturbance (``GivenDisturbance``), bound to its env's core.
 - ``checks``: ``check_controller``, what a user's controller gets wrong against the
   interface, found by building it and flying it as the benchmark will.
 """

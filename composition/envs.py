@@ -6,6 +6,7 @@ from typing import Any
 
 from quad_dob_composition.attitude_loop import AttitudeLoop
 from quad_dob_composition.bases import fused_pass_for, make_base
+from quad_dob_composition.oracle import bind_oracle
 from quad_dob_env.benchmark import scenario_options_for
 from quad_dob_env.envs import QuadrotorEnv, QuadrotorVectorEnv
 from quad_dob_env.envs.core import QuadrotorBatch
@@ -33,6 +34,7 @@ def make_residual_env(base_controller: Any = DEFAULT_BASE_CONTROLLER,
     env = QuadrotorEnv(**env_kwargs)
     core = env.unwrapped.core
     base = make_base(base_controller, core.vehicle, core.scenario.loop.benchmark)
+    bind_oracle(base, core)
     return ResidualActionWrapper(env, base, options, attitude_loop=AttitudeLoop.install)
 
 
@@ -61,6 +63,7 @@ class ResidualVectorEnv(ResidualQuadrotorVectorEnv):
         super().__init__(num_envs, flown, base_controller=base,
                          fused_pass=fused_pass_for(base) if compiled else None,
                          attitude_loop=AttitudeLoop.install, **kwargs)
+        bind_oracle(base, self.core)
 
 
 def make_vector_env(num_envs: int, scenario: Any = "paper-none",
@@ -80,6 +83,7 @@ def residual_command(core: QuadrotorBatch, base_controller: Any = DEFAULT_BASE_C
     if residual_keys:
         raise ValueError(f"residual_command: unknown option {next(iter(residual_keys))!r}")
     base = make_base(base_controller, core.vehicle, core.scenario.loop.benchmark)
+    bind_oracle(base, core)
     return ResidualCommand(core, base, options,
                            fused_pass=fused_pass_for(base) if compiled else None,
                            attitude_loop=AttitudeLoop.install)

@@ -20,6 +20,8 @@ A policy is what ``quad-dob evaluate --policies`` names:
 | ``residual:v2``     | the shipped policy trained in Benchmark v2's loop (issue 29)     |
 | ``residual:v3``     | the shipped policy trained in Benchmark v3's loop (issue 42)     |
 | ``residual:PATH``   | a residual model from ``quad-dob train --mode residual``         |
+| ``oracle:NAME``     | the loop's floor: NAME (a geometric base with an observer) fed   |
+|                     | the simulator's true disturbance (``composition/oracle.py``)     |
 
 Results name the policy bare ``residual`` resolved to (``residual:v2``); rows written
 before it followed the benchmark named bare ``residual`` v1's policy, as their
@@ -61,6 +63,7 @@ from numpy.typing import NDArray
 
 from quad_dob_baselines import controller_names, is_controller_name, user_controller
 from quad_dob_composition import make_vector_env
+from quad_dob_composition.oracle import is_oracle_name
 from quad_dob_env.envs import QuadrotorVectorEnv
 from quad_dob_env.flatness import flat_attitude
 from quad_dob_env.scenarios import Scenario
@@ -197,6 +200,8 @@ def make_policy(spec: str, *, trust_pickle: bool = False, env_id: str | None = N
     (``resolve_spec``); the policy is named as resolved."""
     spec = resolve_spec(spec, benchmark)
     kind, _, path = spec.partition(":")
+    if is_oracle_name(spec):  # the loop's floor: a base fed the true disturbance
+        return Policy(spec, base=spec)
     if is_controller_name(spec):
         user = user_controller(spec)  # a py: module that does not import fails here, named
         return Policy(spec, base=spec, fingerprint=None if user is None else
@@ -229,7 +234,7 @@ def make_policy(spec: str, *, trust_pickle: bool = False, env_id: str | None = N
                       trained_benchmark(config) if base is not None else None,
                       sha256(zip_path))
     raise unknown_name_error("policy", spec, [
-        *controller_names(), "py:package.module:Name",
+        *controller_names(), "py:package.module:Name", "oracle:NAME",
         *(f"{algo}:PATH" for algo in ALGORITHMS), "residual",
         *(f"residual:{name}" for name in SHIPPED_POLICIES), "residual:PATH"])
 

@@ -45,6 +45,7 @@ from quad_dob_env.envs.step_kernels import (
     StepOutputs,
     kernel_tuples,
     measured_finish_kernel,
+    settled_command_kernel,
     start_kernel,
     step_kernel,
 )
@@ -399,6 +400,17 @@ class QuadrotorBatch:
         if self.scenario.loop.estimator_wrench == "commanded":
             return self.commanded
         return self.applied
+
+    def settled_command(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The thrust (N,) [N] and moments (N, 3) [N m] the nominal model gives once the
+        motors have settled on the autopilot's command of the last step, through the
+        battery and the throttle map (``ticks.settled_wrench``): the thrust path's own
+        error, ``settled - commanded``, without the motors' lag. The truth, for the loop's
+        floor; no real stack has it."""
+        thrust, moment = np.empty(self.n), np.empty((self.n, 3))
+        run_over_batch(settled_command_kernel, self.n, *self._kernel_arguments()[0], thrust,
+                       moment)
+        return thrust, moment
 
     @property
     def measurement(self) -> Measurement:

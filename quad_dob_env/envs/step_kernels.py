@@ -50,6 +50,7 @@ from quad_dob_env.envs.ticks import (
     gyro_state_at,
     rate_law,
     rate_law_of,
+    settled_wrench,
     store_gyro,
     store_vehicle_pose,
     thrust_path_at,
@@ -585,6 +586,28 @@ def step_kernel(start, stop, actions, action_map, state, body, actuator, rotors,
     fly_vehicles(start, stop, actions, loop, EnvLaw(loop.action_map, loop.inner.told_inertia),
                  env_law_constants, env_law_start, env_law_command, env_law_after_tick,
                  env_law_end, loop.inner.rate_law)
+
+
+@njit(cache=True)
+def settled_command_kernel(start, stop, action_map, state, body, actuator, rotors, draws,
+                           inner, forcing, episode, outputs, thrust, moment):
+    """The nominal wrench the motors settle at for the mixer's mean output over each
+    vehicle's last step (``ticks.settled_wrench``), into ``thrust`` (N,) and ``moment``
+    (N, 3). Called as ``settled_command_kernel(start, stop, *kernel_tuples(step_arguments),
+    thrust, moment)``."""
+    loop = named_step(action_map, state, body, actuator, rotors, draws, inner, forcing,
+                      episode, outputs)
+    command_rows, step_count = loop.outputs.commanded_rotor_thrusts, loop.episode.step_count
+    to_wrench, dt = loop.actuator.to_wrench, loop.episode.dt
+    for i in range(start, stop):
+        draw = vehicle_draws(i, loop.draws)
+        physics = vehicle_physics(i, loop.body)
+        battery = thrust_path_at(max(step_count[i] - 1, 0), dt, loop.rotors, draw, physics)
+        command = (command_rows[i, 0], command_rows[i, 1], command_rows[i, 2],
+                   command_rows[i, 3])
+        f, m = settled_wrench(command, battery, draw, loop.rotors, to_wrench)
+        thrust[i] = f
+        moment[i, 0], moment[i, 1], moment[i, 2] = m[0], m[1], m[2]
 
 
 @njit(cache=True)

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from quad_dob_env.dynamics import (
     actuate_vehicle,
+    actuator_wrench,
     advance_vehicle,
     lag_factor,
 )
@@ -25,6 +26,7 @@ from quad_dob_env.dynamics.rotors import (
     lagged_output,
     mean_square_speeds,
     motor_target,
+    nominal_wrench,
     speed_lag_factors,
 )
 from quad_dob_env.dynamics.throttle import rotor_thrusts_of, throttle_state
@@ -258,3 +260,25 @@ def thrust_path_at(row, dt, rotors, draw, body):
         return 1.0, 0.0, 0.0
     left = max(1.0 - draw.sag_rate * row * dt, 0.0)  # an empty pack makes no thrust
     return left * left, 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
+def settled_wrench(command, battery, draw, rotors, to_wrench):
+    """The nominal model's (f, M) once the motors have settled on the mixer's ``command``
+    (its four outputs) through the battery and the throttle map, as ``fly_tick`` drives
+    them: what the thrust path gives for a command, without the motors' lag. Numbers in,
+    numbers out (``battery``: ``thrust_path_at``'s triple, ``draw`` the vehicle's
+    ``VehicleDraws``)."""
+    command_scale, per_newton, full = battery
+    if not rotors.active:
+        return actuator_wrench(command, command, 0.0, to_wrench)
+    if rotors.throttle:
+        true_thrusts, _ = rotor_thrusts_of(command, per_newton, full, draw.thrust_model_factor,
+                                           rotors.autopilot_thrust_model_factor)
+        target = motor_target(true_thrusts, 1.0 / draw.thrust_scale, rotors)
+    else:
+        target = motor_target(command, command_scale, rotors)
+    if rotors.speed_motors:
+        thrust, moment, _ = nominal_wrench(target, rotors, to_wrench)
+        return thrust, moment
+    return actuator_wrench(target, target, 0.0, to_wrench)
