@@ -266,7 +266,9 @@ def build_parser() -> argparse.ArgumentParser:
                           "residual:v2 in v2, residual:v3 in v3; rows name the one flown), "
                           "residual:v1 (the policy shipped for v1's ideal loop), residual:v2 "
                           "(the one trained in v2's loop), residual:v3 (in v3's), "
-                          "residual:PATH (default: %(default)s)")
+                          "residual:PATH, oracle:NAME (NAME, a geometric NDOB base, fed the "
+                          "simulator's true disturbance: the loop's floor where it is one) "
+                          "(default: %(default)s)")
     evaluate.add_argument("--env", default=None, metavar="ID",
                           help="the env id every model zip without a training config beside "
                           "it (saved by stable-baselines3's model.save or by rl-zoo3) was "
