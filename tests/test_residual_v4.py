@@ -63,9 +63,14 @@ def test_the_observation_names_every_column_of_the_loop_view():
     assert obs.shape[1] == env.core.observation_size + sum(
         entry.size for entry in options.observation_entries)
     for _ in range(5):
+        before = obs
         obs, *_ = env.step(np.full((2, 4), 0.25))
     history = obs[:, -2 - 21:-2 - 9]
     assert np.allclose(history, 0.25)  # the residual flown, 3 steps of 4
+    # the newest velocity error in the history is the one the step before showed
+    own = env.core.observation_size
+    shown = before[:, own + 13:own + 16]
+    assert np.array_equal(obs[:, -2 - 9:-2 - 6], shown) and np.any(shown != 0)
     assert np.all(obs[:, -1] == 1.0)  # random-tracks flies 100 Hz
 
 

@@ -93,6 +93,20 @@ if TYPE_CHECKING:
 RESIDUAL_OBSERVATION_SIZE = sum(entry.size for entry in RESIDUAL_ENTRIES)
 
 
+def _entry_columns(name: str) -> slice:
+    """The extra observation's columns of the entry ``name`` (``RESIDUAL_ENTRIES``)."""
+    start = 0
+    for entry in RESIDUAL_ENTRIES:
+        if entry.name == name:
+            return slice(start, start + entry.size)
+        start += entry.size
+    raise KeyError(name)
+
+
+# the body-frame velocity error, which the loop view's history keeps
+VELOCITY_ERROR_COLUMNS = _entry_columns("body_velocity_error")
+
+
 @runtime_checkable
 class BaseController(Protocol):
     """What a residual's base must offer: the interface of ``quad_dob_baselines.base``'s
@@ -269,7 +283,7 @@ class ResidualCommand:
         core = self.core
         measurement = core.measurement
         self._state_before = measurement.copy()
-        self._errors_before[...] = self.extra_observation[:, 13:16]
+        self._errors_before[...] = self.extra_observation[:, VELOCITY_ERROR_COLUMNS]
         actions = np.empty((core.n, 4))
         residual = np.ascontiguousarray(self._gate_flown(residual), dtype=np.float64)
         if self.acceleration is not None:
