@@ -20,7 +20,7 @@ samples. The observer is fed the thrust and moment actually applied. The per-veh
 equations are compiled in ``quad_dob_baselines.geometric_kernels`` (``observer_*_batch``).
 
 ``GivenDisturbance`` takes the observer's place where the estimate is given, not made: the
-loop's floor (``oracle:NAME``) feeds it the simulator's true disturbance.
+truth-fed row (``oracle:NAME``) feeds it the simulator's true disturbance.
 """
 
 from __future__ import annotations
@@ -177,8 +177,8 @@ class NonlinearDisturbanceObserver:
 class GivenDisturbance:
     """An observer that estimates nothing: it hands the controller the force d_x (world, N)
     and torque d_Ω (body, N m) that ``source()`` returns, at each ``estimate``. A controller
-    fed the true disturbance this way flies the loop's floor, what a perfect estimate could
-    give (``quad_dob_composition.oracle`` supplies the source from the simulator's truth).
+    fed the true disturbance this way flies the truth-fed row, the loop's floor where it is
+    one (``quad_dob_composition.oracle`` supplies the source from the simulator's truth).
     The torque is held over an inner loop's ticks, as INDI's and L1's estimates are."""
 
     def __init__(self) -> None:
