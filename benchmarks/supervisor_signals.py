@@ -38,10 +38,12 @@ SCENARIOS = ("hover-calm", "gusty-hover", "dryden-helix", "dryden-helix-gusts",
 WATCH_ONLY = {"body_rate": 1e9, "attitude_error": 1e9, "residual_share": 1e9}
 
 
-def fly(scenario: str, benchmark: str, seeds: list[int], policy, loop: dict) -> dict:
-    """Every step's signals (steps, 3), the supervisor's factors, and the flights lost."""
+def fly(scenario: str, benchmark: str, seeds: list[int], model, env_kwargs: dict,
+        loop: dict) -> dict:
+    """Every step's signals (steps, 3), the supervisor's factors, and the flights lost, for
+    ``model`` (a ``Policy`` with a model; None: a zero residual) in an env of ``env_kwargs``."""
     flown = make_scenario(scenario, benchmark=benchmark, **loop)
-    kwargs = dict(policy.env_kwargs())
+    kwargs = dict(env_kwargs)
     own = kwargs.get("supervisor")
     kwargs["supervisor"] = own if own is not None else WATCH_ONLY
     env = make_vector_env(len(seeds), flown, **kwargs)
@@ -52,7 +54,7 @@ def fly(scenario: str, benchmark: str, seeds: list[int], policy, loop: dict) -> 
     limits = env.residual.supervisor.limits
     scale = np.array([getattr(limits, name) for name in SIGNALS])
     for _ in range(flown.steps):
-        actions = (np.zeros((len(seeds), 4)) if policy.model is None else policy.act(obs))
+        actions = np.zeros((len(seeds), 4)) if model is None else model.act(obs)
         obs, _, terminated, truncated, _ = env.step(actions)
         supervisor = env.residual.supervisor
         signals.append((supervisor.ratios * scale)[alive])
@@ -79,15 +81,15 @@ def main() -> None:
                              "counted)")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
-    if args.policy is None:
-        policy = make_policy(args.base)
+    if args.policy is None:  # the base alone: a zero residual in the acceleration mode
+        model = None
         options = {"base_controller": args.base, "residual_mode": "acceleration"}
         if args.limits:
             options["supervisor"] = {key: float(value) for key, value in
                                      (item.split("=") for item in args.limits.split(","))}
-        policy.env_kwargs = lambda: options  # type: ignore[method-assign]
     else:
-        policy = make_policy(args.policy, trust_pickle=True)
+        model = make_policy(args.policy, trust_pickle=True)
+        options = model.env_kwargs()
     print(f"policy {args.policy or args.base + ' alone'}, benchmark {args.benchmark}, seeds "
           f"{args.seeds}; per signal: p99 / p99.9 / max over every step flown")
     header = (f"{'scenario':24} {'loop':7} {'lost':>4}  " + "  ".join(f"{name:>24}"
@@ -96,7 +98,7 @@ def main() -> None:
     print(header)
     for scenario in args.scenarios.split(","):
         for label, loop in (("nominal", {}), ("margin", dict(TUNING_MARGIN))):
-            result = fly(scenario, args.benchmark, seeds, policy, loop)
+            result = fly(scenario, args.benchmark, seeds, model, options, loop)
             cells = []
             for k in range(len(SIGNALS)):
                 values = result["signals"][:, k]

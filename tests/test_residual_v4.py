@@ -108,9 +108,9 @@ def test_the_supervisor_trips_fades_holds_and_recovers_with_hysteresis():
     assert factors[:5] == pytest.approx([1.0, 0.5, 0.0, 0.0, 0.0])
     assert factors[5:9] == pytest.approx([0.0] * 4)
     assert factors[9:] == pytest.approx([0.25, 0.5, 0.75, 1.0, 1.0])
-    assert supervisor.trips[0] == 1
+    assert not supervisor.tripped[0]  # released
     supervisor.restart(np.array([0]))
-    assert supervisor.factor[0] == 1.0 and supervisor.trips[0] == 0
+    assert supervisor.factor[0] == 1.0 and supervisor.calm_time[0] == 0.0
 
 
 def test_the_attitude_error_is_the_tilt_between_the_thrust_axes_not_the_heading():

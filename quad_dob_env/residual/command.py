@@ -190,7 +190,6 @@ class ResidualCommand:
                           if options.observation_entries != RESIDUAL_ENTRIES else None)
         self.supervisor = (None if options.supervisor is None else
                            Supervisor(n, dt, options.supervisor))
-        self.supervision = np.ones(n)  # the supervisor's last factor (1 without it)
         self._residual_share = np.zeros(n)  # the residual's part of the last command
         self._fresh = np.ones(n, bool)  # no command since the start: no attitude error yet
         self._errors_before = np.zeros((n, 3))  # body-frame velocity errors at a step's start
@@ -246,7 +245,6 @@ class ResidualCommand:
             self.gate.restart(indices)
         if self.supervisor is not None:
             self.supervisor.restart(indices)
-            self.supervision[indices] = 1.0
         self._residual_share[indices] = 0.0
         self._fresh[indices] = True
         if self.loop_view is not None:
@@ -313,7 +311,7 @@ class ResidualCommand:
         if self.gate is not None:  # the "wind" signal's low-pass, at the step's start
             self.gate.advance(self.extra_observation[:, 4:7])
         if self.supervisor is not None:
-            self.supervision = self.supervisor.advance(*self._supervised_signals())
+            self.supervisor.advance(*self._supervised_signals())
         return self.gated(residual)
 
     def _supervised_signals(self) -> tuple[NDArray, NDArray, NDArray]:
@@ -347,7 +345,7 @@ class ResidualCommand:
         if self.floor_fade is not None:
             authority = authority * self.floor_fade.factor(self.core.measurement.position)
         if self.supervisor is not None:
-            authority = authority * self.supervision
+            authority = authority * self.supervisor.factor
         self.authority = authority
         return np.clip(residual, -1.0, 1.0) * authority[:, None]
 
@@ -427,7 +425,7 @@ class ResidualCommand:
         arrays = {"base_thrust": self.base_thrust, "base_moment": self.base_moment,
                   "force_estimate": self.force_estimate, "torque_estimate": self.torque_estimate}
         if self.supervisor is not None:
-            arrays["supervision"] = self.supervision
+            arrays["supervision"] = self.supervisor.factor
         return {name: value.copy() for name, value in arrays.items()}
 
     def observation(self, core_observation: NDArray[np.float32]) -> NDArray[np.float32]:

@@ -137,8 +137,9 @@ class ResidualOptions:
     def keys(self) -> dict[str, Any]:
         """The flat keys that differ from the defaults, as a config writes them (the
         supervisor's limits as a mapping)."""
+        defaults = asdict(DEFAULT_RESIDUAL_OPTIONS)
         return {name: value for name, value in asdict(self).items()
-                if value != asdict(DEFAULT_RESIDUAL_OPTIONS)[name]}
+                if value != defaults[name]}
 
     def with_keys(self, **keys: Any) -> ResidualOptions:
         """This record with ``keys`` changed (validated again)."""

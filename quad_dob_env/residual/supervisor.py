@@ -97,7 +97,6 @@ class Supervisor:
         self.factor = np.ones(n)
         self.tripped = np.zeros(n, bool)
         self.calm_time = np.zeros(n)  # [s] how long every signal has been under release
-        self.trips = np.zeros(n, np.int64)  # how often each vehicle tripped this episode
         # the signals of the last step, over their limits (``SIGNALS``' order)
         self.ratios = np.zeros((n, len(SIGNALS)))
 
@@ -105,7 +104,6 @@ class Supervisor:
         self.factor[indices] = 1.0
         self.tripped[indices] = False
         self.calm_time[indices] = 0.0
-        self.trips[indices] = 0
 
     def advance(self, body_rate: NDArray, attitude_error: NDArray,
                 residual_share: NDArray) -> NDArray[np.float64]:
@@ -117,7 +115,6 @@ class Supervisor:
                                        residual_share / limits.residual_share])
         ratio = self.ratios.max(axis=1)
         over = ratio > 1.0
-        self.trips += over & ~self.tripped
         self.calm_time = np.where(ratio < limits.release, self.calm_time + self.dt, 0.0)
         self.tripped = over | (self.tripped & (self.calm_time < limits.hold))
         self.factor = np.where(self.tripped,
