@@ -24,22 +24,23 @@ LIMITS = {"body_rate": 7.0, "attitude_error": 1.5, "residual_share": 0.45}
 
 
 def test_the_history_holds_the_last_k_steps_newest_first_and_starts_empty():
-    view = LoopView(2, 0.01, 3, False, False, 1.0, 9.81)
+    view = LoopView(2, 0.01, ResidualOptions(history_steps=3), 1.0, 9.81)
     for step in range(1, 5):  # residual k and velocity error -k at step k
         view.advance(np.full((2, 3), -step), np.full((2, 4), step), np.zeros(2), np.zeros(2))
     extra = np.zeros((2, 16 + view.size), np.float32)
-    view.write(extra, 16)
+    view.write(extra, 16, np.zeros((2, 3)))
     assert extra[0, 16:28].tolist() == [4] * 4 + [3] * 4 + [2] * 4
     assert extra[0, 28:37].tolist() == [-4] * 3 + [-3] * 3 + [-2] * 3
     view.restart(np.array([1]))
-    view.write(extra, 16)
+    view.write(extra, 16, np.zeros((2, 3)))
     assert not extra[1, 16:].any() and extra[0, 16] == 4
 
 
 def test_the_thrust_path_residual_is_neural_flys_signal_through_a_5_hz_low_pass():
     # an oracle from the equations: f_z / m g0 = (a_z - T_c / m) / g0, y += (1 - e^{-w dt}) (x - y)
     mass, gravity, dt = 2.0, 9.81, 0.02
-    view = LoopView(1, dt, 0, True, True, mass, gravity)
+    view = LoopView(1, dt, ResidualOptions(thrust_path_input=True, period_input=True), mass,
+                    gravity)
     blend = 1.0 - math.exp(-2.0 * math.pi * 5.0 * dt)
     expected = 0.0
     for accelerometer, thrust in ((9.0, 20.0), (10.5, 19.0), (9.81, 19.62)):
@@ -47,7 +48,7 @@ def test_the_thrust_path_residual_is_neural_flys_signal_through_a_5_hz_low_pass(
                      np.array([thrust]))
         expected += blend * ((accelerometer - thrust / mass) / gravity - expected)
     extra = np.zeros((1, 18), np.float32)
-    view.write(extra, 16)
+    view.write(extra, 16, np.zeros((1, 3)))
     assert extra[0, 16] == pytest.approx(expected, rel=1e-6)
     assert extra[0, 17] == pytest.approx(2.0)  # 50 Hz reads 2 periods of 10 ms
 
@@ -74,10 +75,31 @@ def test_the_observation_names_every_column_of_the_loop_view():
     assert np.all(obs[:, -1] == 1.0)  # random-tracks flies 100 Hz
 
 
+def test_the_reference_jerk_is_the_planners_at_the_step_about_to_be_flown():
+    """Oracle: the figure-8's jerk in closed form, x⃛_d = d³/dt³ of its own position, by a
+    central difference of the reference's positions (independent of its derivative code)."""
+    options = ResidualOptions(residual_mode="acceleration", reference_jerk_input=True)
+    assert options.observation_entries[-1].name == "desired_jerk"
+    env = make_vector_env(1, "figure8-wind-0", benchmark="v4",
+                          base_controller="geometric-ndob:tuned", residual_options=options)
+    obs, _ = env.reset(seed=[3])
+    core, dt = env.core, env.scenario.dt
+    positions = core.reference_table[:, 0]  # the reference's positions, one row per step
+    for _ in range(200):
+        obs, *_ = env.step(np.zeros((1, 4)))
+    row = int(core.reference_row[0])
+    # third derivative by the five-point central difference, O(dt²)
+    difference = (positions[row + 2] - 2 * positions[row + 1] + 2 * positions[row - 1]
+                  - positions[row - 2]) / (2 * dt ** 3)
+    assert np.allclose(obs[0, -3:], difference, rtol=0.02, atol=0.01)
+    assert np.abs(obs[0, -3:]).max() > 0.1  # a figure-8 has jerk to show
+
+
 def test_the_actors_input_holds_no_truth():
     """Wind, disturbance, true state and the loop's parameters changed under a fixed
     measurement: the observation the actor reads is the same, column for column."""
-    options = ResidualOptions(residual_mode="acceleration", supervisor=LIMITS, **SEEING)
+    options = ResidualOptions(residual_mode="acceleration", supervisor=LIMITS,
+                              reference_jerk_input=True, **SEEING)
     env = make_vector_env(3, "dryden-helix-gusts", benchmark="v4",
                           base_controller="geometric-ndob:tuned", residual_options=options)
     env.reset(seed=[5, 6, 7])

@@ -185,8 +185,7 @@ class ResidualCommand:
         self.requested_thrust = np.zeros(n)  # base + residual, before the actuators' limits
         # what it sees of its loop beyond one instant (``loop_view``), and the safety net
         # (``supervisor``); both None for options that ask for neither
-        self.loop_view = (LoopView(n, dt, options.history_steps, options.thrust_path_input,
-                                   options.period_input, vehicle.mass, vehicle.gravity)
+        self.loop_view = (LoopView(n, dt, options, vehicle.mass, vehicle.gravity)
                           if options.observation_entries != RESIDUAL_ENTRIES else None)
         self.supervisor = (None if options.supervisor is None else
                            Supervisor(n, dt, options.supervisor))
@@ -406,7 +405,9 @@ class ResidualCommand:
 
     def _write_loop_view(self) -> None:
         if self.loop_view is not None:
-            self.loop_view.write(self.extra_observation, RESIDUAL_OBSERVATION_SIZE)
+            core = self.core  # the reference the step about to be flown tracks
+            self.loop_view.write(self.extra_observation, RESIDUAL_OBSERVATION_SIZE,
+                                 core.reference_table[core.reference_row, 3])
     def requested_command(self, base_moment: NDArray | None = None
                           ) -> tuple[NDArray, NDArray]:
         """The thrust (N,) and moments (N, 3) of the last ``command``, base plus residual,

@@ -22,19 +22,30 @@ residual sees (``observation.loop_entries`` names their columns):
   frame's vibration tones (v4: 30-80 Hz) out.
 - ``period_input``: the control period over 10 ms (1 at 100 Hz, 2 at 50 Hz), so one policy
   flies both rates and knows which.
+- ``reference_jerk_input``: the reference's jerk x⃛_d at the step (world frame, m/s³), the
+  planner's, as the geometric law itself reads it for its desired body rates (Lee et al.
+  2010). A lag between the command and the acceleration it gives leaves an error that grows
+  with the jerk (``benchmarks/residual_room.py``: a lead of 30-50 ms on it takes 19-26 % off
+  the calm and light-wind figure-8s in Benchmark v4); the acceleration the base already
+  shows cannot tell the policy where the reference is going.
 
 Nothing of the truth enters: the accelerometer and the velocity error are the measurement's
-(``core.measurement``), the commanded thrust the autopilot's own, the period the loop's.
+(``core.measurement``), the commanded thrust the autopilot's own, the period the loop's, the
+jerk the reference's.
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_env.filters import NEURAL_FLY_FILTER_BANDWIDTH
+
+if TYPE_CHECKING:  # the record only: options imports this package's observation module
+    from quad_dob_env.residual.options import ResidualOptions
 
 __all__ = ["PERIOD_UNIT", "LoopView", "loop_view_size"]
 
@@ -42,20 +53,23 @@ __all__ = ["PERIOD_UNIT", "LoopView", "loop_view_size"]
 PERIOD_UNIT = 0.01
 
 
-def loop_view_size(history_steps: int, thrust_path_input: bool, period_input: bool) -> int:
-    """How many columns the loop view adds."""
-    return 7 * history_steps + int(thrust_path_input) + int(period_input)
+def loop_view_size(options: ResidualOptions) -> int:
+    """How many columns the loop view of ``options`` adds."""
+    return (7 * options.history_steps + int(options.thrust_path_input)
+            + int(options.period_input) + 3 * int(options.reference_jerk_input))
 
 
 class LoopView:
     """The loop view's state for N vehicles flown at the period ``dt`` [s], and its
     columns."""
 
-    def __init__(self, n: int, dt: float, history_steps: int, thrust_path_input: bool,
-                 period_input: bool, mass: float, gravity: float) -> None:
-        self.history_steps = history_steps
-        self.thrust_path_input, self.period_input = thrust_path_input, period_input
-        self.size = loop_view_size(history_steps, thrust_path_input, period_input)
+    def __init__(self, n: int, dt: float, options: ResidualOptions, mass: float,
+                 gravity: float) -> None:
+        history_steps = self.history_steps = options.history_steps
+        self.thrust_path_input, self.period_input = (options.thrust_path_input,
+                                                     options.period_input)
+        self.reference_jerk_input = options.reference_jerk_input
+        self.size = loop_view_size(options)
         self.actions = np.zeros((n, history_steps, 4))  # newest first
         self.velocity_errors = np.zeros((n, history_steps, 3))
         self.thrust_path = np.zeros(n)  # the low-passed (f_z - T_c / m) / g₀
@@ -85,8 +99,10 @@ class LoopView:
             sample = (specific_force_z - commanded_thrust / self.mass) / self.gravity
             self.thrust_path += self.blend * (sample - self.thrust_path)
 
-    def write(self, extra: NDArray[np.float32], start: int) -> None:
-        """The view into ``extra``'s columns from ``start`` on."""
+    def write(self, extra: NDArray[np.float32], start: int,
+              reference_jerk: NDArray[np.float64]) -> None:
+        """The view into ``extra``'s columns from ``start`` on; ``reference_jerk`` (N, 3)
+        [m/s³] is the reference's at the step about to be flown."""
         n, k = len(extra), self.history_steps
         column = start
         if k:
@@ -100,3 +116,6 @@ class LoopView:
             column += 1
         if self.period_input:
             extra[:, column] = self.period
+            column += 1
+        if self.reference_jerk_input:
+            extra[:, column:column + 3] = np.clip(reference_jerk, -1e3, 1e3)

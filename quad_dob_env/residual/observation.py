@@ -9,7 +9,12 @@ sits below the residual and does not import it.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from quad_dob_env.observation_entry import UNBOUNDED, ObservationEntry
+
+if TYPE_CHECKING:  # the record only: options imports this module
+    from quad_dob_env.residual.options import ResidualOptions
 
 # Always there, in this order, from the measurement the base controller reads.
 RESIDUAL_ENTRIES = (
@@ -27,10 +32,10 @@ RESIDUAL_ENTRIES = (
 )
 
 
-def loop_entries(history_steps: int, thrust_path_input: bool,
-                 period_input: bool) -> tuple[ObservationEntry, ...]:
+def loop_entries(options: ResidualOptions) -> tuple[ObservationEntry, ...]:
     """The loop view's entries (``loop_view``), after ``RESIDUAL_ENTRIES``, for the options
     that ask for them; none for the defaults."""
+    history_steps = options.history_steps
     entries = []
     if history_steps:
         entries += [
@@ -40,11 +45,14 @@ def loop_entries(history_steps: int, thrust_path_input: bool,
             ObservationEntry("velocity_error_history", f"the body-frame velocity error at the "
                              f"start of each of the last {history_steps} steps (3 each), newest "
                              "first", "m/s", 3 * history_steps, UNBOUNDED)]
-    if thrust_path_input:
+    if options.thrust_path_input:
         entries.append(ObservationEntry(
             "thrust_path_residual", "(accelerometer's body-z specific force - commanded "
             "thrust / m) / g₀, low-passed at 5 Hz", "-", 1, UNBOUNDED))
-    if period_input:
+    if options.period_input:
         entries.append(ObservationEntry("control_period", "the control period / 10 ms", "-", 1,
                                         (0.0, float("inf"))))
+    if options.reference_jerk_input:
+        entries.append(ObservationEntry("desired_jerk", "the reference's jerk x⃛_d at the "
+                                        "step (world frame)", "m/s³", 3, UNBOUNDED))
     return tuple(entries)

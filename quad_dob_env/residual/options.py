@@ -21,6 +21,7 @@ down to ``ResidualCommand``, which hands its parts to the objects that use them.
 |                          | in the observation (``loop_view``); 0: none             |      |
 | ``thrust_path_input``    | the measured thrust-path residual in the observation    | no   |
 | ``period_input``         | the control period in the observation                   | no   |
+| ``reference_jerk_input`` | the reference's jerk in the observation                 | no   |
 | ``supervisor``           | the safety net's limits (``supervisor``); None: off      | no   |
 
 Two experimental options, ``lookahead`` (the reference read ahead) and ``residual_cutoff``
@@ -83,6 +84,7 @@ class ResidualOptions:
     history_steps: int = 0
     thrust_path_input: bool = False
     period_input: bool = False
+    reference_jerk_input: bool = False
     supervisor: SupervisorLimits | None = None
 
     def __post_init__(self) -> None:
@@ -117,7 +119,7 @@ class ResidualOptions:
             raise ValueError(f"history_steps must be a whole number of control steps from 0 to "
                              f"{MAX_HISTORY_STEPS}, got {steps!r}")
         checked["history_steps"] = int(steps)
-        for name in ("thrust_path_input", "period_input"):
+        for name in ("thrust_path_input", "period_input", "reference_jerk_input"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"{name} must be true or false, got {getattr(self, name)!r}")
             checked[name] = bool(getattr(self, name))
@@ -151,8 +153,7 @@ class ResidualOptions:
         residual sees, then the loop view's where asked for (``observation``);
         ``envs.observation_table`` reads them here, as the envs sit below the residual and
         do not import it."""
-        return RESIDUAL_ENTRIES + loop_entries(self.history_steps, self.thrust_path_input,
-                                               self.period_input)
+        return RESIDUAL_ENTRIES + loop_entries(self)
 
 
 OPTION_NAMES = tuple(option.name for option in fields(ResidualOptions))
