@@ -4,7 +4,12 @@
 the loop (``scenario_options`` such as ``estimator_wrench``, or ``base_benchmark``) is scored
 there, not in its own. This script flies each run's policy and its base with the run's own
 env options, scenario options, benchmark and base gains, on the same seeds, and prints the
-RMS position error after the first fifth of each flight:
+RMS position error after the first fifth of each flight. Beside it, what the policy did
+over the same steps: the share of its action components at their bounds (|a| >= 0.99),
+the share of steps it flew below 0.9 of its authority (its gate, floor fade and supervisor
+together, where the run has them), and its mean vertical correction Δa_z [m/s²]. A policy
+pinned at its bounds and faded out by its supervisor scores near its base's error and has
+learned nothing:
 
     python benchmarks/residual_in_its_loop.py RUN [RUN ...] --seeds 10000-10007
 
@@ -15,6 +20,7 @@ residual learns.
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -27,8 +33,20 @@ from quad_dob_training.policies import make_policy
 from quad_dob_training.rl.vec_env import env_options
 
 
-def settled_rms(run: Path, scenario: str, seeds: list[int], with_policy: bool) -> float:
-    """RMS ‖x - x_d‖ [m] after the first fifth of each flight, all seeds together."""
+@dataclass
+class Flown:
+    """One run's flights, after the first fifth of each: RMS ‖x - x_d‖ [m], the share of
+    action components at their bounds, the share of steps flown below 0.9 of the
+    residual's authority and the mean vertical correction Δa_z [m/s²]."""
+
+    rms: float
+    saturated: float
+    faded: float
+    vertical: float
+
+
+def fly(run: Path, scenario: str, seeds: list[int], with_policy: bool) -> Flown:
+    """The run's policy (or its base alone) on ``scenario`` in the run's own loop."""
     policy = make_policy(f"residual:{run}", trust_pickle=True)
     config = yaml.safe_load((run / "config.yaml").read_text())
     options = env_options(config["env_kwargs"])
@@ -38,15 +56,23 @@ def settled_rms(run: Path, scenario: str, seeds: list[int], with_policy: bool) -
                           **(options.pop("scenario_options", None) or {}))
     env = make_vector_env(len(seeds), flown, **options)
     observations, _ = env.reset(seed=seeds)
-    errors = []
+    errors, actions_flown, authorities = [], [], []
     for _ in range(flown.steps):
-        actions = (policy.act(observations) if with_policy
-                   else np.zeros((len(seeds), 4)))
+        actions = np.clip(policy.act(observations) if with_policy
+                          else np.zeros((len(seeds), 4)), -1.0, 1.0)
         observations, *_ = env.step(actions)
         core = env.core
         errors.append(core.state.position - core.reference_table[core.reference_row, 0])
-    settled = np.array(errors)[flown.steps // 5:]
-    return float(np.sqrt((settled ** 2).sum(axis=-1).mean()))
+        actions_flown.append(actions)
+        authorities.append(env.residual.authority.copy())
+    first = flown.steps // 5
+    settled = np.array(errors)[first:]
+    actions_flown = np.array(actions_flown)[first:]
+    scale = float(options.get("acceleration_scale", 0.0))  # Δa per unit action [m/s²]
+    return Flown(rms=float(np.sqrt((settled ** 2).sum(axis=-1).mean())),
+                 saturated=float((np.abs(actions_flown) >= 0.99).mean()),
+                 faded=float((np.array(authorities)[first:] < 0.9).mean()),
+                 vertical=scale * float(actions_flown[..., 2].mean()))
 
 
 def main() -> None:
@@ -56,12 +82,16 @@ def main() -> None:
     parser.add_argument("--seeds", default="10000-10007")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
-    print(f"{args.scenario}, seeds {args.seeds}, RMS position after the first fifth [mm]")
+    print(f"{args.scenario}, seeds {args.seeds}, after the first fifth of each flight: RMS "
+          "position [mm]; the policy's action components at their bounds, steps flown below "
+          "0.9 of its authority, mean Δa_z [m/s²]")
     for run in args.runs:
-        policy = 1000 * settled_rms(run, args.scenario, seeds, True)
-        base = 1000 * settled_rms(run, args.scenario, seeds, False)
-        print(f"{run.name:24} policy {policy:6.1f}  base {base:6.1f}  "
-              f"({100 * (policy / base - 1):+.0f} %)", flush=True)
+        policy = fly(run, args.scenario, seeds, True)
+        base = fly(run, args.scenario, seeds, False)
+        print(f"{run.name:24} policy {1000 * policy.rms:6.1f}  base {1000 * base.rms:6.1f}  "
+              f"({100 * (policy.rms / base.rms - 1):+.0f} %)  at bounds "
+              f"{100 * policy.saturated:.0f} %  faded {100 * policy.faded:.1f} %  "
+              f"Δa_z {policy.vertical:+.2f}", flush=True)
 
 
 if __name__ == "__main__":
