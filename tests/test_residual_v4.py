@@ -3,6 +3,7 @@ residual, period), the supervisor, and training at both rates with the margin's 
 
 import math
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -13,9 +14,11 @@ from quad_dob_env.residual import ResidualOptions
 from quad_dob_env.residual.loop_view import LoopView
 from quad_dob_env.residual.supervisor import Supervisor, SupervisorLimits, attitude_angle
 from quad_dob_env.so3 import exp as exp_map
+from quad_dob_training.rl.loop_randomization import LoopRandomization
 from quad_dob_training.rl.vec_env import (
     QuadrotorSB3VecEnv,
     draw_loops,
+    env_options,
     loop_scenario_options,
 )
 
@@ -205,3 +208,30 @@ def test_one_policy_trains_at_both_rates_in_v4s_throttle_map():
     obs, rewards, _, _ = env.step_wait()
     assert np.all(np.isfinite(rewards))
     assert obs[:, -1].tolist() == [1.0, 1.0, 2.0, 2.0] * 2
+
+
+def test_supervisor_in_training_false_trains_unsupervised_and_flies_supervised():
+    """The groups of a spec with ``supervisor_in_training: false`` fly no supervisor, in
+    quad-dob train's vector env and in rl-zoo3's single envs; the run's env options (what
+    evaluation flies) keep it; a spec without the key draws as before."""
+    kwargs = dict(benchmark="v4", base_controller="geometric-ndob:tuned",
+                  residual_mode="acceleration", supervisor=LIMITS, **SEEING)
+    spec = {**V4_SPEC, "supervisor_in_training": False}
+    assert [{k: v for k, v in loop.items() if k != "supervisor_in_training"}
+            for loop in draw_loops(spec, 4, 0.01)] == draw_loops(V4_SPEC, 4, 0.01)
+    trained = QuadrotorSB3VecEnv(8, "random-tracks", seed=0, loop_randomization=spec, **kwargs)
+    assert all(venv.residual.supervisor is None for venv in trained.vector_envs)
+    supervised = QuadrotorSB3VecEnv(8, "random-tracks", seed=0, loop_randomization=V4_SPEC,
+                                    **kwargs)
+    assert all(venv.residual.supervisor is not None for venv in supervised.vector_envs)
+    assert env_options({**kwargs, "loop_randomization": spec})["supervisor"] == LIMITS
+    single = LoopRandomization(gym.make("QuadDOB/TracksResidual-v4", scenario="random-tracks",
+                                        **{k: v for k, v in kwargs.items() if k != "benchmark"}),
+                               **spec)
+    single.reset(seed=1)
+    wrapper = single.env
+    while not hasattr(wrapper, "residual"):  # the residual wrapper gym.make put on the core
+        wrapper = wrapper.env
+    assert wrapper.residual.supervisor is None
+    with pytest.raises(ValueError, match="supervisor_in_training must be true or false"):
+        draw_loops({**V4_SPEC, "supervisor_in_training": "no"}, 0, 0.01)

@@ -54,7 +54,7 @@ V3_LOOP_RANGES = ("unmodelled_pose_latency", "thrust_model_factor", "acceleromet
 # vehicles they cycle through, and (low, high) ranges of the scenario options drawn per group
 LOOP_RANDOMIZATION_KEYS = ("groups", "sensing", "vehicle", "scenario", "control_rate",
                            "extra_latency", "motor_time_constant_scale", "wind_scale",
-                           *V3_LOOP_RANGES, "margin_groups")
+                           *V3_LOOP_RANGES, "margin_groups", "supervisor_in_training")
 TRAINING_ONLY_KEYS = ("loop_randomization",)
 # training-only keys that were removed (docs/research/removed-experiments.md): configs of runs
 # trained with them still load for evaluation, which never took them
@@ -62,6 +62,12 @@ REMOVED_TRAINING_KEYS = ("termination_penalty",)
 # where a drawn loop names the scenario its group flies instead of the env's (not an option
 # of the scenario: ``QuadrotorSB3VecEnv`` takes it out)
 SCENARIO_KEY = "scenario"
+# where a drawn loop trains without the residual's supervisor (``supervisor_in_training:
+# false``): a faded residual changes nothing and pays nothing, so PPO gets no gradient from
+# the steps it fades, and a policy that drifts to its bounds is faded out of its own
+# training (docs/residual-v4.md). The run's config keeps the supervisor, so evaluation and
+# every client that flies the model fly it supervised. Not a scenario option either.
+SUPERVISOR_KEY = "supervisor_in_training"
 # the loop a gain set and a residual must hold (benchmark_v3.TUNING_MARGIN: 20 ms of pose
 # latency the estimator does not know, motors 1.5 times slower): ``margin_groups`` groups
 # fly at or beyond it, at the slowest rate listed
@@ -86,7 +92,8 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
     ``control_rate``), where the loop resolves them anyway. ``margin_groups`` = M: the
     first M groups at the slowest rate listed draw their motor scale and unmodelled pose
     latency again, between ``MARGIN_CORNER``'s values and the ranges' tops, so every run
-    flies the margin's corner however the strata fall."""
+    flies the margin's corner however the strata fall. ``supervisor_in_training: false``
+    marks every group to train without the residual's supervisor (``SUPERVISOR_KEY``)."""
     for key in spec:
         if key not in LOOP_RANDOMIZATION_KEYS:
             raise unknown_name_error("loop_randomization key", key, LOOP_RANDOMIZATION_KEYS)
@@ -108,6 +115,10 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
     for name in scenarios:
         if name not in SCENARIOS:
             raise unknown_name_error("loop_randomization scenario", name, SCENARIOS)
+    supervised = spec.get(SUPERVISOR_KEY, True)
+    if not isinstance(supervised, bool):
+        raise ValueError(f"loop_randomization {SUPERVISOR_KEY} must be true or false, got "
+                         f"{supervised!r}")
     rates = list(spec.get("control_rate", []))
     if "control_rate" in spec and not rates:
         raise ValueError("loop_randomization control_rate must list one or more rates [Hz], "
@@ -189,7 +200,8 @@ def draw_loops(spec: dict[str, Any], seed: int | None, dt: float) -> list[dict[s
              **({"wind_scale": round(float(wind[g]), 4)} if wind is not None else {}),
              **({SCENARIO_KEY: scenarios[g % len(scenarios)]} if scenarios else {}),
              **({"dt": clocks[g]} if rates else {}),
-             **v3[g]}
+             **v3[g],
+             **({} if supervised else {SUPERVISOR_KEY: False})}
             for g in range(groups)]
 
 
@@ -199,7 +211,8 @@ def loop_scenario_options(loop: dict[str, Any], vehicle: str,
     ranges become the throttle map and IMU vibration of ``vehicle``'s v3 loop with those
     values replaced (``benchmark_v3.REAL_LOOPS``; in ``benchmark`` v4 the throttle map is
     v4's, ``benchmark_v4.V4_LOOPS``); the rest are options as they are."""
-    options = {key: value for key, value in loop.items() if key != SCENARIO_KEY}
+    options = {key: value for key, value in loop.items()
+               if key not in (SCENARIO_KEY, SUPERVISOR_KEY)}
     throttle = {key: options.pop(key) for key in ("thrust_model_factor", "hover_throttle",
                                                   "hover_throttle_drift") if key in options}
     vibration = options.pop("accelerometer_vibration", None)
@@ -236,12 +249,14 @@ def loop_env_kwargs(loop: dict[str, Any], scenario: Any,
     """The scenario and env keyword arguments that fly one drawn ``loop`` (``draw_loops``)
     in an env of ``scenario`` built with ``env_kwargs``: the loop's scenario where it names
     one, and its options (``loop_scenario_options``, for the loop's vehicle, else the
-    env's) laid over the env's ``scenario_options``. The vector envs of
-    ``QuadrotorSB3VecEnv``'s groups and rl-zoo3's single envs
-    (``loop_randomization.LoopRandomization``) are both built from it."""
+    env's) laid over the env's ``scenario_options``, and no supervisor where the loop trains
+    without one (``SUPERVISOR_KEY``). The vector envs of ``QuadrotorSB3VecEnv``'s groups and
+    rl-zoo3's single envs (``loop_randomization.LoopRandomization``) are both built from
+    it."""
     vehicle = str((env_kwargs.get("scenario_options") or {}).get("vehicle", "paper"))
+    unsupervised = {"supervisor": None} if loop.get(SUPERVISOR_KEY) is False else {}
     return loop.get(SCENARIO_KEY, scenario), {
-        **env_kwargs, "scenario_options": {
+        **env_kwargs, **unsupervised, "scenario_options": {
             **(env_kwargs.get("scenario_options") or {}),
             **loop_scenario_options(loop, loop.get("vehicle", vehicle),
                                     env_kwargs.get("benchmark"))}}
