@@ -34,7 +34,6 @@ from quad_dob_env.residual import ResidualOptions
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.evaluation.evaluate import parse_seeds
 
-G0 = 9.81  # the observation's force estimate is d̂ / (m g₀)
 ACCELERATION_SCALE = 3.0  # [m/s²] per unit action: no correction here comes near it
 # the observer's force estimate among the acceleration residual's observation entries
 FORCE_ESTIMATE = next(entry.columns for entry in observation_table(
@@ -55,19 +54,19 @@ def specific_force(gain: float, cutoff: float, dt: float) -> Correction:
     """``Δa = -k (LP(R (f - T_c e3 / m)) - d̂ / m)`` with a first-order low-pass at
     ``cutoff`` [Hz], discretised exactly at the control period ``dt``."""
     alpha = 1.0 - np.exp(-2.0 * np.pi * cutoff * dt)
-    filtered: list[NDArray[np.float64]] = []
+    filtered: NDArray[np.float64] | None = None  # starts at the first sample
 
     def law(env: object, observations: NDArray[np.float64]) -> NDArray[np.float64]:
+        nonlocal filtered
         core = env.core
-        measurement = core.measurement
+        measurement, vehicle = core.measurement, core.vehicle
         specific = measurement.accelerometer.copy()
-        specific[:, 2] -= core.commanded.thrust / core.vehicle.mass
+        specific[:, 2] -= core.commanded.thrust / vehicle.mass
         measured = np.einsum("nij,nj->ni", measurement.rotation, specific)
-        if not filtered:
-            filtered.append(measured)
-        filtered[0] = filtered[0] + alpha * (measured - filtered[0])
-        estimate = G0 * observations[:, FORCE_ESTIMATE]
-        return -gain * (filtered[0] - estimate)
+        filtered = measured if filtered is None else filtered + alpha * (measured - filtered)
+        # the observation's force estimate is d̂ / (m g)
+        estimate = vehicle.gravity * observations[:, FORCE_ESTIMATE]
+        return -gain * (filtered - estimate)
     return law
 
 

@@ -408,6 +408,7 @@ class ResidualCommand:
             core = self.core  # the reference the step about to be flown tracks
             self.loop_view.write(self.extra_observation, RESIDUAL_OBSERVATION_SIZE,
                                  core.reference_table[core.reference_row, 3])
+
     def requested_command(self, base_moment: NDArray | None = None
                           ) -> tuple[NDArray, NDArray]:
         """The thrust (N,) and moments (N, 3) of the last ``command``, base plus residual,
