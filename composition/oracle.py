@@ -84,4 +84,3 @@ def bind_oracle(controller: Any, core: QuadrotorBatch) -> None:
     observer = getattr(controller, "observer", None)
     if isinstance(observer, GivenDisturbance):
         observer.source = lambda: true_disturbance(core)
-

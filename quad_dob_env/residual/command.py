@@ -72,6 +72,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
+from quad_dob_env.envs.observation import placed
 from quad_dob_env.residual.floor_fade import FloorFade
 from quad_dob_env.residual.gate import AuthorityGate
 from quad_dob_env.residual.loop_view import LoopView
@@ -93,18 +94,12 @@ if TYPE_CHECKING:
 RESIDUAL_OBSERVATION_SIZE = sum(entry.size for entry in RESIDUAL_ENTRIES)
 
 
-def _entry_columns(name: str) -> slice:
-    """The extra observation's columns of the entry ``name`` (``RESIDUAL_ENTRIES``)."""
-    start = 0
-    for entry in RESIDUAL_ENTRIES:
-        if entry.name == name:
-            return slice(start, start + entry.size)
-        start += entry.size
-    raise KeyError(name)
-
-
+# the extra observation's columns by name (``RESIDUAL_ENTRIES`` placed from column 0)
+_COLUMNS = {entry.name: entry.columns for entry in placed(RESIDUAL_ENTRIES)}
 # the body-frame velocity error, which the loop view's history keeps
-VELOCITY_ERROR_COLUMNS = _entry_columns("body_velocity_error")
+VELOCITY_ERROR_COLUMNS = _COLUMNS["body_velocity_error"]
+# the observer's force estimate over m g, which the wind gate reads
+FORCE_ESTIMATE_COLUMNS = _COLUMNS["force_estimate"]
 
 
 @runtime_checkable
@@ -308,7 +303,7 @@ class ResidualCommand:
         """``gated``, the ``"wind"`` filter and the supervisor advanced first: once per
         flown step."""
         if self.gate is not None:  # the "wind" signal's low-pass, at the step's start
-            self.gate.advance(self.extra_observation[:, 4:7])
+            self.gate.advance(self.extra_observation[:, FORCE_ESTIMATE_COLUMNS])
         if self.supervisor is not None:
             self.supervisor.advance(*self._supervised_signals())
         return self.gated(residual)
@@ -339,7 +334,7 @@ class ResidualCommand:
             return residual
         authority = np.ones(self.core.n)
         if self.gate is not None:
-            authority = self.gate.factor(self.extra_observation[:, 4:7])
+            authority = self.gate.factor(self.extra_observation[:, FORCE_ESTIMATE_COLUMNS])
         self.gate_authority = authority
         if self.floor_fade is not None:
             authority = authority * self.floor_fade.factor(self.core.measurement.position)
