@@ -235,3 +235,46 @@ def test_supervisor_in_training_false_trains_unsupervised_and_flies_supervised()
     assert wrapper.residual.supervisor is None
     with pytest.raises(ValueError, match="supervisor_in_training must be true or false"):
         draw_loops({**V4_SPEC, "supervisor_in_training": "no"}, 0, 0.01)
+
+
+def test_the_washout_flies_a_step_whole_and_decays_it_at_its_time_constant():
+    """Oracle: for a residual held at a from the start, ṁ = (a - m) / τ sampled exactly
+    gives m_k = a (1 - e^(-k dt / τ)), so the residual flown, a - m_k, is a e^(-k dt / τ);
+    when a returns to zero the flown residual is -m_k."""
+    tau, held = 0.25, 0.5
+    env = make_vector_env(2, "hover-calm", benchmark="v4", base_controller="geometric-ndob:tuned",
+                          residual_mode="acceleration", residual_washout=tau)
+    env.reset(seed=[3, 4])
+    dt = env.core.scenario.dt
+    for k in range(30):
+        env.step(np.full((2, 4), held))
+        assert env.residual.previous_residual == pytest.approx(held * math.exp(-k * dt / tau))
+    env.step(np.zeros((2, 4)))
+    assert env.residual.previous_residual == pytest.approx(-held * (1 - math.exp(-30 * dt / tau)))
+    env.reset(seed=[3, 4])  # a new episode has nothing washed out yet
+    env.step(np.full((2, 4), held))
+    assert env.residual.previous_residual == pytest.approx(held)
+
+
+def test_a_held_residual_moves_the_hover_only_without_the_washout():
+    """The observer is told the command, residual included: a constant Δa_z holds the
+    vehicle off its reference (m Δa / k_x), and the washout hands that steady part back."""
+    offsets = {}
+    for washout in (None, 0.3):
+        env = make_vector_env(2, "hover-calm", benchmark="v4",
+                              base_controller="geometric-ndob:tuned",
+                              residual_mode="acceleration", residual_washout=washout)
+        env.reset(seed=[3, 4])
+        for _ in range(int(4.0 / env.core.scenario.dt)):
+            env.step(np.tile([0.0, 0.0, 0.2, 0.0], (2, 1)))  # Δa_z = 0.6 m/s²
+        reference = env.core.reference_table[env.core.reference_row, 0]
+        offsets[washout] = float(np.mean(env.core.state.position[:, 2] - reference[:, 2]))
+    assert offsets[None] > 0.02
+    assert abs(offsets[0.3]) < 0.003
+
+
+def test_a_bad_washout_is_named():
+    for bad in (0.0, -1.0, float("nan"), "fast"):
+        with pytest.raises(ValueError, match="residual_washout"):
+            ResidualOptions(residual_washout=bad)
+    assert ResidualOptions(residual_washout=1).keys() == {"residual_washout": 1.0}

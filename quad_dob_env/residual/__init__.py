@@ -11,6 +11,8 @@
 - ``modes``: the command's two modes, ``AccelerationMode`` and its guard.
 - ``gate``: ``AuthorityGate``, the gate on the observed disturbance, its state and factor.
 - ``floor_fade``: ``FloorFade``, the fade near the floor.
+- ``washout``: ``Washout``, the high-pass that leaves the residual's steady part to the
+  observer.
 - ``supervisor``: ``Supervisor`` and its ``SupervisorLimits``, the safety net that fades the
   residual on measured signals (body rate, attitude error, the residual's share), with
   hysteresis.

@@ -87,6 +87,7 @@ from quad_dob_env.residual.residual_kernels import (
     residual_reward_kernel,
 )
 from quad_dob_env.residual.supervisor import Supervisor, attitude_angle
+from quad_dob_env.residual.washout import Washout
 
 if TYPE_CHECKING:
     from quad_dob_env.envs.core import QuadrotorBatch
@@ -184,6 +185,8 @@ class ResidualCommand:
                           if options.observation_entries != RESIDUAL_ENTRIES else None)
         self.supervisor = (None if options.supervisor is None else
                            Supervisor(n, dt, options.supervisor))
+        self.washout = (None if options.residual_washout is None else
+                        Washout(n, dt, options.residual_washout))
         self._residual_share = np.zeros(n)  # the residual's part of the last command
         self._fresh = np.ones(n, bool)  # no command since the start: no attitude error yet
         self._errors_before = np.zeros((n, 3))  # body-frame velocity errors at a step's start
@@ -204,7 +207,8 @@ class ResidualCommand:
         by_acceleration = self.acceleration is not None
         # the compiled pass flies the base's own command (not the acceleration mode's), in
         # the loops it knows, with no loop view or supervisor; it answers None for any other
-        staged = by_acceleration or self.loop_view is not None or self.supervisor is not None
+        staged = (by_acceleration or self.loop_view is not None or self.supervisor is not None
+                  or self.washout is not None)
         self._fused = None if fused_pass is None or staged else fused_pass(self)
         # with an inner loop, the base's attitude law runs at its rate (installed by
         # ``quad_dob_composition``, ``AttitudeLoop.install``), the residual added each tick
@@ -239,6 +243,8 @@ class ResidualCommand:
             self.gate.restart(indices)
         if self.supervisor is not None:
             self.supervisor.restart(indices)
+        if self.washout is not None:
+            self.washout.restart(indices)
         self._residual_share[indices] = 0.0
         self._fresh[indices] = True
         if self.loop_view is not None:
@@ -278,6 +284,8 @@ class ResidualCommand:
         self._errors_before[...] = self.extra_observation[:, VELOCITY_ERROR_COLUMNS]
         actions = np.empty((core.n, 4))
         residual = np.ascontiguousarray(self._gate_flown(residual), dtype=np.float64)
+        if self.washout is not None:  # after the authority: what is faded is not washed
+            residual = self.washout.flown(np.clip(residual, -1.0, 1.0))
         if self.acceleration is not None:
             clipped = np.clip(residual, -1.0, 1.0)
             self.base_thrust, self.base_moment = self.acceleration.correct(

@@ -23,6 +23,8 @@ down to ``ResidualCommand``, which hands its parts to the objects that use them.
 | ``period_input``         | the control period in the observation                   | no   |
 | ``reference_jerk_input`` | the reference's jerk in the observation                 | no   |
 | ``supervisor``           | the safety net's limits (``supervisor``); None: off      | no   |
+| ``residual_washout``     | τ [s] of a high-pass on the residual (``washout``): its  | no   |
+|                          | steady part is left to the observer; None: off          |      |
 
 Two experimental options, ``lookahead`` (the reference read ahead) and ``residual_cutoff``
 (a low-pass on the residual), were measured in Benchmark v3, helped nowhere and were removed
@@ -86,6 +88,7 @@ class ResidualOptions:
     period_input: bool = False
     reference_jerk_input: bool = False
     supervisor: SupervisorLimits | None = None
+    residual_washout: float | None = None
 
     def __post_init__(self) -> None:
         if self.residual_mode not in RESIDUAL_MODES:
@@ -124,6 +127,10 @@ class ResidualOptions:
                 raise ValueError(f"{name} must be true or false, got {getattr(self, name)!r}")
             checked[name] = bool(getattr(self, name))
         checked["supervisor"] = supervisor_limits(self.supervisor)
+        checked["residual_washout"] = (None if self.residual_washout is None else
+                                       as_finite(self.residual_washout,
+                                                 "residual_washout (a time constant in s)",
+                                                 0.0, strictly=True))
         for name, value in checked.items():  # frozen: the normalised values, set once
             object.__setattr__(self, name, value)
 
