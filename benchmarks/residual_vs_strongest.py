@@ -14,7 +14,8 @@ check: ``extra_latency=0.01 motor_time_constant_scale=1.5``). ``--loop KEY=VALUE
 of v3's loop quantities as ``loop_randomization`` names them (``thrust_model_factor``,
 ``hover_throttle=[a,b]``, ``hover_throttle_drift=[a,b]``, ``accelerometer_vibration``) on
 ``--vehicle``'s v3 loop, as training draws them (``loop_scenario_options``): issue 42's
-held-out world. ``--json FILE`` keeps every number.
+held-out world. ``--json FILE`` keeps every number; ``--trust-pickle`` lets
+``residual:PATH`` load your own runs.
 
 Run by hand, e.g. ``python benchmarks/residual_vs_strongest.py --residuals
 residual:runs/a,residual:runs/b --seeds 9201-9220 --suite``.
@@ -58,6 +59,8 @@ def main() -> None:
                         help="the vehicle whose v3 loop --loop changes (default: %(default)s)")
     parser.add_argument("--before", help="one more policy, reported in its own column")
     parser.add_argument("--json", help="write every number to this file")
+    parser.add_argument("--trust-pickle", action="store_true",
+                        help="unpickle residual:PATH zips (your own runs' folders)")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
     # Benchmark v2's loop, as quad-dob evaluate flies by default
@@ -69,7 +72,8 @@ def main() -> None:
                       if args.suite else args.scenarios.split(","))
     residual_specs = args.residuals.split(",")
     before = [args.before] if args.before else []
-    base_spec = make_policy(residual_specs[0], benchmark=str(options["benchmark"])).base
+    base_spec = make_policy(residual_specs[0], benchmark=str(options["benchmark"]),
+                            trust_pickle=args.trust_pickle).base
     report = {}
     print("| scenario | strongest baseline (mm) | residual (mm), mean of seeds [min, max] | "
           "change vs strongest, mean [min, max] | seeds whose paired 95 % CI < 0 "
@@ -85,7 +89,7 @@ def main() -> None:
     for name in scenario_names:
         # one scenario at a time, so each row prints as soon as it is flown
         evaluate(specs, [name], seeds, baseline=None, scenario_options=options,
-                 per_seed=per_seed)
+                 per_seed=per_seed, trust_pickle=args.trust_pickle)
         flown = {spec: scores(per_seed.pop((name, spec))) for spec in specs}
         best = strongest({spec: Standing(int(flown[spec]["lost"].sum()),
                                          float(flown[spec]["rms"].mean()))
