@@ -13,7 +13,7 @@ from quad_dob_env.residual.options import split_residual_keys
 
 PRETRAINED = Path(__file__).parents[1] / "training" / "pretrained"
 SHIPPED = {"residual:v1": "residual_random_tracks.yaml", "residual:v2": "residual_v2.yaml",
-           "residual:v3": "residual_v3.yaml"}
+           "residual:v3": "residual_v3.yaml", "residual:v4": "residual_v4.yaml"}
 
 
 @pytest.mark.parametrize("name", list(SHIPPED))

@@ -79,6 +79,9 @@ from quad_dob_training.rl.model_files import (
     SHIPPED_RESIDUAL_V3,
     SHIPPED_RESIDUAL_V3_CONFIG_SHA256,
     SHIPPED_RESIDUAL_V3_SHA256,
+    SHIPPED_RESIDUAL_V4,
+    SHIPPED_RESIDUAL_V4_CONFIG_SHA256,
+    SHIPPED_RESIDUAL_V4_SHA256,
     config_env_options,
     load_model,
     model_zip,
@@ -87,12 +90,13 @@ from quad_dob_training.rl.model_files import (
 from quad_dob_training.rollout import Flight, FlightRecorder, check_flight_memory
 
 # the shipped residual policies by the benchmark they were trained in, oldest first, each
-# its zip, the zip's sha256 and its config's: ``residual:v1``, ``residual:v2`` and
-# ``residual:v3`` (bare ``residual``: the one of the benchmark flown, ``resolve_spec``)
+# its zip, the zip's sha256 and its config's: ``residual:v1`` to ``residual:v4`` (bare
+# ``residual``: the one of the benchmark flown, ``resolve_spec``)
 SHIPPED_POLICIES = {
     "v1": (SHIPPED_RESIDUAL, SHIPPED_RESIDUAL_SHA256, SHIPPED_RESIDUAL_CONFIG_SHA256),
     "v2": (SHIPPED_RESIDUAL_V2, SHIPPED_RESIDUAL_V2_SHA256, SHIPPED_RESIDUAL_V2_CONFIG_SHA256),
     "v3": (SHIPPED_RESIDUAL_V3, SHIPPED_RESIDUAL_V3_SHA256, SHIPPED_RESIDUAL_V3_CONFIG_SHA256),
+    "v4": (SHIPPED_RESIDUAL_V4, SHIPPED_RESIDUAL_V4_SHA256, SHIPPED_RESIDUAL_V4_CONFIG_SHA256),
 }
 
 
@@ -163,6 +167,7 @@ SHIPPED_TRAINED_IN = {
     "v1": "Benchmark v1's ideal loop (the true state, no lag)",
     "v2": "Benchmark v2's loop (sensing, latency, motor lag)",
     "v3": "Benchmark v3's loop (the real vehicle's lag and thrust path)",
+    "v4": "Benchmark v4's loop (the estimators told the command, the tunnel's drag and vibration)",
 }
 
 
@@ -172,7 +177,8 @@ def shipped_policy_advice(benchmark: str) -> str:
     docs/research/transfer-between-benchmarks.md."""
     chosen = resolve_spec("residual", benchmark)
     version = chosen.partition(":")[2]
-    others = " and ".join(f"residual:{name}" for name in SHIPPED_POLICIES if name != version)
+    names = [f"residual:{name}" for name in SHIPPED_POLICIES if name != version]
+    others = " and ".join([", ".join(names[:-1]), names[-1]] if len(names) > 2 else names)
     if version == benchmark:
         why = f"it was trained in {SHIPPED_TRAINED_IN[version]}, the loop flown here"
     else:

@@ -194,3 +194,10 @@ RESIDUAL_PRESETS: dict[str, ResidualOptions] = {
 }
 # v3's recipe keeps v2's options; what changed is the loop it trained in
 RESIDUAL_PRESETS["residual:v3"] = RESIDUAL_PRESETS["residual:v2"]
+# v4's: always on (no gate), seeing its loop, under a supervisor, its steady part washed out
+RESIDUAL_PRESETS["residual:v4"] = ResidualOptions(
+    residual_mode="acceleration", acceleration_scale=3.0, vertical_floor=0.5, moment_scale=0.3,
+    residual_effort_weight=0.1, residual_rate_weight=0.5, floor_fade=(0.3, 0.6),
+    history_steps=10, thrust_path_input=True, period_input=True, reference_jerk_input=True,
+    supervisor={"body_rate": 7.0, "attitude_error": 2.2, "residual_share": 0.45},
+    residual_washout=0.3)

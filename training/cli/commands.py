@@ -263,9 +263,10 @@ def build_parser() -> argparse.ArgumentParser:
                           "(a model zip or its run folder: quad-dob train's, or one saved by "
                           "stable-baselines3 or rl-zoo3, with --env), residual (the newest "
                           "shipped policy trained in the benchmark flown: residual:v1 in v1, "
-                          "residual:v2 in v2, residual:v3 in v3; rows name the one flown), "
-                          "residual:v1 (the policy shipped for v1's ideal loop), residual:v2 "
-                          "(the one trained in v2's loop), residual:v3 (in v3's), "
+                          "residual:v2 in v2, residual:v3 in v3, residual:v4 in v4; rows name "
+                          "the one flown), residual:v1 (the policy shipped for v1's ideal "
+                          "loop), residual:v2 (the one trained in v2's loop), residual:v3 (in "
+                          "v3's), residual:v4 (in v4's), "
                           "residual:PATH, oracle:NAME (NAME, a geometric NDOB base, fed the "
                           "simulator's true disturbance: the loop's floor where it is one) "
                           "(default: %(default)s)")

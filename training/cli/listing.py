@@ -39,8 +39,8 @@ def main() -> int:
     for (name, benchmark, vehicle), options in GAIN_SETS.items():
         gains = ", ".join(f"{key} {value:.4g}" for key, value in options.items())
         print(f"    {name:<27} {benchmark} {vehicle:<11} {gains}")
-    print("Policies: any controller, residual:v1, residual:v2 and residual:v3 (the shipped "
-          "policies trained in v1's, v2's and v3's loops), residual (the shipped one of the "
+    print("Policies: any controller, residual:v1, residual:v2, residual:v3 and residual:v4 "
+          "(the shipped policies trained in v1's to v4's loops), residual (the shipped one of the "
           "benchmark flown), residual:PATH, "
           + ", ".join(f"{algo}:PATH" for algo in ALGORITHMS)
           + " (a zip saved by stable-baselines3 or rl-zoo3 with evaluate --env ID)")
