@@ -13,9 +13,9 @@ residuals with their range); ``--before SPEC`` adds one more policy's column (th
 check: ``extra_latency=0.01 motor_time_constant_scale=1.5``). ``--loop KEY=VALUE`` sets one
 of v3's loop quantities as ``loop_randomization`` names them (``thrust_model_factor``,
 ``hover_throttle=[a,b]``, ``hover_throttle_drift=[a,b]``, ``accelerometer_vibration``) on
-``--vehicle``'s v3 loop, as training draws them (``loop_scenario_options``): issue 42's
-held-out world. ``--json FILE`` keeps every number; ``--trust-pickle`` lets
-``residual:PATH`` load your own runs.
+``--vehicle``'s v3 loop (v4's with ``--scenario-option benchmark=v4``), as training draws
+them (``loop_scenario_options``): issue 42's held-out world. ``--json FILE`` keeps every
+number; ``--trust-pickle`` lets ``residual:PATH`` load your own runs.
 
 Run by hand, e.g. ``python benchmarks/residual_vs_strongest.py --residuals
 residual:runs/a,residual:runs/b --seeds 9201-9220 --suite``.
@@ -66,7 +66,8 @@ def main() -> None:
     # Benchmark v2's loop, as quad-dob evaluate flies by default
     options = {"benchmark": "v2", **key_values(args.scenario_option, "--scenario-option")}
     if args.loop:
-        options.update(loop_scenario_options(key_values(args.loop, "--loop"), args.vehicle))
+        options.update(loop_scenario_options(key_values(args.loop, "--loop"), args.vehicle,
+                                             str(options["benchmark"])))
     scenario_names = ([name for family in SUITES[options["benchmark"]].values()
                        for name in family]
                       if args.suite else args.scenarios.split(","))
