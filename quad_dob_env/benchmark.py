@@ -36,7 +36,7 @@ BENCHMARKS = ("v1", "v2", "v3", "v4")
 # the benchmark the command-line tools (evaluate, --suite, tune, check-controller, the
 # leaderboard, wind-tunnel, make demo) fly when none is given: the newest. The library's
 # scenarios keep v1 unless told, so code written against v1 flies as it did.
-TOOLS_BENCHMARK = "v3"
+TOOLS_BENCHMARK = "v4"
 # Benchmark v2's inner loop [Hz]: PX4's attitude loop rate (IMU_INTEG_RATE, 200 Hz by
 # default; its rate loop runs at IMU_GYRO_RATEMAX, 400 Hz), over the 100 Hz position loop
 # of dt = 0.01 s. There the full v2 loop with the base at N = 1024 keeps 0.38-0.43 of v1's

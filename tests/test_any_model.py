@@ -242,8 +242,8 @@ def test_a_normalised_zoo_run_flies_with_its_statistics(sb3_zip, tmp_path):
 # --- names follow the benchmark ----------------------------------------------------------------
 
 def test_bare_residual_is_the_shipped_policy_of_the_benchmark_flown():
-    assert [resolve_spec("residual", b) for b in ("v1", "v2", "v3")] == [
-        "residual:v1", "residual:v2", "residual:v3"]
+    assert [resolve_spec("residual", b) for b in ("v1", "v2", "v3", "v4")] == [
+        "residual:v1", "residual:v2", "residual:v3", "residual:v4"]
     newest = f"residual:{list(SHIPPED_POLICIES)[-1]}"
     assert resolve_spec("residual", "v9") == newest  # none trained there: the newest
     assert resolve_spec("residual") == "residual:v1"  # the library's default benchmark
@@ -256,7 +256,7 @@ def test_the_evaluation_says_which_shipped_policy_to_use_and_why(tmp_path, monke
     from quad_dob_training.evaluation import evaluate as evaluation
     from quad_dob_training.policies import shipped_policy_advice
 
-    for benchmark in ("v1", "v2", "v3"):
+    for benchmark in ("v1", "v2", "v3", "v4"):
         advice = shipped_policy_advice(benchmark)
         assert f"in Benchmark {benchmark}: residual:{benchmark}, which bare" in advice
         assert "the loop flown here" in advice

@@ -411,7 +411,7 @@ def test_the_wind_tunnel_counterparts_and_benchmark():
     from quad_dob_training.wind_tunnel.flight_logs import NEURAL_FLY_METHODS
     from quad_dob_training.wind_tunnel.published import counterparts
 
-    assert TOOLS_BENCHMARK == "v3"
+    assert TOOLS_BENCHMARK == "v4"
 
     def simulated_of(pairs):  # Neural-Fly's method -> the controller flown for it
         return {method: spec for method, label in NEURAL_FLY_METHODS.items()

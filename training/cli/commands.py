@@ -255,9 +255,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate = commands.add_parser(
         "evaluate", help="score policies on scenarios over seeds: table, CSV, JSON, bar plot")
     # the demo's comparison: the strongest classical baselines, the v1 policy (the "before")
-    # and the policies trained in v2's and v3's loops
+    # and the policies trained in v3's and v4's loops
     evaluate.add_argument("--policies", default="geometric-ndob:tuned,indi,pid,"
-                          "residual:v1,residual:v2,residual:v3",
+                          "residual:v1,residual:v3,residual:v4",
                           help="comma-separated: controller names, "
                           "py:package.module:Name (your own), ppo:PATH, sac:PATH, td3:PATH "
                           "(a model zip or its run folder: quad-dob train's, or one saved by "
