@@ -86,3 +86,22 @@ def test_the_table_scrolls_in_its_own_box_and_the_baseline_row_compares_with_not
     assert re.findall(r"<td>(.*?)</td>", residual_row)[2:] == ["-0.01", "-0.02", "-0.005"]
     assert ".table-box{overflow-x:auto" in text
     assert "<p class='note'>use &lt;residual:v3&gt;</p>" in text
+
+
+def test_the_csv_holds_every_rows_columns_when_a_row_lost_all_its_flights(tmp_path):
+    """A row whose flights were all lost has no command rate; written first, its columns
+    alone made the CSV writer refuse the rows that have one (issue 57)."""
+    import csv
+
+    from quad_dob_training.evaluation.evaluate import evaluate, write_tables
+
+    flown = evaluate(["geometric-ndob:tuned"], ["hover-calm"], [1], baseline=None)[0]
+    lost = {key: value for key, value in flown.items() if not key.startswith("rms_command_rate")}
+    lost.update(policy="lost-everything", crashes=1, crash_rate=1.0)
+    write_tables([lost, flown], tmp_path)
+    with open(tmp_path / "evaluation.csv", newline="") as file:
+        written = list(csv.DictReader(file))
+    assert [row["policy"] for row in written] == ["lost-everything", "geometric-ndob:tuned"]
+    assert written[0]["rms_command_rate_mean"] == ""
+    assert float(written[1]["rms_command_rate_mean"]) == pytest.approx(
+        flown["rms_command_rate_mean"])

@@ -269,8 +269,11 @@ def write_tables(rows: list[dict], out: Path, notes: Sequence[str] = ()) -> None
     """evaluation.csv, evaluation.md (the table, the benchmark flown and ``notes`` under
     it) and evaluation.png."""
     out.mkdir(parents=True, exist_ok=True)
+    # every row's columns, in the order first met: a row whose flights were all lost has no
+    # command rate, and the first row's columns alone refused the rows that have one
+    columns = list(dict.fromkeys(key for row in rows for key in row))
     with open(out / "evaluation.csv", "w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
+        writer = csv.DictWriter(file, fieldnames=columns, restval="")
         writer.writeheader()
         writer.writerows(rows)
     flown = ", ".join(sorted({str(row.get("benchmark", "")) for row in rows} - {""}))
