@@ -66,7 +66,9 @@ class Scenario:
     Initial state: ``initial_position`` plus a uniform offset in ``±initial_position_noise``
     per axis; ``initial_rotation`` times ``exp`` of a uniform rotation vector in
     ``±initial_attitude_noise`` per axis; the given velocity and body rates.
-    ``floor_height`` None means open space (no floor, no crash on the ground).
+    ``floor_height`` None means open space (no floor, no crash on the ground). A start that
+    its position noise could draw at or below the floor is refused on construction, with the
+    largest noise allowed: such a draw ended its episode at the first step.
     """
 
     name: str
@@ -155,7 +157,7 @@ class Scenario:
             raise ValueError(f"LoopOptions.inner_rate {loop.inner_rate:g} Hz with substeps "
                              f"{self.substeps} needs {intervals} physics intervals a step; at "
                              f"most {MAX_SUBSTEPS}")
-        as_finite(self.initial_position_noise, "Scenario.initial_position_noise", 0.0)
+        noise = as_finite(self.initial_position_noise, "Scenario.initial_position_noise", 0.0)
         as_finite(self.reference_start_spread, "Scenario.reference_start_spread", 0.0)
         if as_finite(self.initial_attitude_noise, "Scenario.initial_attitude_noise", 0.0) > np.pi:
             raise ValueError("Scenario.initial_attitude_noise is a rotation angle per axis in "
@@ -163,6 +165,15 @@ class Scenario:
         for name in ("initial_position", "initial_velocity", "initial_angular_velocity"):
             object.__setattr__(self, name,
                                tuple(as_vector3(getattr(self, name), f"Scenario.{name}")))
+        # a start drawn below the floor would end the episode at its first step, reported as
+        # a crash at reset: refused here, whatever the draw
+        if self.floor_height is not None and self.initial_position[2] - noise <= self.floor_height:
+            clearance = self.initial_position[2] - self.floor_height
+            raise ValueError(
+                f"scenario {self.name!r}: initial_position_noise {noise:g} m can start the "
+                f"vehicle at or below its floor (start height {self.initial_position[2]:g} m, "
+                f"floor at {self.floor_height:g} m); allowed: a noise below "
+                f"{max(clearance, 0.0):g} m, or a start higher above the floor")
         rotation = np.asarray(self.initial_rotation, dtype=float)
         if (rotation.shape != (3, 3) or not np.all(np.isfinite(rotation))
                 or not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-9)
