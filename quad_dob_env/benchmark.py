@@ -25,6 +25,7 @@ switched off in turn. v3's and v4's own factors are switched off with ``False``
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 from quad_dob_env.benchmark_v3 import REAL_LOOPS, butterworth_gain
@@ -159,5 +160,10 @@ def loop_fields(benchmark: Any, given: dict[str, Any], dt: float, actuation: str
 def scenario_options_for(options: dict[str, Any] | None, benchmark: str | None
                          ) -> dict[str, Any]:
     """``options`` for ``make_scenario`` with ``benchmark`` beneath them (what an env's
-    ``benchmark=`` keyword, the ``-v2`` and ``-v3`` ids', adds: an option given wins)."""
+    ``benchmark=`` keyword, the ``-v2`` and ``-v3`` ids', adds: an option given wins).
+    ``options`` that are not a mapping are refused, naming what was given."""
+    if options is not None and not isinstance(options, Mapping):
+        raise ValueError(f"scenario_options must be a dict of make_scenario's keywords (for "
+                         f"example {{'wind_scale': 1.5}}), got {type(options).__name__} "
+                         f"{options!r}")
     return {**({} if benchmark is None else {"benchmark": benchmark}), **(options or {})}

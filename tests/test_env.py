@@ -254,3 +254,9 @@ def test_a_start_that_can_be_drawn_below_the_floor_is_refused_and_one_above_it_n
         _, info = env.reset(seed=seed)
         assert "termination_reason" not in info
         assert env.unwrapped.core.state.position[0, 2] > 0.0
+
+
+def test_scenario_options_given_as_a_string_are_named():
+    with pytest.raises(ValueError, match=r"scenario_options must be a dict of make_scenario's "
+                                         r"keywords .* got str 'wind_scale=1\.5'"):
+        gym.make("QuadDOB/HoverResidual-v4", scenario_options="wind_scale=1.5")
