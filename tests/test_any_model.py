@@ -492,3 +492,21 @@ def test_a_zip_named_without_its_suffix_loads_as_sb3_loads_it(sb3_zip, tmp_path)
     assert main(["evaluate", "--policies", f"ppo:{bare}", "--env", RESIDUAL_ID,
                  "--scenarios", "hover-calm", "--seeds", "1", "--baseline", "",
                  "--scenario-option", "duration=1", "--out", str(tmp_path / "e")]) == 0
+
+
+def test_the_adapter_records_episodes_so_sb3_logs_their_return():
+    """Plain SB3 logged no ep_rew_mean: the adapter added no VecMonitor (issue 57)."""
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    env = make_sb3_vec_env(RESIDUAL_ID, 2, seed=0, scenario_options=SHORT)
+    assert isinstance(env, VecMonitor)
+    env.reset()
+    returns = np.zeros(2)
+    for _ in range(200):
+        _, rewards, dones, infos = env.step(np.zeros((2, 4)))
+        returns += rewards
+        if dones.any():
+            break
+    assert dones.all()
+    episode = infos[0]["episode"]
+    assert episode["l"] == 100 and episode["r"] == pytest.approx(returns[0], abs=1e-5)

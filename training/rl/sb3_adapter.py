@@ -19,7 +19,9 @@ benchmark), lays the caller's overrides over it, and builds that as a
 trains on exactly the vehicles the id's vector env flies (same observations and rewards
 for the same seeds and actions, up to the first episode's end: SB3 resets a finished
 vehicle in the step that ends it, Gymnasium's vector env in the next), and the saved zip
-is evaluated with the same id.
+is evaluated with the same id. The env comes behind SB3's ``VecMonitor``, so ``learn``
+logs each finished episode's return and length (``ep_rew_mean``, ``ep_len_mean``); its
+``venv`` is the ``QuadrotorSB3VecEnv``.
 """
 
 from __future__ import annotations
@@ -55,12 +57,12 @@ def id_kwargs(env_id: str) -> dict[str, Any]:
 
 def make_sb3_vec_env(env_id: str, n: int, **overrides: Any) -> Any:
     """``n`` vehicles of ``env_id`` as a stable-baselines3 ``VecEnv``
-    (``QuadrotorSB3VecEnv``): the id's own options (``gym.spec(env_id).kwargs``: scenario,
-    base controller, benchmark) with ``overrides`` laid over them (``seed``,
-    ``scenario_options``, residual options, the training-only ``loop_randomization``; any
-    keyword of ``QuadrotorSB3VecEnv``). Vehicle i is seeded ``seed + i``, as
-    ``gym.make_vec(env_id, n, vectorization_mode="vector_entry_point").reset(seed=seed)``
-    seeds it, so both fly the same episodes."""
+    (``QuadrotorSB3VecEnv`` behind ``VecMonitor``): the id's own options
+    (``gym.spec(env_id).kwargs``: scenario, base controller, benchmark) with ``overrides``
+    laid over them (``seed``, ``scenario_options``, residual options, the training-only
+    ``loop_randomization``; any keyword of ``QuadrotorSB3VecEnv``). Vehicle i is seeded
+    ``seed + i``, as ``gym.make_vec(env_id, n, vectorization_mode="vector_entry_point")
+    .reset(seed=seed)`` seeds it, so both fly the same episodes."""
     from quad_dob_training.rl.vec_env import QuadrotorSB3VecEnv
 
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
@@ -77,5 +79,9 @@ def make_sb3_vec_env(env_id: str, n: int, **overrides: Any) -> Any:
                          f"{kwargs['base_controller']!r}): use its residual id "
                          f"({env_id.replace('-v', 'Residual-v', 1)} where registered) to "
                          "fly a residual on a base")
+    from stable_baselines3.common.vec_env import VecMonitor
+
     scenario = kwargs.pop("scenario")
-    return QuadrotorSB3VecEnv(n, scenario, **kwargs)
+    # the episodes' returns and lengths for SB3's log: without it ``learn`` logs no
+    # ep_rew_mean (quad-dob train adds its own, over the same class)
+    return VecMonitor(QuadrotorSB3VecEnv(n, scenario, **kwargs))
