@@ -510,3 +510,18 @@ def test_the_adapter_records_episodes_so_sb3_logs_their_return():
     assert dones.all()
     episode = infos[0]["episode"]
     assert episode["l"] == 100 and episode["r"] == pytest.approx(returns[0], abs=1e-5)
+
+
+def test_the_documented_sb3_snippet_trains_and_saves(tmp_path, monkeypatch):
+    """docs/evaluate-your-model.md's snippet, run as written on fewer steps."""
+    import re
+    from pathlib import Path
+
+    page = (Path(__file__).parents[1] / "docs" / "evaluate-your-model.md").read_text()
+    snippet = re.search(r"```python\n(.*?)```", page, re.S).group(1)
+    assert "model.learn(100_000, progress_bar=True)" in snippet
+    assert "torch.set_num_threads(1)" in snippet
+    monkeypatch.chdir(tmp_path)
+    exec(snippet.replace("model.learn(100_000, progress_bar=True)",
+                         "model.learn(4_096, progress_bar=True)"), {})
+    assert (tmp_path / "hover_v3.zip").is_file()
