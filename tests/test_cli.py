@@ -29,10 +29,10 @@ def test_console_script_rejects_an_unknown_command():
     assert result.returncode == 2 and "invalid choice: 'fly'" in result.stderr
 
 
-def test_every_tool_flies_v3_unless_told(monkeypatch, tmp_path):
+def test_every_tool_flies_v4_unless_told(monkeypatch, tmp_path):
     """evaluate (and --suite), tune and check-controller fly the newest benchmark when no
     --benchmark is given, and the one given when it is; the leaderboard lays rows out by
-    v3's suite."""
+    v4's suite."""
     import inspect
 
     import quad_dob_composition.checks as checks
@@ -52,9 +52,9 @@ def test_every_tool_flies_v3_unless_told(monkeypatch, tmp_path):
         assert main(["evaluate", "--suite", "--out", out, *flags]) == 0
         assert main(["tune", "--out", out, *flags]) == 0
         assert main(["check-controller", "pid", *flags]) == 0
-    assert seen == [(tool, benchmark) for benchmark in ("v3", "v2") for tool in
+    assert seen == [(tool, benchmark) for benchmark in ("v4", "v2") for tool in
                     ("evaluate", "evaluate", "tune", "check-controller")]
-    assert inspect.signature(evaluate.leaderboard).parameters["benchmark"].default == "v3"
+    assert inspect.signature(evaluate.leaderboard).parameters["benchmark"].default == "v4"
     assert evaluate.SUITES["v3"] == evaluate.SUITES["v2"]
 
 

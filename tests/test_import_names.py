@@ -50,8 +50,8 @@ def test_every_id_and_the_cli_work_beside_folders_named_baselines_and_training(t
         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     assert evaluated.returncode == 0, evaluated.stderr[-3000:]
     rows = json.loads(evaluated.stdout)
-    # bare residual flies the shipped policy of the benchmark flown (v3 by default), named so
-    assert [row["policy"] for row in rows] == ["geometric-ndob:tuned", "pid", "residual:v3"]
+    # bare residual flies the shipped policy of the benchmark flown (v4 by default), named so
+    assert [row["policy"] for row in rows] == ["geometric-ndob:tuned", "pid", "residual:v4"]
 
 
 @pytest.mark.parametrize("old, new", [
