@@ -284,7 +284,7 @@ class ResidualCommand:
         self._errors_before[...] = self.extra_observation[:, VELOCITY_ERROR_COLUMNS]
         actions = np.empty((core.n, 4))
         residual = np.ascontiguousarray(self._gate_flown(residual), dtype=np.float64)
-        if self.washout is not None:  # after the authority: what is faded is not washed
+        if self.washout is not None:  # after the authority, as residual:v4 trained (washout)
             residual = self.washout.flown(np.clip(residual, -1.0, 1.0))
         if self.acceleration is not None:
             clipped = np.clip(residual, -1.0, 1.0)

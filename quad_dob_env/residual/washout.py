@@ -4,7 +4,7 @@ the steady part of a correction is left to the base's observer.
 The observer is told the command, residual included, so it never takes a residual for a
 disturbance: a constant residual Δa holds the vehicle off its reference by ``m Δa / k_x``
 for as long as it lasts. A trained policy's output carries such a bias, and in calm flight
-that bias was the residual's whole error (docs/residual-v4.md, "The washout"). Washout
+that bias was the residual's whole error (docs/residual-v4.md, "Two more causes"). Washout
 filters are flight control's answer to an augmentation that must not move the trim (the
 yaw damper's, Stevens, Lewis & Johnson, *Aircraft Control and Simulation*, 3rd ed., ch. 4):
 the flown residual is ``a_k - m_k``, with ``m_{k+1} = m_k + α (a_k - m_k)`` and
@@ -12,7 +12,10 @@ the flown residual is ``a_k - m_k``, with ``m_{k+1} = m_k + α (a_k - m_k)`` and
 residual's bounds; ``m`` starts at zero with each episode, so a step in ``a`` flies whole
 and decays as ``exp(-t / τ)``.
 
-``Washout`` holds m; ``ResidualCommand`` passes each step's residual through it.
+``Washout`` holds m; ``ResidualCommand`` passes each step's residual through it, after the
+authority (gate, floor fade, supervisor), as ``residual:v4`` was trained. So a residual faded
+to zero flies ``-m`` for a few τ, not zero: washing out before the authority would make a
+faded residual exactly zero, and needs the policy trained again.
 """
 
 from __future__ import annotations
