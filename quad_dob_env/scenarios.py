@@ -340,6 +340,11 @@ _BUILDER_OPTIONS: dict[str, tuple[str, ...]] = {
 }
 
 
+# Scenario fields a scenario's builder sets from code, left out of the options an unknown
+# key is told (``make_scenario`` still takes them)
+_SET_BY_THE_SCENARIO = ("name", "description", "trajectory", "disturbance", "loop")
+
+
 def list_scenarios() -> list[str]:
     return list(SCENARIOS)
 
@@ -354,7 +359,11 @@ def make_scenario(scenario: str | Scenario, **options: object) -> Scenario:
         raise unknown_name_error("scenario", scenario, SCENARIOS)
     for key in options:
         if key not in _BUILDER_OPTIONS[scenario] and key not in SCENARIO_KEYS:
-            raise unknown_name_error(f"option for scenario {scenario!r}", key,
-                                     [*_BUILDER_OPTIONS[scenario], *SCENARIO_KEYS])
+            # each name once, without the fields a scenario's own code sets (its name and
+            # description, the reference and the disturbance objects, the loop's record)
+            valid = [name for name in dict.fromkeys([*_BUILDER_OPTIONS[scenario],
+                                                     *SCENARIO_KEYS])
+                     if name not in _SET_BY_THE_SCENARIO]
+            raise unknown_name_error(f"option for scenario {scenario!r}", key, valid)
     # the builder's options and the fields it lays the rest over, in one call
     return SCENARIOS[scenario](**options)

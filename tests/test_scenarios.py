@@ -70,6 +70,11 @@ def test_options_replace_fields_and_bad_ones_are_named():
         make_scenario("paper-I", substeps=0)
     with pytest.raises(ValueError, match=r"unknown option for scenario 'paper-I' 'dtt'.*valid:"):
         make_scenario("paper-I", dtt=0.1)
+    with pytest.raises(ValueError, match="valid: ") as refused:
+        make_scenario("hover-calm", windd=1.0)
+    valid = str(refused.value).split("valid: ")[1].split(", ")
+    assert len(valid) == len(set(valid)) and "vehicle" in valid and "dt" in valid
+    assert not {"name", "description", "trajectory", "disturbance", "loop"} & set(valid)
     with pytest.raises(ValueError, match="rotation matrix"):
         make_scenario("hover-calm", initial_rotation=np.ones((3, 3)))
     with pytest.raises(ValueError, match="needs a floor"):
