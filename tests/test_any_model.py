@@ -525,3 +525,19 @@ def test_the_documented_sb3_snippet_trains_and_saves(tmp_path, monkeypatch):
     exec(snippet.replace("model.learn(100_000, progress_bar=True)",
                          "model.learn(4_096, progress_bar=True)"), {})
     assert (tmp_path / "hover_v3.zip").is_file()
+
+
+def test_two_rl_zoo3_runs_of_one_id_get_their_own_row_names():
+    """rl-zoo3 saves every run of an id as <ENV>_<N>/<ENV>.zip: the zip's stem named both
+    rows alike (issue 57)."""
+    from pathlib import Path
+
+    from quad_dob_training.policies import row_name
+
+    first = Path("logs/ppo/QuadDOB-HoverResidual-v3_1/QuadDOB-HoverResidual-v3.zip")
+    second = Path("logs/ppo/QuadDOB-HoverResidual-v3_2/QuadDOB-HoverResidual-v3.zip")
+    assert (row_name(first), row_name(second)) == ("QuadDOB-HoverResidual-v3_1",
+                                                   "QuadDOB-HoverResidual-v3_2")
+    assert row_name(Path("runs/wind/model.zip")) == "wind"
+    assert row_name(Path("runs/wind/ppo_200000_steps.zip")) == "ppo_200000_steps"
+    assert row_name(Path("mine/hover_v3.zip")) == "hover_v3"

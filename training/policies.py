@@ -236,7 +236,7 @@ def make_policy(spec: str, *, trust_pickle: bool = False, env_id: str | None = N
                              f"config says so), not {kind}: name it {algo}:{path}")
         base = options.get("base_controller") if mode == "residual" else None
         zip_path = model_zip(path)
-        return Policy(f"{kind}:{_short_name(Path(path))}", base, model, config,
+        return Policy(f"{kind}:{row_name(Path(path))}", base, model, config,
                       trained_benchmark(config) if base is not None else None,
                       sha256(zip_path))
     raise unknown_name_error("policy", spec, [
@@ -266,11 +266,18 @@ def trained_benchmark(config: dict) -> str:
     return str(options.get("benchmark", env_kwargs.get("benchmark") or "v1"))
 
 
-def _short_name(path: Path) -> str:
-    """``runs/wind/model.zip`` -> ``wind``; ``runs/wind/ppo_200000_steps.zip`` -> that stem."""
+def row_name(path: Path) -> str:
+    """A model's name in a results row: ``runs/wind/model.zip`` -> ``wind``;
+    ``runs/wind/ppo_200000_steps.zip`` -> that stem; rl-zoo3's
+    ``logs/ppo/QuadDOB-Hover-v3_2/QuadDOB-Hover-v3.zip`` -> ``QuadDOB-Hover-v3_2``, its run
+    folder, since every run of one id saves a zip of the same name."""
     if path.suffix != ".zip":
         return path.name
-    return path.parent.name if path.stem in ("model", "best_model") else path.stem
+    run = path.parent.name
+    if path.stem in ("model", "best_model"):
+        return run
+    stem, _, number = run.rpartition("_")
+    return run if stem == path.stem and number.isdigit() else path.stem
 
 
 def check_spaces(policy: Policy, env: QuadrotorVectorEnv) -> None:
