@@ -263,6 +263,18 @@ def test_the_evaluation_says_which_shipped_policy_to_use_and_why(tmp_path, monke
     assert "no shipped policy was trained in Benchmark v9" in shipped_policy_advice("v9")
     source = Path(__file__).parents[1] / "docs/research/transfer-between-benchmarks.md"
     assert source.is_file() and "docs/research/transfer-between-benchmarks.md" in advice
+    # with the rows flown: at most three lines, the chosen policy's rows against the
+    # baseline, and why a shipped policy that scores lower on a row is not the choice
+    flown = [{"scenario": "dryden-helix-gusts", "policy": name, "baseline": "geometric-ndob:tuned",
+              "rms_position_settled_mean": rms}
+             for name, rms in (("geometric-ndob:tuned", 0.0465), ("residual:v4", 0.0512),
+                               ("residual:v3", 0.0450), ("residual:v1", 0.0600))]
+    lines = shipped_policy_advice("v4", flown).splitlines()
+    assert len(lines) == 3
+    assert lines[1] == ("Its rows: dryden-helix-gusts 51.2 mm (+10 % against "
+                        "geometric-ndob:tuned).")
+    assert "residual:v3 on dryden-helix-gusts (45.0 mm)" in lines[2]
+    assert "residual:v1" not in lines[2]
 
     # the console and report.html carry it when a shipped residual is compared, not otherwise
     def rows(policies, scenarios, seeds, flights, baseline, **_):

@@ -54,6 +54,7 @@ uses for a run's own checkpoints.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -171,29 +172,51 @@ SHIPPED_TRAINED_IN = {
 }
 
 
-def shipped_policy_advice(benchmark: str) -> str:
-    """Which shipped residual policy to fly in ``benchmark``, and why, in one paragraph (the
-    demo's console and report.html say it). The why is measured:
-    docs/research/transfer-between-benchmarks.md."""
+def shipped_policy_advice(benchmark: str, rows: Sequence[dict] = ()) -> str:
+    """Which shipped residual policy to fly in ``benchmark``, and why, in at most three lines
+    (the demo's console and report.html say it): the choice; with ``rows`` (an evaluation's
+    results), the chosen policy's own rows, against the baseline where there is one; and,
+    where another shipped policy scores lower on a row, that row with why it is still not
+    the choice. The why is measured: docs/research/transfer-between-benchmarks.md."""
     chosen = resolve_spec("residual", benchmark)
     version = chosen.partition(":")[2]
-    names = [f"residual:{name}" for name in SHIPPED_POLICIES if name != version]
-    others = " and ".join([", ".join(names[:-1]), names[-1]] if len(names) > 2 else names)
     if version == benchmark:
         why = f"it was trained in {SHIPPED_TRAINED_IN[version]}, the loop flown here"
     else:
         why = (f"no shipped policy was trained in Benchmark {benchmark}, and it is the newest "
                f"(trained in {SHIPPED_TRAINED_IN[version]})")
-    return (f"Which shipped policy to use in Benchmark {benchmark}: {chosen}, which bare "
-            f"'residual' names, because {why}. {others} were trained in other loops and "
-            "fly here on their own benchmark's base gains: a lower error from one of them "
-            "on a scenario is a transfer, not a recommendation. Measured: residual:v1 in "
-            "v2's loop commanded its rotors 2-4 times as fast as its base and, under v2's "
-            "margin (more latency, slower motors), oscillated and lost a flight its base "
-            "kept; residual:v2 in v3's loop flies its base at v2's gains, which keep none "
-            "of v3's margin, and lost 13 of the 40 flights of its two landing scenarios "
-            "that v3's base kept "
-            "(docs/research/transfer-between-benchmarks.md).")
+    lines = [f"Which shipped policy to use in Benchmark {benchmark}: {chosen}, which bare "
+             f"'residual' names, because {why}."]
+    error = "rms_position_settled_mean"
+    mine = {row["scenario"]: row for row in rows if row.get("policy") == chosen
+            and error in row}
+    if mine:
+        cells = []
+        for scenario, row in mine.items():
+            cell = f"{scenario} {1e3 * row[error]:.1f} mm"
+            baseline = row.get("baseline")
+            compared = next((other for other in rows if other.get("scenario") == scenario
+                             and other.get("policy") == baseline and error in other), None)
+            if compared is not None and baseline != chosen and compared[error] > 0:
+                change = 100 * (row[error] / compared[error] - 1)
+                cell += f" ({change:+.0f} % against {baseline})"
+            cells.append(cell)
+        lines.append(f"Its rows: {'; '.join(cells)}.")
+    lower = [row for row in rows if row.get("scenario") in mine and error in row
+             and row.get("policy") != chosen
+             and row.get("policy", "").partition(":")[2] in SHIPPED_TRAINED_IN
+             and row.get("policy", "").startswith("residual:")
+             and row[error] < mine[row["scenario"]][error]]
+    if lower:
+        lines.append("Lower on a row, still not the choice: " + "; ".join(
+            f"{row['policy']} on {row['scenario']} ({1e3 * row[error]:.1f} mm), trained in "
+            f"another loop, flies here on its own benchmark's gains: a transfer"
+            for row in lower) + " (docs/research/transfer-between-benchmarks.md).")
+    else:
+        lines.append("The other shipped policies were trained in other loops: a lower error "
+                     "from one of them is a transfer, not a recommendation "
+                     "(docs/research/transfer-between-benchmarks.md).")
+    return "\n".join(lines)
 
 
 def make_policy(spec: str, *, trust_pickle: bool = False, env_id: str | None = None,

@@ -430,7 +430,7 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
         print(json.dumps(rows, indent=1))
         return 0
     # a shipped residual in the comparison: say which of them this benchmark calls for
-    advice = ([shipped_policy_advice(benchmark)]
+    advice = ([shipped_policy_advice(benchmark, rows)]
               if any(spec.startswith("residual") and resolve_spec(spec, benchmark)
                      in (f"residual:{name}" for name in SHIPPED_TRAINED_IN) for spec in policies)
               else [])
