@@ -66,9 +66,10 @@ class Scenario:
     Initial state: ``initial_position`` plus a uniform offset in ``±initial_position_noise``
     per axis; ``initial_rotation`` times ``exp`` of a uniform rotation vector in
     ``±initial_attitude_noise`` per axis; the given velocity and body rates.
-    ``floor_height`` None means open space (no floor, no crash on the ground). A start that
-    its position noise could draw at or below the floor is refused on construction, with the
-    largest noise allowed: such a draw ended its episode at the first step.
+    ``floor_height`` None means open space (no floor, no crash on the ground). A start at
+    ``initial_position`` that its position noise could draw at or below the floor is refused
+    on construction, with the largest noise allowed: such a draw ended its episode at the
+    first step. (A scenario that starts on its reference starts where the reference is.)
     """
 
     name: str
@@ -166,14 +167,24 @@ class Scenario:
             object.__setattr__(self, name,
                                tuple(as_vector3(getattr(self, name), f"Scenario.{name}")))
         # a start drawn below the floor would end the episode at its first step, reported as
-        # a crash at reset: refused here, whatever the draw
-        if self.floor_height is not None and self.initial_position[2] - noise <= self.floor_height:
+        # a crash at reset: refused here, whatever the draw. A scenario that starts on its
+        # reference (several members, or a start spread) starts where the reference is, as
+        # the core places it, and initial_position does not say where that is
+        on_reference = ((isinstance(self.trajectory, TrajectoryFamily)
+                         and len(self.trajectory.members) > 1) or self.start_spread_steps > 0)
+        if (self.floor_height is not None and not on_reference
+                and self.initial_position[2] - noise <= self.floor_height):
             clearance = self.initial_position[2] - self.floor_height
+            if clearance <= 0.0:
+                raise ValueError(
+                    f"scenario {self.name!r}: initial_position starts the vehicle at or below "
+                    f"its floor (height {self.initial_position[2]:g} m, floor at "
+                    f"{self.floor_height:g} m); allowed: a start above the floor")
             raise ValueError(
                 f"scenario {self.name!r}: initial_position_noise {noise:g} m can start the "
                 f"vehicle at or below its floor (start height {self.initial_position[2]:g} m, "
-                f"floor at {self.floor_height:g} m); allowed: a noise below "
-                f"{max(clearance, 0.0):g} m, or a start higher above the floor")
+                f"floor at {self.floor_height:g} m); allowed: a noise below {clearance:g} m, "
+                "or a start higher above the floor")
         rotation = np.asarray(self.initial_rotation, dtype=float)
         if (rotation.shape != (3, 3) or not np.all(np.isfinite(rotation))
                 or not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-9)

@@ -16,6 +16,7 @@ from quad_dob_composition import ResidualVectorEnv
 from quad_dob_env import list_scenarios
 from quad_dob_env.envs import TERMINATION_REASONS, QuadrotorEnv, QuadrotorVectorEnv
 from quad_dob_env.params import get_vehicle
+from quad_dob_env.scenarios import make_scenario
 from quad_dob_env.so3 import exp
 
 VEHICLES, STEPS = 16, 150
@@ -67,6 +68,11 @@ def test_fuzzed_initial_states_upside_down_included_end_with_reasons(scenario, s
     options = {"initial_rotation": exp(np.array(rotation)).tolist(),
                "initial_angular_velocity": rates, "initial_velocity": velocity,
                "initial_position": offset}
+    try:  # a start at or below the floor is refused, naming it
+        make_scenario(scenario, **options)
+    except ValueError as refused:
+        assert "at or below its floor" in str(refused)
+        return
     env = ResidualVectorEnv(VEHICLES, scenario, options, base_controller="geometric-ndob")
     env.reset(seed=seed)
     actions = np.random.default_rng(seed).uniform(-1.5, 1.5, (7, VEHICLES, 4))
