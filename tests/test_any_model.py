@@ -553,3 +553,26 @@ def test_two_rl_zoo3_runs_of_one_id_get_their_own_row_names():
     assert row_name(Path("runs/wind/model.zip")) == "wind"
     assert row_name(Path("runs/wind/ppo_200000_steps.zip")) == "ppo_200000_steps"
     assert row_name(Path("mine/hover_v3.zip")) == "hover_v3"
+
+
+def test_a_zip_records_its_env_id_and_is_refused_under_another(tmp_path, capsys):
+    """A zip of the same shape flown under the wrong id was scored silently (issue 57): the
+    project's zips record their id; an SB3 zip, which records none, flies with one warning."""
+    from quad_dob_training.policies import make_policy
+    from quad_dob_training.rl.run_folder import save_model, zip_env_id
+
+    model = _ppo(RESIDUAL_ID, steps=0)
+    ours, theirs = tmp_path / "ours.zip", tmp_path / "theirs.zip"
+    save_model(model, ours, "run1", RESIDUAL_ID)
+    model.save(theirs)
+    assert zip_env_id(ours) == RESIDUAL_ID and zip_env_id(theirs) is None
+    other = "QuadDOB/HoverResidual-v3"
+    with pytest.raises(ValueError, match=rf"was trained on {RESIDUAL_ID} .* not {other}: "
+                                         rf"give --env {RESIDUAL_ID}"):
+        make_policy(f"ppo:{ours}", trust_pickle=True, env_id=other)
+    capsys.readouterr()
+    make_policy(f"ppo:{ours}", trust_pickle=True, env_id=RESIDUAL_ID)
+    assert capsys.readouterr().err == ""
+    make_policy(f"ppo:{theirs}", trust_pickle=True, env_id=other)
+    warned = capsys.readouterr().err.splitlines()
+    assert len(warned) == 1 and "records no env id" in warned[0] and other in warned[0]

@@ -164,7 +164,8 @@ class BaselineEvaluation(BaseCallback):
                 print(self.first_beat_strongest, flush=True)
         if self._best is None or beats(Standing(crashes, rms), Standing(*self._best)):
             self._best = (crashes, rms)
-            save_model(self.model, self.out / "best_model.zip", self.config.get("run_id"))
+            save_model(self.model, self.out / "best_model.zip", self.config.get("run_id"),
+                       self.config.get("env_id"))
             write_text_atomically(self.out / "best_model.yaml", yaml.safe_dump(
                 {**config, "best_at_timesteps": self.num_timesteps,
                  "best_eval_rms_position": rms}, sort_keys=False))

@@ -293,7 +293,7 @@ def _learn(start: RunStart, out: Path, progress_bar: bool) -> Any:
     wall = time.perf_counter() - began
     config["observation_normalization"] = normalization(model.get_env())
     write_text_atomically(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))
-    save_model(model, out / "model.zip", config.get("run_id"))
+    save_model(model, out / "model.zip", config.get("run_id"), config.get("env_id"))
     rate = (model.num_timesteps - steps_before) / wall
     message = (f"trained {model.num_timesteps - steps_before:,} timesteps in {wall:.1f} s "
                f"({rate:,.0f} timesteps/s, evaluations included) -> {out / 'model.zip'}")

@@ -200,7 +200,7 @@ class ResumableCheckpoint(BaseCallback):
         self.folder.mkdir(parents=True, exist_ok=True)
         run_id = self.config.get("run_id")
         stem = f"{self.config['algo']}_{self.num_timesteps}"
-        save_model(self.model, self.folder / f"{stem}.zip", run_id)
+        save_model(self.model, self.folder / f"{stem}.zip", run_id, self.config.get("env_id"))
         if isinstance(self.model, OffPolicyAlgorithm):
             header = {"format": HEADER_FORMAT, "run_id": run_id}
             write_bytes_atomically(self.folder / f"{stem}_replay.pkl",

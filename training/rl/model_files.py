@@ -32,6 +32,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import sys
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -42,7 +43,7 @@ from quad_dob_composition import make_vector_env
 from quad_dob_env.memory import check_memory
 from quad_dob_env.validation import unknown_name_error
 from quad_dob_training.rl import ALGORITHMS, SHIPPED_SHA256
-from quad_dob_training.rl.run_folder import zip_run_id
+from quad_dob_training.rl.run_folder import zip_env_id, zip_run_id
 from quad_dob_training.rl.vec_env import env_options
 
 PRETRAINED = Path(__file__).parents[1] / "pretrained"
@@ -72,6 +73,20 @@ SHIPPED_RESIDUAL_V4 = PRETRAINED / "residual_v4.zip"
 SHIPPED_RESIDUAL_V4_SHA256 = SHIPPED_SHA256["v4"]
 SHIPPED_RESIDUAL_V4_CONFIG_SHA256 = (
     "1ba65c67383df730fdd053c24b5a82bb557727089c288239b1c46de6c4074d8f")
+def _check_env_id(path: Path, raw: bytes, told: str | None, env_id: str | None) -> None:
+    """A zip flown without its config under ``env_id``: refused where the zip records
+    another id (``quad-dob train`` saves it in the zip); one warning line where it records
+    none and the id came from ``--env`` (``told``), as an SB3 zip's cannot be checked
+    (an rl-zoo3 run's id comes from its own ``args.yml``)."""
+    recorded = zip_env_id(path, raw)
+    if recorded is not None and env_id is not None and recorded != env_id:
+        raise ValueError(f"model file {str(path)!r} was trained on {recorded} (the zip "
+                         f"records it), not {env_id}: give --env {recorded}")
+    if recorded is None and told is not None:
+        print(f"warning: {str(path)!r} records no env id (saved by stable-baselines3 "
+              f"itself): flown as {told}, which cannot be checked", file=sys.stderr)
+
+
 TRUST_PICKLE_HINT = ("only if you made the file or trust where it came from, load it with "
                      "--trust-pickle (trust_pickle=True), which unpickles the zip's entries")
 
@@ -121,6 +136,7 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
     path = model_zip(path)
     if not path.is_file():
         raise ValueError(f"policy file {str(path)!r} does not exist")
+    told = env_id  # --env, as given
     if env_id is None and not path.with_name(path.stem + ".yaml").is_file() \
             and not (path.parent / "config.yaml").is_file():
         env_id = zoo_env_id(path)  # an rl-zoo3 run says what it was trained on
@@ -130,6 +146,7 @@ def load_model(path: str | Path, expected_sha256: str | None = None, *,
     if config_path is None:  # saved by SB3 or rl-zoo3: the id says what the config would
         if not zipfile.is_zipfile(io.BytesIO(raw)):
             raise _not_a_zip(path)
+        _check_env_id(path, raw, told, env_id)
         config = config_for_id(env_id, kind or "ppo", path, _zip_data(raw, path),
                                trust_pickle=trust_pickle)
         source = f"--env {env_id}"

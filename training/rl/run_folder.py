@@ -40,7 +40,8 @@ try:
 except ImportError:  # Windows: no flock; RunLock warns that the folder is not locked
     fcntl = None
 
-RUN_MEMBER = "quad_dob_run.json"  # the run id inside a model zip; SB3's load ignores it
+# the run id and the env id inside a model zip; SB3's load ignores it
+RUN_MEMBER = "quad_dob_run.json"
 LOCK_NAME = "run.lock"
 # a JSON header line (a state's, a lock file's) is a few hundred bytes; reading more than
 # this means it is no header
@@ -70,13 +71,17 @@ def write_text_atomically(path: Path, text: str) -> None:
 
 # --- run ids in zips, the folder's config ---------------------------------------------------
 
-def save_model(model: Any, path: Path, run_id: str | None) -> None:
-    """SB3's save of ``model`` with the run id as an extra zip member, written atomically."""
+def save_model(model: Any, path: Path, run_id: str | None, env_id: str | None = None) -> None:
+    """SB3's save of ``model`` with the run id and the env id it was trained on as an extra
+    zip member, written atomically: a zip that travels without its config still says which
+    id it flies (``zip_env_id``)."""
     archive = io.BytesIO()
     model.save(archive)
-    if run_id is not None:
+    record = {key: value for key, value in (("run_id", run_id), ("env_id", env_id))
+              if value is not None}
+    if record:
         with zipfile.ZipFile(archive, "a") as bundle:
-            bundle.writestr(RUN_MEMBER, json.dumps({"run_id": run_id}))
+            bundle.writestr(RUN_MEMBER, json.dumps(record))
     write_bytes_atomically(Path(path), archive.getvalue())
 
 
@@ -84,6 +89,16 @@ def zip_run_id(path: Path, content: bytes | None = None) -> str | None:
     """The run id a model zip carries (None: written before run ids, or by another tool),
     read from ``content`` where the caller holds the file's bytes already. Reads one JSON
     member; nothing is unpickled."""
+    return _zip_record(path, content, "run_id")
+
+
+def zip_env_id(path: Path, content: bytes | None = None) -> str | None:
+    """The env id a model zip records it was trained on (None: saved by SB3 or rl-zoo3, or
+    by this project before it recorded one); read as ``zip_run_id`` reads the run id."""
+    return _zip_record(path, content, "env_id")
+
+
+def _zip_record(path: Path, content: bytes | None, key: str) -> str | None:
     path = Path(path)
     if content is None and not path.is_file():
         raise ValueError(f"model file {str(path)!r} does not exist")
@@ -91,8 +106,9 @@ def zip_run_id(path: Path, content: bytes | None = None) -> str | None:
         with zipfile.ZipFile(path if content is None else io.BytesIO(content)) as bundle:
             if RUN_MEMBER not in bundle.namelist():
                 return None
-            return str(json.loads(bundle.read(RUN_MEMBER))["run_id"])
-    except (zipfile.BadZipFile, KeyError, ValueError, OSError) as error:
+            value = json.loads(bundle.read(RUN_MEMBER)).get(key)
+            return None if value is None else str(value)
+    except (zipfile.BadZipFile, KeyError, ValueError, OSError, AttributeError) as error:
         raise ValueError(f"model file {str(path)!r} is not a stable-baselines3 zip (cut off "
                          f"while written, or not a model; {type(error).__name__}): train again "
                          "or pick another checkpoint") from error
