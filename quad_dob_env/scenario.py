@@ -167,12 +167,9 @@ class Scenario:
             object.__setattr__(self, name,
                                tuple(as_vector3(getattr(self, name), f"Scenario.{name}")))
         # a start drawn below the floor would end the episode at its first step, reported as
-        # a crash at reset: refused here, whatever the draw. A scenario that starts on its
-        # reference (several members, or a start spread) starts where the reference is, as
-        # the core places it, and initial_position does not say where that is
-        on_reference = ((isinstance(self.trajectory, TrajectoryFamily)
-                         and len(self.trajectory.members) > 1) or self.start_spread_steps > 0)
-        if (self.floor_height is not None and not on_reference
+        # a crash at reset: refused here, whatever the draw. One that starts on its
+        # reference starts where the reference is, which initial_position does not say
+        if (self.floor_height is not None and not self.starts_on_reference
                 and self.initial_position[2] - noise <= self.floor_height):
             clearance = self.initial_position[2] - self.floor_height
             if clearance <= 0.0:
@@ -245,6 +242,13 @@ class Scenario:
     def steps(self) -> int:
         """Control steps in one episode."""
         return math.floor(self.duration / self.dt + 1e-9)
+
+    @property
+    def starts_on_reference(self) -> bool:
+        """Whether an episode starts on its reference (a family of several members, or a
+        start spread) rather than at ``initial_position``."""
+        family = isinstance(self.trajectory, TrajectoryFamily)
+        return (family and len(self.trajectory.members) > 1) or self.start_spread_steps > 0
 
     @property
     def start_spread_steps(self) -> int:

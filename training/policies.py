@@ -202,11 +202,9 @@ def shipped_policy_advice(benchmark: str, rows: Sequence[dict] = ()) -> str:
                 cell += f" ({change:+.0f} % against {baseline})"
             cells.append(cell)
         lines.append(f"Its rows: {'; '.join(cells)}.")
+    shipped = {f"residual:{name}" for name in SHIPPED_POLICIES} - {chosen}
     lower = [row for row in rows if row.get("scenario") in mine and error in row
-             and row.get("policy") != chosen
-             and row.get("policy", "").partition(":")[2] in SHIPPED_TRAINED_IN
-             and row.get("policy", "").startswith("residual:")
-             and row[error] < mine[row["scenario"]][error]]
+             and row.get("policy") in shipped and row[error] < mine[row["scenario"]][error]]
     if lower:
         lines.append("Lower on a row, still not the choice: " + "; ".join(
             f"{row['policy']} on {row['scenario']} ({1e3 * row[error]:.1f} mm), trained in "

@@ -261,7 +261,7 @@ class QuadrotorBatch:
         self.reference_start[indices] = starts
         self.reference_row[indices] = rows
         first = self._initial_rotation
-        if len(self._members) > 1 or self._start_steps:  # on its reference where it starts:
+        if sc.starts_on_reference:  # on its reference where it starts:
             firsts = self._reference_table[rows]  # position, velocity, the attitude flying it
             offsets += firsts[:, :2].reshape(-1, 6) - np.concatenate(self._start[:2])
             first = flat_attitude(Reference(*firsts.transpose(1, 0, 2)), self.vehicle.mass,

@@ -30,7 +30,6 @@ class Washout:
     """The high-pass of time constant ``time_constant`` [s] for n vehicles at period ``dt``."""
 
     def __init__(self, n: int, dt: float, time_constant: float, size: int = 4) -> None:
-        self.time_constant = time_constant
         self.alpha = 1.0 - math.exp(-dt / time_constant)  # exact for ṁ = (a - m) / τ
         self.mean = np.zeros((n, size))  # m: the residual's low-pass, what is washed out
 
