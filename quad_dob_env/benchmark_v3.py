@@ -103,7 +103,8 @@ ABLATION_ENDS: dict[str, tuple[float, float]] = {
 # margin, flight-control practice's delay margin): 20 ms of latency beyond v3's own and
 # slower motors, at once. v3's own latency is the mocap pipeline's, on the pose; the margin's
 # sits there too, unknown to the estimator, not on the autopilot's IMU, which a real
-# vehicle's attitude loop reads on board (docs/benchmark-v3.md, "Later changes").
+# vehicle's attitude loop reads on board (docs/benchmark-v3.md, "The tuning margin's
+# latency, on the pose").
 TUNING_MARGIN = {"unmodelled_pose_latency": 0.020, "motor_time_constant_scale": 1.5}
 
 V3_SOURCES: dict[str, str] = {
