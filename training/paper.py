@@ -12,18 +12,20 @@ import csv
 import multiprocessing
 import os
 import sys
+import textwrap
 import time
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
-
-import numpy as np
+from typing import TextIO
 
 from quad_dob_baselines import make_controller
-from quad_dob_env.envs import QuadrotorBatch
 from quad_dob_env.scenarios import make_scenario
+from quad_dob_training.evaluation.console import WIDTH, text_table
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.evaluation.report import write_report
-from quad_dob_training.rollout import fly
+from quad_dob_training.progress import Progress, compiling_notice
+from quad_dob_training.rollout import fly, warm_up_copy
 
 PAPER_SCENARIOS = ("paper-none", "paper-I", "paper-II", "paper-IIA", "ground-effect-landing")
 PAPER_CONTROLLERS = ("geometric", "geometric-ndob", "geometric-ndob:tuned", "pid", "smc")
@@ -53,11 +55,15 @@ def run_paper(scenarios: list[str] = list(PAPER_SCENARIOS),  # noqa: B006
               controllers: list[str] = list(PAPER_CONTROLLERS),  # noqa: B006
               torque_reading: str = "0.6*dx", dt: float | None = None,
               substeps: int | None = None, out_dir: Path | None = None,
-              figures: bool = True) -> list[dict]:
-    """Fly every controller in every scenario; return one metrics row per pair."""
+              figures: bool = True, progress: TextIO | None = None) -> list[dict]:
+    """Fly every controller in every scenario; return one metrics row per pair. Each
+    controller and each scenario's figures are reported to ``progress`` as they finish
+    (``quad_dob_training.progress``; None: standard error)."""
     built = build_scenarios(scenarios, torque_reading, dt, substeps)
-    warm_up(built[0])  # compile once here, before the pool forks
-    flown = parallel_map(_fly_named, controllers, [built] * len(controllers))
+    warm_up(controllers, built)  # compile once here, before the pool forks
+    with Progress("paper", len(controllers), stream=progress) as report:
+        flown = parallel_map(_fly_named, controllers, [built] * len(controllers),
+                             report=report)
     flights = dict(zip(controllers, flown, strict=True))
     rows = [flight_metrics(flights[c][i]) for i in range(len(built)) for c in controllers]
     if out_dir is not None:
@@ -70,8 +76,9 @@ def run_paper(scenarios: list[str] = list(PAPER_SCENARIOS),  # noqa: B006
             writer.writerows(rows)
         if figures:
             compared = [c for c in controllers if c in FIGURE_CONTROLLERS] or controllers
-            draw_figures([[flights[c][i] for c in compared] for i in range(len(built))],
-                         out_dir / "figures")
+            with Progress("paper figures", len(built), stream=progress) as report:
+                draw_figures([[flights[c][i] for c in compared] for i in range(len(built))],
+                             out_dir / "figures", report)
             write_report(out_dir / "report.html", "quad-dob paper",
                          rows, [("scenario", "scenario"), ("controller", "controller"),
                                 *COLUMNS, ("ended", "ended")],
@@ -84,28 +91,52 @@ def _fly_named(name: str, scenarios: list) -> list:
     return fly(make_controller(name, scenarios[0].vehicle), scenarios)
 
 
-def warm_up(scenario) -> None:
-    """Compile the step kernels (numba) in this process, so forked workers inherit them."""
-    core = QuadrotorBatch(scenario, 1)
-    core.reset(np.zeros(1, dtype=np.intp), [np.random.default_rng(0)])
-    core.step(np.zeros((1, 4)))
+def warm_up(controllers: list[str], scenarios: list) -> None:
+    """Fly each controller for a few steps of the scenarios, in this process: a first run
+    compiles the kernels (numba) here, under a notice that says so, and the forked
+    workers inherit them."""
+    short = [warm_up_copy(scenario)
+             for scenario in scenarios]
+    with compiling_notice():
+        for name in controllers:
+            _fly_named(name, short)
 
 
-def parallel_map(function, *iterables) -> list:
-    """``list(map(function, *iterables))``, over two or more cores in forked processes."""
+def parallel_map(function, *iterables, report: Progress | None = None,
+                 names: Sequence[str] | None = None) -> list:
+    """``list(map(function, *iterables))``, over two or more cores in forked processes;
+    each item told to ``report`` as it finishes, by its name in ``names`` (default: its
+    first argument)."""
     items = list(zip(*iterables, strict=True))
+    names = [str(item[0]) for item in items] if names is None else list(names)
     workers = min(len(items), os.cpu_count() or 1)
     if workers < 2 or sys.platform != "linux":
-        return [function(*item) for item in items]
+        results = []
+        for item in items:
+            if report is not None:
+                report.start(names[len(results)])
+            results.append(function(*item))
+            if report is not None:
+                report.done()
+        return results
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-        return list(pool.map(function, *zip(*items, strict=True)))
+        futures = {pool.submit(function, *item): k for k, item in enumerate(items)}
+        results: list = [None] * len(items)
+        for future in as_completed(futures):
+            results[futures[future]] = future.result()
+            if report is not None:
+                report.start(names[futures[future]])
+                report.done()
+        return results
 
 
-def draw_figures(per_scenario: list[list], out_dir: Path) -> None:
+def draw_figures(per_scenario: list[list], out_dir: Path,
+                 report: Progress | None = None) -> None:
     """Each scenario's figures (matplotlib is the slow part, so in parallel)."""
     from quad_dob_training.evaluation.plots import scenario_figures
 
-    parallel_map(scenario_figures, per_scenario, [out_dir] * len(per_scenario))
+    parallel_map(scenario_figures, per_scenario, [out_dir] * len(per_scenario),
+                 report=report, names=[flights[0].scenario for flights in per_scenario])
 
 
 def markdown_table(rows: list[dict]) -> str:
@@ -119,18 +150,48 @@ def markdown_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+# what the console shows of COLUMNS (table.md and table.csv hold them all), and the
+# factor to its unit
+CONSOLE_COLUMNS = (("rms_position", "RMS ‖e_x‖ [mm]", 1e3, 1),
+                   ("rms_position_settled", "t≥2 s [mm]", 1e3, 1),
+                   ("rms_attitude_settled", "‖log RdᵀR‖ [mrad]", 1e3, 1),
+                   ("final_position_error", "final ‖e_x‖ [mm]", 1e3, 1),
+                   ("final_estimate_error", "final ‖d̂x − d_x‖ [N]", 1.0, 3),
+                   ("peak_thrust", "peak thrust [N]", 1.0, 1))
+
+
+def console_table(rows: list[dict]) -> str:
+    """The table as the console shows it: one flight per row, so no ± to name."""
+    header = ["scenario", "controller", *(label for _, label, _, _ in CONSOLE_COLUMNS),
+              "ended"]
+    lines, shown = [], None
+    for row in rows:
+        cells = ["—" if row[key] is None else f"{row[key] * scale:.{digits}f}"
+                 for key, _, scale, digits in CONSOLE_COLUMNS]
+        lines.append([row["scenario"] if row["scenario"] != shown else "",
+                      row["controller"], *cells, row["ended"]])
+        shown = row["scenario"]
+    return text_table(header, lines)
+
+
 def main(scenarios: list[str], controllers: list[str], torque_reading: str,
          dt: float | None, substeps: int | None, out_dir: Path, as_json: bool,
          figures: bool) -> int:
     start = time.perf_counter()
+    print(f"paper: {len(controllers)} controllers x {len(scenarios)} scenarios, one flight "
+          f"each" + ("" if as_json else f", into {out_dir}"), file=sys.stderr, flush=True)
     rows = run_paper(scenarios, controllers, torque_reading, dt, substeps, out_dir, figures)
     if as_json:
         import json
 
         print(json.dumps(rows, indent=1))
         return 0
-    print(markdown_table(rows))
-    print(f"\nThrust limit {rows[0]['thrust_limit']:.0f} N. Written to {out_dir}/ "
-          f"(table.md, table.csv{', figures/, report.html' if figures else ''}) in "
-          f"{time.perf_counter() - start:.1f} s.")
+    print(console_table(rows))
+    print("\nOne flight per row, seed 0; every column, "
+          "with each axis: table.md and table.csv.")
+    print("\n" + textwrap.fill(
+        f"Thrust limit {rows[0]['thrust_limit']:.0f} N. Written to {out_dir}/ (table.md, "
+        f"table.csv{', figures/, report.html' if figures else ''}) in "
+        f"{time.perf_counter() - start:.1f} s.", WIDTH, break_long_words=False,
+        break_on_hyphens=False))
     return 0

@@ -78,6 +78,17 @@ RECORD_BYTES_PER_STEP = sum(ARRAY_BYTES + 8 + 2 * 8 * width
                             for width in RECORDED_WIDTHS.values())
 
 
+# control steps a warm-up flies: enough for every kernel of a loop to run, and so compile
+# on a first run, before the flights that count
+WARM_UP_STEPS = 5
+
+
+def warm_up_copy(scenario: Scenario) -> Scenario:
+    """``scenario`` cut to ``WARM_UP_STEPS`` control steps: flown first, it compiles (or
+    loads from numba's cache) every kernel the whole flight needs, with the same types."""
+    return scenario.with_changes(duration=WARM_UP_STEPS * scenario.dt)
+
+
 def check_flight_memory(flights: int, steps: int, what: str,
                         change: str = "fly fewer seeds at once (--seeds)") -> None:
     """Refuse (``quad_dob_env.memory.check_memory``) flights whose records would pass the

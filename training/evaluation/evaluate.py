@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import csv
 import json
+import sys
 import textwrap
 from collections.abc import Sequence
 from pathlib import Path
@@ -30,7 +31,8 @@ import numpy as np
 from quad_dob_baselines import gain_set
 from quad_dob_env import DEFAULT_BASE_CONTROLLER
 from quad_dob_env.benchmark import TOOLS_BENCHMARK
-from quad_dob_env.scenarios import make_scenario
+from quad_dob_env.scenarios import Scenario, make_scenario
+from quad_dob_training.evaluation.console import WIDTH, evaluation_table, ranking_lines
 from quad_dob_training.evaluation.margins import benchmark_delay_path, check_grid, delay_margin
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.evaluation.plots import evaluation_bars
@@ -51,12 +53,14 @@ from quad_dob_training.evaluation.statistics import (
 from quad_dob_training.policies import (
     LIBRARY_BENCHMARK,
     SHIPPED_TRAINED_IN,
+    Policy,
     fly_policy,
     make_policy,
     resolve_spec,
     shipped_policy_advice,
 )
-from quad_dob_training.rollout import check_flight_memory
+from quad_dob_training.progress import Progress, compiling_notice
+from quad_dob_training.rollout import check_flight_memory, warm_up_copy
 
 SCORES = (("rms_position_settled", "RMS ‖e_x‖ [m]"),
           ("rms_attitude_settled", "RMS ‖log RdᵀR‖ [rad]"),
@@ -138,7 +142,8 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
              scenario_options: dict[str, object] | None = None,
              delay_grid: Sequence[float] | None = None,
              per_seed: dict[tuple[str, str], list[dict]] | None = None,
-             delay_path: str | None = None, env_id: str | None = None) -> list[dict]:
+             delay_path: str | None = None, env_id: str | None = None,
+             progress: bool = False) -> list[dict]:
     """One row per (scenario, policy): mean, std and 95 % interval over seeds of each score,
     the crash rate, and the paired difference to ``baseline`` (flown too if not listed;
     None for no comparison). ``first_flights``, when given, collects each scenario's
@@ -152,7 +157,8 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
     Bare ``residual`` flies the shipped policy of each scenario's benchmark
     (``policies.resolve_spec``), and its rows name the one it flew; specs that resolve to
     the same policy in a scenario (``residual`` and ``residual:v1`` in v1) fly once and make
-    one row there."""
+    one row there. ``progress``: report on standard error (``quad_dob_training.progress``):
+    a notice while a first run compiles, then each scenario and policy as it is flown."""
     specs = list(dict.fromkeys(policies))
     flown = specs if baseline is None or baseline in specs else [*specs, baseline]
     made = {name: make_scenario(name, **(scenario_options or {})) for name in scenarios}
@@ -165,48 +171,69 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
             if resolved not in built_as:
                 built_as[resolved] = make_policy(resolved, trust_pickle=trust_pickle,
                                                  env_id=env_id)
-    rows = []
-    for scenario_name, scenario in made.items():
-        # each spec as this scenario's benchmark resolves it: two specs naming the same
-        # policy here (``residual`` and ``residual:v1`` in v1) fly once and make one row
-        resolved_of = {spec: resolve_spec(spec, scenario.loop.benchmark) for spec in flown}
-        listed = list(dict.fromkeys(resolved_of[spec] for spec in specs))
-        metrics, distinct, flights_of = {}, {}, {}
-        for resolved in dict.fromkeys(resolved_of.values()):
-            flights = flights_of[resolved] = fly_policy(built_as[resolved], scenario, seeds)
-            if first_flights is not None and resolved in listed:
-                first_flights.setdefault(scenario_name, []).append(flights[0])
-            metrics[resolved] = [flight_metrics(f) for f in flights]
-            distinct[resolved] = distinct_flights(flights)
-        if per_seed is not None:
-            for spec in flown:
-                per_seed[scenario_name, spec] = metrics[resolved_of[spec]]
-        compared_with = None if baseline is None else resolved_of[baseline]
-        reference = None if compared_with is None else metrics[compared_with]
-        for spec in listed:
-            policy = built_as[spec]
-            row = _row(scenario_name, policy.name, seeds, metrics[spec], compared_with,
-                       reference)
-            row["distinct_flights"] = distinct[spec]
-            row["gains"] = _gains_used(policy, scenario)
-            row.update(policy_spec=spec,
-                       policy_fingerprint=policy.fingerprint or "",
-                       benchmark=scenario.loop.benchmark,
-                       vehicle=scenario.vehicle.name,
-                       sensing=getattr(scenario.loop.sensing, "name", None) or "ideal",
-                       env_entry_point=("quad_dob_composition:ResidualVectorEnv"
-                                        if policy.base is not None else
-                                        "quad_dob_env.envs:QuadrotorVectorEnv"),
-                       env_id=(policy.config or {}).get("env_id", ""))
-            if delay_grid is not None:
-                path = delay_path or benchmark_delay_path(scenario.loop.benchmark)
-                margin = delay_margin(policy, scenario_name, seeds, scenario_options,
-                                      check_grid(delay_grid), flown=flights_of[spec],
-                                      path=path)
-                row.update(delay_margin=margin.margin, delay_margin_path=path,
-                           delay_margin_text=f"{margin.describe()} ({path})")
-            rows.append(row)
-    return rows
+    if progress:
+        warm_up(list(built_as.values()), next(iter(made.values())), seeds)
+    units = sum(len({resolve_spec(spec, scenario.loop.benchmark) for spec in flown})
+                for scenario in made.values())
+    # silent unless asked: a library call reports nothing
+    with Progress("evaluate", units, quiet=not progress) as report:
+        rows = []
+        for scenario_name, scenario in made.items():
+            # each spec as this scenario's benchmark resolves it: two specs naming the same
+            # policy here (``residual`` and ``residual:v1`` in v1) fly once and make one row
+            resolved_of = {spec: resolve_spec(spec, scenario.loop.benchmark) for spec in flown}
+            listed = list(dict.fromkeys(resolved_of[spec] for spec in specs))
+            metrics, distinct, flights_of = {}, {}, {}
+            for resolved in dict.fromkeys(resolved_of.values()):
+                report.start(f"{scenario_name}, {built_as[resolved].name}")
+                flights = flights_of[resolved] = fly_policy(built_as[resolved], scenario, seeds)
+                lost = sum(flight.termination_reason not in ("", "time_limit")
+                           for flight in flights)
+                report.done(f"{len(flights)} flights" + (f", {lost} lost" if lost else ""))
+                if first_flights is not None and resolved in listed:
+                    first_flights.setdefault(scenario_name, []).append(flights[0])
+                metrics[resolved] = [flight_metrics(f) for f in flights]
+                distinct[resolved] = distinct_flights(flights)
+            if per_seed is not None:
+                for spec in flown:
+                    per_seed[scenario_name, spec] = metrics[resolved_of[spec]]
+            compared_with = None if baseline is None else resolved_of[baseline]
+            reference = None if compared_with is None else metrics[compared_with]
+            for spec in listed:
+                policy = built_as[spec]
+                row = _row(scenario_name, policy.name, seeds, metrics[spec], compared_with,
+                           reference)
+                row["distinct_flights"] = distinct[spec]
+                row["gains"] = _gains_used(policy, scenario)
+                row.update(policy_spec=spec,
+                           policy_fingerprint=policy.fingerprint or "",
+                           benchmark=scenario.loop.benchmark,
+                           vehicle=scenario.vehicle.name,
+                           sensing=getattr(scenario.loop.sensing, "name", None) or "ideal",
+                           env_entry_point=("quad_dob_composition:ResidualVectorEnv"
+                                            if policy.base is not None else
+                                            "quad_dob_env.envs:QuadrotorVectorEnv"),
+                           env_id=(policy.config or {}).get("env_id", ""))
+                if delay_grid is not None:
+                    path = delay_path or benchmark_delay_path(scenario.loop.benchmark)
+                    margin = delay_margin(policy, scenario_name, seeds, scenario_options,
+                                          check_grid(delay_grid), flown=flights_of[spec],
+                                          path=path)
+                    row.update(delay_margin=margin.margin, delay_margin_path=path,
+                               delay_margin_text=f"{margin.describe()} ({path})")
+                rows.append(row)
+        return rows
+
+
+def warm_up(policies: Sequence[Policy], scenario: Scenario, seeds: list[int]) -> None:
+    """Fly each of ``policies`` for a few steps of ``scenario`` on ``seeds``: a first run
+    compiles the kernels here, under a notice that says so (``progress.compiling_notice``).
+    The seeds are the evaluation's own: numba compiles a kernel again for arrays of another
+    layout, and a batch of one vehicle lays some out differently from a batch of many."""
+    short = warm_up_copy(scenario)
+    with compiling_notice():
+        for policy in policies:
+            fly_policy(policy, short, seeds)
 
 
 def _gains_used(policy, scenario) -> str:
@@ -423,9 +450,15 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
         scenarios = [name for names in SUITES[benchmark].values() for name in names]
     seed_list = parse_seeds(seeds)
     first_flights: dict = {}
+    policy_list = list(dict.fromkeys(policies))
+    # the first line at once: what will be flown, before the policies load
+    print(f"evaluate: {len(policy_list)} policies x {len(scenarios)} scenarios x "
+          f"{len(seed_list)} seeds, Benchmark {benchmark}"
+          + ("" if as_json else f", into {out}"), file=sys.stderr, flush=True)
     rows = evaluate(policies, scenarios, seed_list, first_flights, baseline or None,
                     trust_pickle=trust_pickle, scenario_options=scenario_options,
-                    delay_grid=delay_grid, delay_path=delay_path, env_id=env_id)
+                    delay_grid=delay_grid, delay_path=delay_path, env_id=env_id,
+                    progress=True)
     if as_json:
         print(json.dumps(rows, indent=1))
         return 0
@@ -454,19 +487,16 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
         merged = merged_leaderboard(list(zip(labels, [document, *(d for _, d in others)],
                                              strict=True)))
         (out / "leaderboard-merged.md").write_text(merged)
-        print(merged)
+    print(evaluation_table(rows, compared_with))
     if suite:
-        board = leaderboard(rows, benchmark)
-        (out / "leaderboard.md").write_text(board + "\n")
-        print(board)
-        for paragraph in advice:
-            print("\n" + textwrap.fill(paragraph, 92, break_on_hyphens=False))
-        print(f"\nwrote {out / 'leaderboard.md'}, evaluation.md, evaluation.json, "
-              "evaluation.csv, evaluation.png, report.html")
-        return 0
-    print(markdown_table(rows))
+        (out / "leaderboard.md").write_text(leaderboard(rows, benchmark) + "\n")
+        print("\n" + ranking_lines(rows))
     for paragraph in advice:
-        print("\n" + textwrap.fill(paragraph, 92, break_on_hyphens=False))
-    print(f"\nwrote {out / 'evaluation.md'}, evaluation.json, evaluation.csv, evaluation.png, "
-          "report.html")
+        print("\n" + "\n".join(textwrap.fill(line, WIDTH, break_on_hyphens=False)
+                                for line in paragraph.splitlines()))
+    written = [*(["leaderboard.md"] if suite else []),
+               *(["leaderboard-merged.md"] if others else []), "evaluation.md",
+               "evaluation.json", "evaluation.csv", "evaluation.png", "report.html"]
+    print("\n" + textwrap.fill(f"wrote into {out}/: " + ", ".join(written), WIDTH,
+                               break_on_hyphens=False, break_long_words=False))
     return 0

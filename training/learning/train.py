@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 import torch
 import yaml
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
 from quad_dob_env.memory import check_memory
@@ -52,6 +53,7 @@ from quad_dob_training.learning.baseline_evaluation import (
     normalization,
     plot_training_curve,
 )
+from quad_dob_training.progress import CompileNotice, Progress
 from quad_dob_training.rl.checkpoints import (
     ResumableCheckpoint,
     latest_checkpoint,
@@ -274,8 +276,53 @@ def train(config: dict[str, Any] | None, out: Path, resume: Path | None = None,
         return _learn(start, out, progress_bar)
 
 
+# timesteps between two lines of an off-policy run's log (an on-policy run's line is
+# one rollout, n_steps x n_envs timesteps)
+OFF_POLICY_LINE_EVERY = 10_000
+
+
+class TrainingProgress(BaseCallback):
+    """Off a terminal (where SB3's bar draws nothing until the end), a line per rollout of
+    an on-policy algorithm (``OFF_POLICY_LINE_EVERY`` timesteps of another), with the mean
+    episode reward so far, and ``progress.Progress``'s heartbeat while an evaluation runs
+    long. On both, the notice while the first steps compile the kernels."""
+
+    def __init__(self, remaining: int, lines: bool) -> None:
+        super().__init__()
+        self.remaining, self.lines = remaining, lines
+        self.notice = CompileNotice()
+        self.report: Progress | None = None
+        self._next = 0
+        self._every = 1
+
+    def _on_training_start(self) -> None:
+        rollout = getattr(self.model, "n_steps", None)
+        self._every = (rollout * self.model.n_envs if rollout is not None
+                       else OFF_POLICY_LINE_EVERY)
+        self._next = self.num_timesteps + self._every
+        self.report = Progress("train", -(-max(self.remaining, 0) // self._every),
+                               quiet=not self.lines, bar=False)
+        self.notice.start()
+
+    def _on_step(self) -> bool:
+        self.notice.stop()  # the first step has run: whatever it compiled is compiled
+        if self.report is not None and self.num_timesteps >= self._next:
+            self._next += self._every
+            rewards = [episode["r"] for episode in self.model.ep_info_buffer or ()]
+            self.report.done(f"{self.num_timesteps:,} timesteps" + (
+                f", ep_rew_mean {np.mean(rewards):.1f}" if rewards else ""))
+        return True
+
+    def _on_training_end(self) -> None:
+        self.notice.stop()
+        if self.report is not None:
+            self.report.close()
+
+
 def _learn(start: RunStart, out: Path, progress_bar: bool) -> Any:
     config, model = start.config, start.model
+    print(f"train: {config['algo']} on {config.get('env_id')}, {max(start.remaining, 0):,} "
+          f"timesteps into {out}", flush=True)
     write_text_atomically(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))
     evaluation = BaselineEvaluation(config, out, config["evaluate_every"])
     checkpoint = ResumableCheckpoint(out / "checkpoints", config["checkpoint_every"], config,
@@ -286,8 +333,11 @@ def _learn(start: RunStart, out: Path, progress_bar: bool) -> Any:
     began = time.perf_counter()
     steps_before = model.num_timesteps
     # off a terminal the bar draws nothing until the end: the evaluations print lines instead
-    model.learn(max(start.remaining, 0), callback=[checkpoint, evaluation],
-                progress_bar=progress_bar and sys.stdout.isatty(),
+    bar = progress_bar and sys.stdout.isatty()
+    model.learn(max(start.remaining, 0),
+                callback=[checkpoint, evaluation,
+                          TrainingProgress(start.remaining, lines=not bar)],
+                progress_bar=bar,
                 reset_num_timesteps=start.count_from_zero,
                 tb_log_name=config["algo"])
     wall = time.perf_counter() - began

@@ -64,6 +64,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -101,6 +102,8 @@ from quad_dob_env.scenario import Scenario
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy
+from quad_dob_training.progress import Progress, compiling_notice
+from quad_dob_training.rollout import warm_up_copy
 
 TUNING_SEEDS = tuple(range(100, 110))
 # Per benchmark. v2 cannot fly the wrench-actuated paper helix: its perturbed start is
@@ -381,9 +384,35 @@ def score(build: Callable[[], Controller], benchmark: str = "v1", vehicle: str =
     return result
 
 
+def warm_up(controller: str, benchmark: str, vehicle: str, seeds: tuple[int, ...]) -> None:
+    """Fly ``controller`` for a few steps of each tuning scenario, as ``score`` flies them
+    (past v1 also under the margin): a first run compiles the kernels here, under a notice
+    that says so (``progress.compiling_notice``)."""
+    flown_under = [{}, *([MARGINS[benchmark]] if benchmark in MARGINS else [])]
+    with compiling_notice():
+        for options in flown_under:
+            for name in TUNING_SCENARIOS[benchmark]:
+                scenario = warm_up_copy(tuning_scenario(name, benchmark, vehicle, **options))
+                fly_policy(Policy("warm-up", make_controller(controller, vehicle, benchmark)),
+                           scenario, list(seeds))
+
+
+def planned_trials(controller: str, benchmark: str = "v1", passes: int = PASSES) -> int:
+    """The trials ``coordinate_descent`` flies unless the margin stops some early or asks
+    for more passes: the starts, then each searched gain at each factor its cap allows."""
+    caps = bandwidth_caps(controller)
+    gains = start_gains(controller, benchmark)
+    starts = (len(TIME_SCALES) if benchmark in SLOWED_SEARCH and controller in SEARCHED
+              and controller not in SHARES_GAINS_OF.get(benchmark, {}) else 1)
+    per_pass = sum(1 for name in searched_gains(controller, benchmark) for factor in FACTORS
+                   if name not in caps or _rounded(gains[name] * factor) <= caps[name])
+    return starts + passes * per_pass
+
+
 def coordinate_descent(controller: str, log: Callable[[str], None] = print,
                        benchmark: str = "v1", vehicle: str = "paper",
-                       seeds: tuple[int, ...] = TUNING_SEEDS, passes: int = PASSES
+                       seeds: tuple[int, ...] = TUNING_SEEDS, passes: int = PASSES,
+                       report: Progress | None = None
                        ) -> tuple[dict[str, float], list[dict]]:
     """The gains of ``controller`` ("pid", "smc", "geometric-integral", "indi", "l1", a user
     controller that declares ``tunable_gains``, or "geometric-ndob:tuned": in v1 the
@@ -392,7 +421,7 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
     flights it loses under ``MARGIN`` (none: admissible), then on the objective, so the
     descent walks to admissible sets before it sharpens them; in v3 (``SLOWED_SEARCH``)
     the lost flights' shortfall comes between the two, and the descent starts from the
-    best slowed start (``slowed``)."""
+    best slowed start (``slowed``). Each trial is told to ``report`` as it is flown."""
     searched = searched_gains(controller, benchmark)
     caps = bandwidth_caps(controller)
     gains = start_gains(controller, benchmark, vehicle)
@@ -405,6 +434,16 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
         objective); None when it is already worse under the margin than ``to_beat`` (its
         objective is then not flown)."""
         build = lambda: make_controller(controller, vehicle, benchmark, **candidate)  # noqa: E731
+        if report is not None:
+            report.start(f"{controller}, trial {len(history) + 1}")
+        try:
+            return fly_trial(build, candidate, to_beat)
+        finally:
+            if report is not None:
+                report.done()
+
+    def fly_trial(build: Callable[[], Controller], candidate: dict[str, float],
+               to_beat: tuple[int, float, float] | None) -> tuple[int, float, float] | None:
         under_margin = (0, 0.0)
         record: dict[str, Any] = {"gains": dict(candidate)}
         if benchmark != "v1":
@@ -484,7 +523,8 @@ def _wins(value: tuple[int, float, float], best: tuple[int, float, float], is_ra
 
 
 def observer_grid(log: Callable[[str], None] = print,
-                  seeds: tuple[int, ...] = TUNING_SEEDS) -> tuple[dict[str, float], list[dict]]:
+                  seeds: tuple[int, ...] = TUNING_SEEDS, report: Progress | None = None
+                  ) -> tuple[dict[str, float], list[dict]]:
     """v1's NDOB decay rates (translational, rotational) at the paper's gains: the slowest
     within ``TIE_TOLERANCE`` of the best objective. (In v2 the rates are two more
     coordinates of the geometric controller's descent.)"""
@@ -492,10 +532,14 @@ def observer_grid(log: Callable[[str], None] = print,
     history = []
     for translational, rotational in itertools.product(*OBSERVER_RATES.values()):
         rates = {"translational_rate": translational, "rotational_rate": rotational}
+        if report is not None:
+            report.start(f"rates {translational:g} / {rotational:g} /s")
         scores = score(lambda rates=rates: GeometricController(
             observer=NonlinearDisturbanceObserver.from_rates(vehicle=vehicle, **rates)),
             seeds=seeds)
         history.append({"gains": rates, **scores})
+        if report is not None:
+            report.done()
         log(f"  rates {translational:g} / {rotational:g} /s: {scores['objective']:.4f} m")
     best = min(trial["objective"] for trial in history)
     near = [trial for trial in history if trial["objective"] <= best * (1 + TIE_TOLERANCE)]
@@ -541,12 +585,21 @@ def main(controllers: list[str] | None, out: Path, benchmark: str = TOOLS_BENCHM
                               "seeds": list(seeds), "passes": passes,
                               "scenarios": list(TUNING_SCENARIOS[benchmark]),
                               "margin": MARGINS.get(benchmark)}
+    print(f"tune: {', '.join(chosen)} for Benchmark {benchmark} on the {vehicle} vehicle, "
+          f"{len(seeds)} tuning seeds, into {out}", file=sys.stderr, flush=True)
+    warm_up(chosen[0], benchmark, vehicle, seeds)
     for controller in chosen:
-        if controller == "geometric-ndob":
-            winner, history = observer_grid(seeds=seeds)
-        else:
-            winner, history = coordinate_descent(controller, benchmark=benchmark,
-                                                 vehicle=vehicle, seeds=seeds, passes=passes)
+        trials = (len(list(itertools.product(*OBSERVER_RATES.values())))
+                  if controller == "geometric-ndob" else
+                  planned_trials(controller, benchmark, passes))
+        with Progress(f"tune {controller}", trials) as progress:
+            if controller == "geometric-ndob":
+                winner, history = observer_grid(progress.print, seeds=seeds, report=progress)
+            else:
+                winner, history = coordinate_descent(controller, progress.print,
+                                                     benchmark=benchmark, vehicle=vehicle,
+                                                     seeds=seeds, passes=passes,
+                                                     report=progress)
         report[controller] = {"winner": winner, "history": history}
         print(f"{controller}: {json.dumps(winner)}")
         (out / "tuning.json").write_text(json.dumps(report, indent=1) + "\n")

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,8 @@ import numpy as np
 
 from quad_dob_env.benchmark import TOOLS_BENCHMARK
 from quad_dob_training.evaluation.statistics import z_share
+from quad_dob_training.progress import Progress, compiling_notice
+from quad_dob_training.rollout import warm_up_copy
 from quad_dob_training.wind_tunnel.flight_logs import NEURAL_FLY_METHODS, FlightLog
 from quad_dob_training.wind_tunnel.flight_statistics import (
     HARMONICS,
@@ -113,39 +116,57 @@ def rms_after_skip(log: FlightLog) -> float:
 
 def simulate(benchmark: str, seeds: list[int], duration: float | None,
              laps_wanted: set[int], scenario_options: dict[str, Any] | None = None,
-             pairs: dict[str, str] | None = None) -> list[dict[str, Any]]:
+             pairs: dict[str, str] | None = None, progress: bool = False
+             ) -> list[dict[str, Any]]:
     """Every counterpart in every wind: per seed the RMS after 5 s and the statistics over
     its own whole laps, and over each count in ``laps_wanted`` (a real log's).
     ``scenario_options`` go to every figure-8 (``make_scenario``'s keywords: the ablation
     switches a factor with them); ``pairs`` (simulated -> real) the counterparts flown,
-    the benchmark's by default (``published.counterparts``)."""
+    the benchmark's by default (``published.counterparts``). ``progress``: report on
+    standard error, a notice while a first run compiles, then each wind and controller."""
     pairs = counterparts(benchmark) if pairs is None else pairs
     from quad_dob_env.scenarios import make_scenario
 
     options: dict[str, Any] = {"benchmark": benchmark, **(scenario_options or {})}
     if duration is not None:
         options["duration"] = duration
+    if progress:
+        with compiling_notice():
+            first = warm_up_copy(make_scenario(f"figure8-wind-{WIND_SPEEDS[0]}", **options))
+            for spec in pairs:
+                fly_logs(spec, first, seeds)
     results = []
-    for wind in WIND_SPEEDS:
-        scenario = make_scenario(f"figure8-wind-{wind}", **options)
-        for spec in pairs:
-            logs = fly_logs(spec, scenario, seeds, float(wind))
-            scored = [log for log in logs if not log.crashed]
-            own = lap_window(scored[0]).laps if scored else 0
-            by_laps = {str(laps): [flat(log_statistics(log, laps)) for log in scored]
-                       for laps in {own, *laps_wanted} if 1 <= laps <= own}
-            results.append({
-                "policy": spec, "counterpart": pairs[spec], "wind_speed": float(wind),
-                "scenario": scenario.name, "duration": scenario.duration,
-                "flights": len(logs), "crashes": int(sum(log.crashed for log in logs)),
-                # the seeds of the per-seed statistics: a lost flight is not scored on laps
-                "scored_seeds": [seed for seed, log in zip(seeds, logs, strict=True)
-                                 if not log.crashed],
-                "thrust_source": logs[0].thrust_source, "laps": own,
-                "rms_after_skip": [rms_after_skip(log) for log in logs],
-                "per_seed": by_laps, "mean": {laps: pooled(values)
-                                              for laps, values in by_laps.items()}})
+    with Progress("wind-tunnel", len(WIND_SPEEDS) * len(pairs),
+                  quiet=not progress) as report:
+        for wind in WIND_SPEEDS:
+            scenario = make_scenario(f"figure8-wind-{wind}", **options)
+            for spec in pairs:
+                report.start(f"{spec}, {wind} m/s")
+                results.append(_flown_in_tunnel(spec, scenario, seeds, float(wind), pairs,
+                                                 laps_wanted))
+                report.done(f"{results[-1]['crashes']} of {len(seeds)} lost")
     return results
+
+
+def _flown_in_tunnel(spec: str, scenario: Any, seeds: list[int], wind: float,
+                     pairs: dict[str, str], laps_wanted: set[int]) -> dict[str, Any]:
+    """``simulate``'s record of one controller in one wind."""
+    logs = fly_logs(spec, scenario, seeds, wind)
+    scored = [log for log in logs if not log.crashed]
+    own = lap_window(scored[0]).laps if scored else 0
+    by_laps = {str(laps): [flat(log_statistics(log, laps)) for log in scored]
+               for laps in {own, *laps_wanted} if 1 <= laps <= own}
+    return {
+        "policy": spec, "counterpart": pairs[spec], "wind_speed": wind,
+        "scenario": scenario.name, "duration": scenario.duration,
+        "flights": len(logs), "crashes": int(sum(log.crashed for log in logs)),
+        # the seeds of the per-seed statistics: a lost flight is not scored on laps
+        "scored_seeds": [seed for seed, log in zip(seeds, logs, strict=True)
+                         if not log.crashed],
+        "thrust_source": logs[0].thrust_source, "laps": own,
+        "rms_after_skip": [rms_after_skip(log) for log in logs],
+        "per_seed": by_laps, "mean": {laps: pooled(values)
+                                      for laps, values in by_laps.items()}}
 
 
 def compare_real(real: list[FlightLog], simulated: list[dict[str, Any]]
@@ -283,9 +304,12 @@ def main(benchmark: str | None, seeds: str, neural_fly: Path | None, out: Path,
                          f"figure-8's first one ends at 4π = {MIN_DURATION:.2f} s; give "
                          f"{MIN_DURATION:.2f} s or more")
     seed_list = parse_seeds(seeds, round((duration or 30.0) / 0.01))
+    pairs = counterparts(benchmark, chosen)
+    print(f"wind-tunnel: {len(pairs)} controllers x {len(WIND_SPEEDS)} winds x "
+          f"{len(seed_list)} seeds, Benchmark {benchmark}, into {out}", file=sys.stderr,
+          flush=True)
     simulated = simulate(benchmark, seed_list, duration,
-                         {lap_window(log).laps for log in real},
-                         pairs=counterparts(benchmark, chosen))
+                         {lap_window(log).laps for log in real}, pairs=pairs, progress=True)
     real_rows = compare_real(real, simulated)
     print(report(benchmark, simulated, real_rows))
     out.mkdir(parents=True, exist_ok=True)
