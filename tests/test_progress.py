@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import io
 import re
+import threading
 import time
 
 import pytest
 
 from quad_dob_training import cli, progress
 from quad_dob_training.evaluation import console
-from quad_dob_training.progress import CompileNotice, Progress, compiling_notice, steps
+from quad_dob_training.progress import Progress, compiling_notice, steps
 
 
 class Terminal(io.StringIO):
@@ -60,7 +61,7 @@ def test_quiet_reports_nothing_and_steps_reports_each_item():
 
 
 def test_the_compile_notice_speaks_only_when_the_warm_up_is_slow(monkeypatch):
-    monkeypatch.setattr(CompileNotice, "_said", __import__("threading").Event())
+    monkeypatch.setattr(progress, "COMPILE_MESSAGE_SAID", threading.Event())
     quick = io.StringIO()
     with compiling_notice(quick, after=0.5):
         pass

@@ -180,12 +180,14 @@ def steps(items: Iterable[Item], label: str, *, name: Callable[[Item], str] = st
             progress.done()
 
 
+# set once COMPILE_MESSAGE is printed: a process says it once, however many warm-ups it has
+COMPILE_MESSAGE_SAID = threading.Event()
+
+
 class CompileNotice:
     """A timer on a warm-up that compiles the kernels on a first run: once ``start()`` is
     ``after`` seconds behind, longer than a load from the cache takes, it prints
     ``COMPILE_MESSAGE`` (once a process), and ``stop()`` then prints how long it took."""
-
-    _said = threading.Event()  # the message, once per process
 
     def __init__(self, stream: TextIO | None = None,
                  after: float = COMPILE_NOTICE_AFTER) -> None:
@@ -203,8 +205,8 @@ class CompileNotice:
 
     def _notice(self) -> None:
         self.fired = True
-        if not CompileNotice._said.is_set():
-            CompileNotice._said.set()
+        if not COMPILE_MESSAGE_SAID.is_set():
+            COMPILE_MESSAGE_SAID.set()
             self.stream.write(COMPILE_MESSAGE + "\n")
         else:
             self.stream.write("compiling more of the simulator's kernels\n")

@@ -10,11 +10,12 @@
   names a benchmark's strongest is chosen from.
 - ``results``: ``evaluation.json`` (its schema in ``schemas/``) and leaderboards merged from
   many users' files.
-- ``report``: the self-contained interactive ``report.html``.
+- ``console``: the tables a command prints, fitted to 120 columns with ``±`` named.
+- ``report``: the interactive ``report.html``.
 - ``plots``: the PNG figures (the paper's, the evaluation's bars).
 
 May import ``quad_dob_env``, ``quad_dob_composition``, ``quad_dob_baselines`` and the parts
-of ``quad_dob_training`` below it (``rollout``, ``rl``, ``policies``; the order:
+of ``quad_dob_training`` below it (``progress``, ``rollout``, ``rl``, ``policies``; the order:
 docs/design.md, "Layers"); not ``learning``, ``tuning``, ``wind_tunnel``, ``paper`` or ``cli``,
 which score with it.
 """
