@@ -445,7 +445,12 @@ def test_the_command_scores_both_sides_over_the_same_laps(tmp_path, capsys):
     # v2: the loop whose gains were tuned, so that no flight is lost and both sides score
     assert cli.main(["wind-tunnel", "--benchmark", "v2", "--seeds", "9001-9001",
                      "--neural-fly", str(logs), "--out", str(out)]) == 0
-    printed = capsys.readouterr().out
+    console = capsys.readouterr().out
+    # the console's tables fit 120 columns; wind_tunnel.md holds every column
+    assert max(len(line) for line in console.splitlines()) <= 120
+    assert "Sim against real over the same whole laps, 3 runs:" in console
+    assert "geometric-ndob:tuned (sim)" in console and "NF-C (real)" in console
+    printed = (out / "wind_tunnel.md").read_text()
     assert "| indi 35wind | real |" in printed and "| indi 35wind | sim: indi |" in printed
     assert "| NF nowind | real |" in printed and "NF nowind | sim" not in printed
     assert "(2 runs without a counterpart: real only)" in printed

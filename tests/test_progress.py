@@ -165,11 +165,14 @@ def test_wind_tunnel_says_what_it_flies_then_each_wind_and_controller(
                                                                         "policy": spec})
     monkeypatch.setattr(tool, "fly_logs", lambda *args, **kwargs: [])
     monkeypatch.setattr(tool, "report", lambda *args: "the tables")
+    monkeypatch.setattr(tool, "console_report", lambda *args: "the tables that fit")
     monkeypatch.setattr(tool, "compare_real", lambda *args: [])
     monkeypatch.setattr(plots, "write_figures", lambda *args: [])
     monkeypatch.setattr(tool, "_plain", lambda document: {})
     assert cli.main(["wind-tunnel", "--seeds", "2", "--out", str(tmp_path)]) == 0
-    err = capsys.readouterr().err
+    out, err = capsys.readouterr()
+    assert out.startswith("the tables that fit")
+    assert (tmp_path / "wind_tunnel.md").read_text() == "the tables\n"
     pairs = tool.counterparts("v4")
     units = len(pairs) * len(tool.WIND_SPEEDS)
     assert err.splitlines()[0].startswith(f"wind-tunnel: {len(pairs)} controllers x "

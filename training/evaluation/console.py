@@ -20,23 +20,23 @@ HEADER_WIDTH = 14
 
 
 def text_table(header: Sequence[str], rows: Sequence[Sequence[str]],
-               width: int = WIDTH) -> str:
+               width: int = WIDTH, names: int = 2) -> str:
     """Columns two spaces apart, each as wide as its widest cell; a header wider than its
-    column wraps onto more lines at its spaces. The text columns (the first two) are cut
-    with "…" past ``NAME_WIDTH``, and further only while the table is wider than
-    ``width``."""
+    column wraps onto more lines at its spaces. The first ``names`` columns hold text,
+    left-aligned and cut with "…" past ``NAME_WIDTH``, and further only while the table
+    is wider than ``width``; the others, numbers, right-aligned."""
     cells = [list(row) for row in rows]
     count = len(header)
-    names = list(range(min(2, count)))
+    text_columns = list(range(min(names, count)))
     widths, floors = [], []
     for k in range(count):
         widest = max((len(row[k]) for row in cells), default=0)
         longest_word = max(len(word) for word in header[k].split())
         floor = max(widest, longest_word)
-        if k in names:
+        if k in text_columns:
             floor = min(floor, NAME_WIDTH)
         floors.append(floor)
-        widths.append(floor if k in names else max(floor, min(len(header[k]), HEADER_WIDTH)))
+        widths.append(floor if k in text_columns else max(floor, min(len(header[k]), HEADER_WIDTH)))
 
     def total() -> int:
         return sum(widths) + 2 * (count - 1)
@@ -46,8 +46,8 @@ def text_table(header: Sequence[str], rows: Sequence[Sequence[str]],
         roomy = max(range(count), key=lambda k: widths[k] - floors[k])
         if widths[roomy] > floors[roomy]:
             widths[roomy] -= 1
-        elif any(widths[k] > 12 for k in names):
-            widths[max(names, key=lambda k: widths[k])] -= 1
+        elif any(widths[k] > 12 for k in text_columns):
+            widths[max(text_columns, key=lambda k: widths[k])] -= 1
         else:
             break
 
@@ -55,7 +55,7 @@ def text_table(header: Sequence[str], rows: Sequence[Sequence[str]],
         return text if len(text) <= size else text[:size - 1] + "…"
 
     def line(row: Sequence[str]) -> str:
-        return "  ".join(cut(text, size).ljust(size) if k in names else text.rjust(size)
+        return "  ".join(cut(text, size).ljust(size) if k in text_columns else text.rjust(size)
                          for k, (text, size) in enumerate(zip(row, widths, strict=True))
                          ).rstrip()
 

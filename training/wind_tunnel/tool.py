@@ -17,6 +17,8 @@ from __future__ import annotations
 import json
 import math
 import sys
+import textwrap
+from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -24,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from quad_dob_env.benchmark import TOOLS_BENCHMARK
+from quad_dob_training.evaluation.console import WIDTH, text_table
 from quad_dob_training.evaluation.statistics import z_share
 from quad_dob_training.progress import Progress, compiling_notice
 from quad_dob_training.rollout import warm_up_copy
@@ -130,11 +133,13 @@ def simulate(benchmark: str, seeds: list[int], duration: float | None,
     options: dict[str, Any] = {"benchmark": benchmark, **(scenario_options or {})}
     if duration is not None:
         options["duration"] = duration
-    if progress:
+    if progress:  # a first run compiles here, under a notice that says so
+        from quad_dob_training.policies import fly_policy, make_policy
+
+        first = warm_up_copy(make_scenario(f"figure8-wind-{WIND_SPEEDS[0]}", **options))
         with compiling_notice():
-            first = warm_up_copy(make_scenario(f"figure8-wind-{WIND_SPEEDS[0]}", **options))
             for spec in pairs:
-                fly_logs(spec, first, seeds)
+                fly_policy(make_policy(spec, benchmark=benchmark), first, seeds)
     results = []
     with Progress("wind-tunnel", len(WIND_SPEEDS) * len(pairs),
                   quiet=not progress) as report:
@@ -215,11 +220,11 @@ COLUMNS = (("laps", "laps", 1.0, ".0f"), ("rms.x", "RMS x", 1e3, ".1f"),
            ("limit_share", "at a limit [%]", 100.0, ".1f"))
 
 
-def _cells(values: dict[str, float] | None) -> list[str]:
+def _cells(values: dict[str, float] | None, columns: Sequence[tuple] = COLUMNS) -> list[str]:
     if not values:
-        return ["—"] * len(COLUMNS)
+        return ["—"] * len(columns)
     return ["—" if values.get(key) is None or not np.isfinite(values[key])
-            else format(values[key] * scale, spec) for key, _, scale, spec in COLUMNS]
+            else format(values[key] * scale, spec) for key, _, scale, spec in columns]
 
 
 def statistics_table(first: list[str], rows: list[tuple[list[str], dict | None]]) -> str:
@@ -257,6 +262,50 @@ def report(benchmark: str, simulated: list[dict], real_rows: list[dict]) -> str:
         parts += ["", "Sim against real: a verdict where Benchmark v4's targets give a "
                       "tolerance, else the ratio", verdict_table(real_rows)]
     return "\n".join(parts)
+
+
+# what the console shows of COLUMNS (wind_tunnel.md holds them all)
+CONSOLE_COLUMNS = ("laps", "rms.x", "rms.y", "rms.z", "rms_total", "z_share",
+                   "command_over_hover_peak", "limit_share")
+
+
+def console_report(benchmark: str, simulated: list[dict], real_rows: list[dict]) -> str:
+    """What ``quad-dob wind-tunnel`` prints, in 120 columns: the published comparison, the
+    simulated laps' main statistics, and how many of the real runs' statistics each verdict
+    holds; ``report`` (wind_tunnel.md) has every column."""
+    rows = [{"scenario": run["scenario"], "policy": run["policy"],
+             "rms_position_settled_mean": float(np.mean(run["rms_after_skip"])),
+             "crashes": run["crashes"]} for run in simulated]
+    shown = [column for column in COLUMNS if column[0] in CONSOLE_COLUMNS]
+    labels = {"rms.x": "RMS x [mm]", "rms.y": "y [mm]", "rms.z": "z [mm]",
+              "command_over_hover_peak": "command / hover peak"}
+    table = text_table(
+        ["controller", "wind [m/s]", "lost", *(labels.get(key, label)
+                                               for key, label, _, _ in shown)],
+        [[run["policy"], f"{run['wind_speed']:g}", str(run["crashes"]),
+          *_cells(run["mean"].get(str(run["laps"])), shown)] for run in simulated], names=1)
+    parts = [f"Benchmark {benchmark}: RMS position error after {SKIP:g} s [mm], the "
+             "simulated mean over the seeds beside Neural-Fly's published figure",
+             text_table(*_markdown_rows(side_by_side(
+                 rows, "controller", {run["policy"]: run["counterpart"]
+                                      for run in simulated})), names=1), "",
+             "Simulated, over the whole laps after 5 s (mean over the seeds)", table]
+    if real_rows:
+        verdicts = [str(entry["verdict"]).split(":")[0] for row in real_rows
+                    for entry in row["verdicts"] or ()]
+        parts += ["", textwrap.fill(
+            f"Sim against real over the same whole laps, {len(real_rows)} runs: "
+            f"{verdicts.count('within')} statistics within their target's tolerance, "
+            f"{verdicts.count('outside')} outside (each statistic and the ratios where no "
+            "target applies: wind_tunnel.md)", WIDTH)]
+    return "\n".join(parts)
+
+
+def _markdown_rows(markdown: str) -> tuple[list[str], list[list[str]]]:
+    """A markdown table's header and rows, as cells."""
+    lines = [[cell.strip() for cell in line.strip().strip("|").split("|")]
+             for line in markdown.splitlines() if line.startswith("|")]
+    return lines[0], [line for line in lines[2:]]
 
 
 def verdict_table(real_rows: list[dict]) -> str:
@@ -311,13 +360,16 @@ def main(benchmark: str | None, seeds: str, neural_fly: Path | None, out: Path,
     simulated = simulate(benchmark, seed_list, duration,
                          {lap_window(log).laps for log in real}, pairs=pairs, progress=True)
     real_rows = compare_real(real, simulated)
-    print(report(benchmark, simulated, real_rows))
+    print(console_report(benchmark, simulated, real_rows))
     out.mkdir(parents=True, exist_ok=True)
+    (out / "wind_tunnel.md").write_text(report(benchmark, simulated, real_rows) + "\n")
     document = {"benchmark": benchmark, "seeds": seed_list, "skip": SKIP,
                 "published_rms": {label: dict(zip(WIND_SPEEDS, values, strict=True))
                                   for label, values in NEURAL_FLY_RMS.items()},
                 "simulated": simulated, "real": real_rows}
     (out / "wind_tunnel.json").write_text(json.dumps(_plain(document), indent=1) + "\n")
     figures = write_figures(simulated, real_rows, out)
-    print(f"\nwrote {out / 'wind_tunnel.json'}, " + ", ".join(path.name for path in figures))
+    print("\n" + textwrap.fill(f"wrote into {out}/: wind_tunnel.md (every column), "
+                               "wind_tunnel.json, " + ", ".join(path.name for path in figures),
+                               WIDTH, break_long_words=False, break_on_hyphens=False))
     return 0
