@@ -105,6 +105,7 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 def _leaderboard(args: argparse.Namespace) -> int:
     from quad_dob_training.evaluation.results import (
+        console_leaderboard,
         merged_leaderboard,
         read_document,
         source_labels,
@@ -113,10 +114,10 @@ def _leaderboard(args: argparse.Namespace) -> int:
     if args.out is not None:
         writable_file(args.out, "--out")
     documents = [read_document(path) for path in args.files]
-    board = merged_leaderboard(list(zip(source_labels(args.files), documents, strict=True)))
-    print(board, end="")
+    sources = list(zip(source_labels(args.files), documents, strict=True))
+    print(console_leaderboard(sources))
     if args.out is not None:
-        args.out.write_text(board)
+        args.out.write_text(merged_leaderboard(sources))
     return 0
 
 

@@ -29,10 +29,13 @@ from __future__ import annotations
 import datetime
 import json
 import platform
+import textwrap
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from quad_dob_training.evaluation.console import WIDTH, text_table
 
 SCHEMA_NAME = "quad_dob_env.evaluation"
 SCHEMA_VERSION = 1
@@ -150,41 +153,77 @@ def configuration(row: dict) -> tuple[str, str, str, str]:
             json.dumps(options, sort_keys=True))
 
 
+LEADERBOARD_HEADER = ("policy", "source", "seeds", "RMS ‖e_x‖ [m] (95 % CI)", "crashed",
+                      "project", "machine", "across sources")
+# what the console shows of them (the Markdown file holds all)
+CONSOLE_COLUMNS = (0, 1, 2, 3, 4, 7)
+
+
+def _leaderboard_sections(sources: list[tuple[str, dict[str, Any]]]
+                          ) -> list[tuple[str, str, list[list[str]]]]:
+    """(benchmark, configuration heading, cells per row in ``LEADERBOARD_HEADER``'s
+    order), each configuration's rows sorted by RMS position error."""
+    entries = [(_cell(label), document, row) for label, document in sources
+               for row in document["rows"]]
+    sections = []
+    for benchmark in sorted({row["provenance"]["benchmark"] for _, _, row in entries}):
+        mine = [e for e in entries if e[2]["provenance"]["benchmark"] == benchmark]
+        for flown in dict.fromkeys(configuration(e[2]) for e in mine):
+            scenario, vehicle, sensing, options = flown
+            heading = (f"{_cell(scenario)}: vehicle {_cell(vehicle)}, sensing "
+                       f"{_cell(sensing)}" + ("" if options == "{}" else
+                                              f", options {_cell(options)}"))
+            rows = sorted((e for e in mine if configuration(e[2]) == flown),
+                          key=lambda e: e[2]["rms_position_settled_mean"])
+            cells = [[_cell(policy_label(row)), label, _seed_text(row["provenance"]["seeds"]),
+                      f"{row['rms_position_settled_mean']:.4f} "
+                      f"[{row['rms_position_settled_low']:.4f}, "
+                      f"{row['rms_position_settled_high']:.4f}]",
+                      f"{row['crashes']}/{row['flights']}",
+                      _cell(document["project"]["version"]),
+                      f"{_cell(document['machine']['processor'])}, numpy "
+                      f"{_cell(document['machine']['numpy'])}",
+                      _agreement(row, label, document, rows)]
+                     for label, document, row in rows]
+            sections.append((benchmark, heading, cells))
+    return sections
+
+
 def merged_leaderboard(sources: list[tuple[str, dict[str, Any]]]) -> str:
     """Markdown: per benchmark version, per configuration (``configuration``), every
     (source, row) sorted by RMS position error, with the seeds, the crash rate, the project
     version and the machine; the same policy flown on the same configuration, seeds and
     project version in two sources is marked with whether they agree (95 % intervals
     overlap)."""
-    entries = [(_cell(label), document, row) for label, document in sources
-               for row in document["rows"]]
     lines: list[str] = []
-    for benchmark in sorted({row["provenance"]["benchmark"] for _, _, row in entries}):
-        mine = [e for e in entries if e[2]["provenance"]["benchmark"] == benchmark]
-        lines += [f"## Benchmark {benchmark}", ""]
-        for flown in dict.fromkeys(configuration(e[2]) for e in mine):
-            scenario, vehicle, sensing, options = flown
-            lines += [f"### {_cell(scenario)}: vehicle {_cell(vehicle)}, sensing "
-                      f"{_cell(sensing)}" + ("" if options == "{}" else
-                                             f", options {_cell(options)}"), "",
-                      "| policy | source | seeds | RMS ‖e_x‖ [m] (95 % CI) | crashed | "
-                      "project | machine | across sources |", "|" + "---|" * 8]
-            rows = sorted((e for e in mine if configuration(e[2]) == flown),
-                          key=lambda e: e[2]["rms_position_settled_mean"])
-            for label, document, row in rows:
-                seeds = row["provenance"]["seeds"]
-                lines.append(
-                    f"| {_cell(policy_label(row))} | {label} | {_seed_text(seeds)} | "
-                    f"{row['rms_position_settled_mean']:.4f} "
-                    f"[{row['rms_position_settled_low']:.4f}, "
-                    f"{row['rms_position_settled_high']:.4f}] | "
-                    f"{row['crashes']}/{row['flights']} | "
-                    f"{_cell(document['project']['version'])} | "
-                    f"{_cell(document['machine']['processor'])}, numpy "
-                    f"{_cell(document['machine']['numpy'])} | "
-                    f"{_agreement(row, label, document, rows)} |")
-            lines.append("")
+    shown = None
+    for benchmark, heading, cells in _leaderboard_sections(sources):
+        if benchmark != shown:
+            lines += [f"## Benchmark {benchmark}", ""]
+            shown = benchmark
+        lines += [f"### {heading}", "", "| " + " | ".join(LEADERBOARD_HEADER) + " |",
+                  "|" + "---|" * len(LEADERBOARD_HEADER)]
+        lines += ["| " + " | ".join(row) + " |" for row in cells]
+        lines.append("")
     return "\n".join(lines).rstrip() + "\n"
+
+
+def console_leaderboard(sources: list[tuple[str, dict[str, Any]]]) -> str:
+    """``merged_leaderboard`` in 120 columns for a terminal: without the project version and
+    the machine, which the Markdown file holds."""
+    parts = []
+    shown = None
+    for benchmark, heading, cells in _leaderboard_sections(sources):
+        if benchmark != shown:
+            parts += [f"Benchmark {benchmark}", ""]
+            shown = benchmark
+        parts += [heading, text_table([LEADERBOARD_HEADER[k] for k in CONSOLE_COLUMNS],
+                                      [[row[k] for k in CONSOLE_COLUMNS] for row in cells]),
+                  ""]
+    parts.append(textwrap.fill("95 % CI: the bootstrap interval of the mean over the seeds. "
+                               "The project version and machine of each row: the Markdown "
+                               "(--out FILE).", WIDTH))
+    return "\n".join(parts)
 
 
 def _cell(text: object) -> str:
