@@ -414,8 +414,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="seconds each simulated flight lasts, 12.57 or more (default: "
                         "the logs' span with --neural-fly, else the scenario's 30)")
     tunnel.add_argument("--out", type=Path, default=Path("results/wind-tunnel"),
-                        help="folder for wind_tunnel.json and the PNG figures "
-                        "(default: %(default)s)")
+                        help="folder for wind_tunnel.md (every table in full), "
+                        "wind_tunnel.json and the PNG figures (default: %(default)s)")
     tunnel.add_argument("--counterparts", default=None, choices=list(COUNTERPART_SETS),
                         help="the controllers flown for Neural-Fly's: stand-ins (v1-v3's: "
                         "geometric-ndob:tuned, geometric-integral, indi, l1) or neural-fly "
