@@ -79,6 +79,7 @@ def run_paper(scenarios: list[str] = list(PAPER_SCENARIOS),  # noqa: B006
             with Progress("paper figures", len(built), stream=progress) as report:
                 draw_figures([[flights[c][i] for c in compared] for i in range(len(built))],
                              out_dir / "figures", report)
+            print(f"paper: writing {out_dir / 'report.html'}", file=sys.stderr, flush=True)
             write_report(out_dir / "report.html", "quad-dob paper",
                          rows, [("scenario", "scenario"), ("controller", "controller"),
                                 *COLUMNS, ("ended", "ended")],

@@ -467,6 +467,8 @@ def main(policies: list[str], scenarios: list[str], seeds: str, out: Path,
               if any(spec.startswith("residual") and resolve_spec(spec, benchmark)
                      in (f"residual:{name}" for name in SHIPPED_TRAINED_IN) for spec in policies)
               else [])
+    print(f"evaluate: writing the tables, the bar plot and report.html into {out}",
+          file=sys.stderr, flush=True)
     write_tables(rows, out, advice)
     document = results_document(rows, seed_list, scenario_options or {}, command)
     write_document(document, out / "evaluation.json")
