@@ -284,7 +284,7 @@ def test_the_evaluation_says_which_shipped_policy_to_use_and_why(tmp_path, monke
     monkeypatch.setattr(evaluation, "write_tables", lambda *_: None)
     monkeypatch.setattr(evaluation, "results_document", lambda *_: {})
     monkeypatch.setattr(evaluation, "write_document", lambda *_: None)
-    monkeypatch.setattr(evaluation, "markdown_table", lambda _: "")
+    monkeypatch.setattr(evaluation, "evaluation_table", lambda *_: "")  # the console's
     for policies, said in ((["pid", "residual"], True), (["pid", "indi"], False)):
         evaluation.main(policies, ["hover-calm"], "1", tmp_path, False, baseline="pid",
                         scenario_options={"benchmark": "v2"})
@@ -323,7 +323,7 @@ def test_a_models_baseline_row_and_the_header_name_the_resolved_spec(tmp_path, m
     monkeypatch.setattr(evaluation, "write_tables", lambda *_: None)
     monkeypatch.setattr(evaluation, "results_document", lambda *_: {})
     monkeypatch.setattr(evaluation, "write_document", lambda *_: None)
-    monkeypatch.setattr(evaluation, "markdown_table", lambda _: "")
+    monkeypatch.setattr(evaluation, "evaluation_table", lambda *_: "")  # the console's
     evaluation.main(["ppo:runs/x/model.zip"], ["hover-calm"], "1", tmp_path, False,
                     baseline="ppo:runs/x/model.zip", scenario_options={"benchmark": "v3"})
     report = (tmp_path / "report.html").read_text()

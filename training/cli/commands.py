@@ -286,7 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
                           help="a count N (seeds 0..N-1) or a range A-B (default: %(default)s)")
     evaluate.add_argument("--out", type=Path, default=Path("results/evaluation"),
                           help="folder for evaluation.md, .json, .csv, .png and report.html "
-                          "(default: %(default)s)")
+                          "(plotly.min.js beside it) (default: %(default)s)")
     evaluate.add_argument("--baseline", default=None,
                           help="controller every policy is compared with, paired over the "
                           "seeds with 95 %% bootstrap intervals; '' for none (default: the "
