@@ -3,7 +3,8 @@
 What lives here (the order they import each other in: docs/design.md, "Layers"):
 shared utilities (``validation``: input checks, ``memory``: the budget large requests are
 sized against, ``linalg``: small matrix functions, ``rng``: counter-based per-vehicle noise,
-``threads``: compiled loops split across cores, ``observation_entry``: the record naming an
+``threads``: compiled loops split across cores, ``compile_notice``: what a first run
+prints while the kernels compile, ``observation_entry``: the record naming an
 observation entry, ``filters``: the autopilot's digital filters); ``params`` (vehicle
 presets; their sources in ``vehicle_sources``),
 ``so3`` (rotations), ``dynamics`` (state, actuation, integrator, rotors), ``disturbances``

@@ -10,6 +10,7 @@ import time
 
 import pytest
 
+from quad_dob_env import compile_notice
 from quad_dob_training import cli, progress
 from quad_dob_training.evaluation import console
 from quad_dob_training.progress import Progress, compiling_notice, steps
@@ -61,7 +62,7 @@ def test_quiet_reports_nothing_and_steps_reports_each_item():
 
 
 def test_the_compile_notice_speaks_only_when_the_warm_up_is_slow(monkeypatch):
-    monkeypatch.setattr(progress, "COMPILE_MESSAGE_SAID", threading.Event())
+    monkeypatch.setattr(compile_notice, "COMPILE_MESSAGE_SAID", threading.Event())
     quick = io.StringIO()
     with compiling_notice(quick, after=0.5):
         pass
@@ -72,6 +73,32 @@ def test_the_compile_notice_speaks_only_when_the_warm_up_is_slow(monkeypatch):
     lines = slow.getvalue().splitlines()
     assert lines[0] == progress.COMPILE_MESSAGE and "1-2 min" in lines[0]
     assert re.fullmatch(r"compiled in \d+ s", lines[1])
+
+
+def test_the_simulators_entry_points_announce_a_slow_first_call_once(monkeypatch, capsys):
+    """rl-zoo3 or a user's script drives the envs directly: the first reset and step in a
+    process give the notice themselves, and a call inside another gives none of its own."""
+    monkeypatch.setattr(compile_notice, "COMPILE_MESSAGE_SAID", threading.Event())
+    monkeypatch.setattr(compile_notice, "_CALLED", set())
+    monkeypatch.setattr(compile_notice, "COMPILE_NOTICE_AFTER", 0.05)
+
+    class Simulator:
+        @compile_notice.announces_compiling
+        def inner(self) -> str:
+            time.sleep(0.2)
+            return "inner"
+
+        @compile_notice.announces_compiling
+        def step(self) -> str:
+            return self.inner()
+
+    simulator = Simulator()
+    assert simulator.step() == "inner"
+    first = capsys.readouterr().err.splitlines()
+    assert first[0] == compile_notice.COMPILE_MESSAGE
+    assert re.fullmatch(r"compiled in \d+ s", first[1]) and len(first) == 2
+    assert simulator.step() == "inner" and simulator.inner() == "inner"
+    assert capsys.readouterr().err == ""  # later calls: no timer, no line
 
 
 def test_a_console_table_fits_120_columns_and_keeps_the_names_whole():

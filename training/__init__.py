@@ -7,7 +7,7 @@ folder and top module imports only those below it (the order: docs/design.md, "L
 Top modules:
 
 - ``progress``: what long work reports as it goes (a bar on a terminal, a line per unit in
-  a log) and the notice while a first run compiles; imports nothing of the project.
+  a log), with the simulator's notice while a first run compiles.
 - ``rollout``: ``Flight`` records and ``fly`` (controllers through scenarios, batched: a
   whole flight; "fly" means nothing else in the project).
 - ``policies``: policies by name (controllers, ``py:`` ones, ``ALGO:PATH``, ``residual``)

@@ -12,8 +12,9 @@ JSON with ``--json``) stays clean on standard output.
   for longer than that.
 
 A first run compiles the simulator's kernels (numba, cached on disk after), which takes
-minutes on a small machine. ``compiling_notice`` wraps a warm-up and says so, with the time
-to expect, once the warm-up has taken longer than loading the cached kernels does.
+minutes on a small machine. ``compiling_notice`` (``quad_dob_env.compile_notice``) wraps a
+command's warm-up and says so, with the time to expect, once the warm-up has taken longer
+than loading the cached kernels does.
 """
 
 from __future__ import annotations
@@ -23,29 +24,21 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
-from contextlib import contextmanager
 from typing import TextIO, TypeVar
+
+# the notice lives with the simulator, whose first calls give it too (rl-zoo3, a script)
+from quad_dob_env.compile_notice import (  # noqa: F401 (the commands' one import)
+    COMPILE_MESSAGE,
+    CompileNotice,
+    compiling_notice,
+    duration_text,
+)
 
 Item = TypeVar("Item")
 
 # seconds without a printed line after which a log is told what is still running: the
 # silence a person reading a log should have to sit through at most (issue target: 10 s)
 HEARTBEAT = 8.0
-# seconds a warm-up may take before it is called a compilation: loading every cached
-# kernel takes 0.6 s on the project's 2-core machine, compiling them 52 s
-COMPILE_NOTICE_AFTER = 2.0
-# what a first run's compilation costs, as measured on the project's 2-core machine with an
-# empty numba cache: the vehicle's step 52 s, the composed loop 52 s more, a residual
-# policy's 8 s (docs/troubleshooting.md, "The first run is slow")
-COMPILE_MESSAGE = ("compiling the simulator's kernels (numba): a first run after installing "
-                   "takes 1-2 min on 2 cores; later runs load them from the cache in about "
-                   "a second")
-
-
-def _minutes(seconds: float) -> str:
-    return f"{seconds:.0f} s" if seconds < 100 else f"{seconds / 60:.1f} min"
-
-
 class Progress:
     """Units of work done out of ``total``, reported as they finish.
 
@@ -104,7 +97,7 @@ class Progress:
                 elapsed = self.clock() - self.began
                 what = ": ".join(part for part in (self.unit, note) if part)
                 self._line(f"{self.label} {self.count}/{self.total}"
-                           + (f" {what}" if what else "") + f" ({_minutes(elapsed)} in)")
+                           + (f" {what}" if what else "") + f" ({duration_text(elapsed)} in)")
 
     def print(self, text: str, file: TextIO | None = None) -> None:
         """``text`` as a line of the command's own output (``file``, default standard
@@ -148,9 +141,9 @@ class Progress:
         filled = width * self.count // self.total if self.total else width
         left = ""
         if 0 < self.count < self.total:
-            left = f", ~{_minutes(elapsed / self.count * (self.total - self.count))} left"
+            left = f", ~{duration_text(elapsed / self.count * (self.total - self.count))} left"
         text = (f"{self.label} [{'#' * filled}{'.' * (width - filled)}] "
-                f"{self.count}/{self.total} {self.unit} ({_minutes(elapsed)}{left})")
+                f"{self.count}/{self.total} {self.unit} ({duration_text(elapsed)}{left})")
         columns = shutil.get_terminal_size((100, 20)).columns
         self.stream.write("\r" + text[:columns - 1].ljust(columns - 1))
         self.stream.flush()
@@ -164,7 +157,7 @@ class Progress:
                 elif self.clock() - self.last_line >= self.heartbeat:
                     running = f"still on {self.unit}" if self.unit else "working"
                     self._line(f"{self.label} {self.count}/{self.total}: {running} "
-                               f"({_minutes(self.clock() - self.began)} in)")
+                               f"({duration_text(self.clock() - self.began)} in)")
 
 
 def steps(items: Iterable[Item], label: str, *, name: Callable[[Item], str] = str,
@@ -178,58 +171,3 @@ def steps(items: Iterable[Item], label: str, *, name: Callable[[Item], str] = st
             progress.start(name(item))
             yield item
             progress.done()
-
-
-# set once COMPILE_MESSAGE is printed: a process says it once, however many warm-ups it has
-COMPILE_MESSAGE_SAID = threading.Event()
-
-
-class CompileNotice:
-    """A timer on a warm-up that compiles the kernels on a first run: once ``start()`` is
-    ``after`` seconds behind, longer than a load from the cache takes, it prints
-    ``COMPILE_MESSAGE`` (once a process), and ``stop()`` then prints how long it took."""
-
-    def __init__(self, stream: TextIO | None = None,
-                 after: float = COMPILE_NOTICE_AFTER) -> None:
-        self.stream = sys.stderr if stream is None else stream
-        self.after = after
-        self.fired = False
-        self.began = 0.0
-        self._timer: threading.Timer | None = None
-
-    def start(self) -> None:
-        self.began = time.monotonic()
-        self._timer = threading.Timer(self.after, self._notice)
-        self._timer.daemon = True
-        self._timer.start()
-
-    def _notice(self) -> None:
-        self.fired = True
-        if not COMPILE_MESSAGE_SAID.is_set():
-            COMPILE_MESSAGE_SAID.set()
-            self.stream.write(COMPILE_MESSAGE + "\n")
-        else:
-            self.stream.write("compiling more of the simulator's kernels\n")
-        self.stream.flush()
-
-    def stop(self) -> None:
-        if self._timer is None:
-            return
-        self._timer.cancel()
-        self._timer.join()  # a notice already being written ends before the summary
-        self._timer = None
-        if self.fired:
-            self.stream.write(f"compiled in {_minutes(time.monotonic() - self.began)}\n")
-            self.stream.flush()
-
-
-@contextmanager
-def compiling_notice(stream: TextIO | None = None,
-                     after: float = COMPILE_NOTICE_AFTER) -> Iterator[None]:
-    """``CompileNotice`` around the work inside."""
-    notice = CompileNotice(stream, after)
-    notice.start()
-    try:
-        yield
-    finally:
-        notice.stop()

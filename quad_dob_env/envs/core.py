@@ -17,6 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from quad_dob_env.compile_notice import announces_compiling
 from quad_dob_env.disturbances import split_by_randomness
 from quad_dob_env.dynamics import (
     NO_GROUND_EFFECT,
@@ -220,6 +221,7 @@ class QuadrotorBatch:
         return self._reference_now
 
     # --- reset ----------------------------------------------------------------------------
+    @announces_compiling
     def reset(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         """Start a new episode for vehicles ``indices``, drawing from ``rngs`` (one each)."""
         indices = np.asarray(indices, dtype=np.intp)
@@ -283,6 +285,7 @@ class QuadrotorBatch:
         self._measure(indices, reset=True)
 
     # --- step -----------------------------------------------------------------------------
+    @announces_compiling
     def step(self, actions: NDArray[np.float64]) -> None:
         """Fly one control step from finite normalised actions (N, 4); values beyond
         [-1, 1] are clipped (the reward's effort term sees the clipped values).

@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_env.benchmark import scenario_options_for
+from quad_dob_env.compile_notice import announces_compiling
 from quad_dob_env.envs.actions import INVALID_ACTION_MODES, screen_actions
 from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
 from quad_dob_env.envs.limits import SpecWithEpisodeLength
@@ -244,6 +245,7 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
         self.base_controller: dict[str, Any] | None = None
         self._reset_done = False
 
+    @announces_compiling
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:
         super().reset(seed=seed)
@@ -254,6 +256,7 @@ class QuadrotorEnv(SpecWithEpisodeLength, gym.Env):
         self._after_step(reset=True)
         return self.core.obs[0].copy(), info
 
+    @announces_compiling
     def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict]:
         if not self._reset_done:  # as Gymnasium's OrderEnforcing does for gym.make'd envs
             raise gym.error.ResetNeeded("call reset() before step()")

@@ -13,6 +13,7 @@ from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
 from quad_dob_env.benchmark import scenario_options_for
+from quad_dob_env.compile_notice import announces_compiling
 from quad_dob_env.envs.actions import INVALID_ACTION_MODES, screen_actions
 from quad_dob_env.envs.core import EpisodeLimits, QuadrotorBatch, RewardWeights
 from quad_dob_env.envs.limits import SpecWithEpisodeLength
@@ -143,6 +144,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
             -OBSERVATION_BOUND, OBSERVATION_BOUND, (size,), np.float32)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
+    @announces_compiling
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict]:
         n = self.num_envs
@@ -229,6 +231,7 @@ class QuadrotorVectorEnv(SpecWithEpisodeLength, VectorEnv):
             return None
         return tuple(self._renderer.frame(i) for i in self._rendered)
 
+    @announces_compiling
     def step_vehicles(self, actions: Any) -> None:
         """One step of every vehicle; NaN/inf rows raise or, with
         ``invalid_actions="terminate"``, fly at hover (a residual face: at the base command,
