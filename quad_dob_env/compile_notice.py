@@ -28,6 +28,9 @@ COMPILE_NOTICE_AFTER = 2.0
 COMPILE_MESSAGE = ("compiling the simulator's kernels (numba): a first run after installing "
                    "takes 1-2 min on 2 cores; later runs load them from the cache in about "
                    "a second")
+# seconds between two "still compiling" lines: no log is silent for longer (the issue's
+# target is 10 s)
+COMPILE_HEARTBEAT = 8.0
 # set once COMPILE_MESSAGE is printed: a process says it once, however many notices it has
 COMPILE_MESSAGE_SAID = threading.Event()
 # a notice is timing a call: calls inside it (a vector env's step runs the core's) add none
@@ -46,15 +49,17 @@ def duration_text(seconds: float) -> str:
 class CompileNotice:
     """A timer on work that compiles the kernels on a first run: once ``start()`` is
     ``after`` seconds behind (None: ``COMPILE_NOTICE_AFTER``), it prints
-    ``COMPILE_MESSAGE`` (once a process; a later notice says that more kernels compile),
-    and ``stop()`` then prints how long it took."""
+    ``COMPILE_MESSAGE`` (once a process; a later notice says that more kernels compile)
+    and then a line every ``COMPILE_HEARTBEAT`` seconds, and ``stop()`` prints how long it
+    took."""
 
     def __init__(self, stream: TextIO | None = None, after: float | None = None) -> None:
         self.stream = stream
         self.after = COMPILE_NOTICE_AFTER if after is None else after
         self.fired = False
         self.began = 0.0
-        self._timer: threading.Timer | None = None
+        self._timer: threading.Thread | None = None
+        self._done = threading.Event()
 
     def _write(self, text: str) -> None:
         stream = sys.stderr if self.stream is None else self.stream
@@ -63,23 +68,30 @@ class CompileNotice:
 
     def start(self) -> None:
         self.began = time.monotonic()
-        self._timer = threading.Timer(self.after, self._notice)
-        self._timer.daemon = True
+        self._done = threading.Event()
+        self._timer = threading.Thread(target=self._watch, daemon=True,
+                                       name="compile-notice")
         self._timer.start()
 
-    def _notice(self) -> None:
+    def _watch(self) -> None:
+        # the notice once the work is slow, then a line every COMPILE_HEARTBEAT seconds:
+        # a log hears that the compiler still runs
+        if self._done.wait(self.after):
+            return
         self.fired = True
         if not COMPILE_MESSAGE_SAID.is_set():
             COMPILE_MESSAGE_SAID.set()
             self._write(COMPILE_MESSAGE)
         else:
             self._write("compiling more of the simulator's kernels")
+        while not self._done.wait(COMPILE_HEARTBEAT):
+            self._write(f"still compiling ({duration_text(time.monotonic() - self.began)})")
 
     def stop(self) -> None:
         if self._timer is None:
             return
-        self._timer.cancel()
-        self._timer.join()  # a notice already being written ends before the summary
+        self._done.set()
+        self._timer.join()  # a line already being written ends before the summary
         self._timer = None
         if self.fired:
             self._write(f"compiled in {duration_text(time.monotonic() - self.began)}")

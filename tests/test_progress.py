@@ -99,6 +99,14 @@ def test_the_simulators_entry_points_announce_a_slow_first_call_once(monkeypatch
     assert re.fullmatch(r"compiled in \d+ s", first[1]) and len(first) == 2
     assert simulator.step() == "inner" and simulator.inner() == "inner"
     assert capsys.readouterr().err == ""  # later calls: no timer, no line
+    # a long compilation is not silent: a line every COMPILE_HEARTBEAT seconds
+    monkeypatch.setattr(compile_notice, "COMPILE_HEARTBEAT", 0.05)
+    with compile_notice.compiling_notice():
+        time.sleep(0.3)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0] == "compiling more of the simulator's kernels"
+    assert any(re.fullmatch(r"still compiling \(\d+ s\)", line) for line in lines)
+    assert lines[-1].startswith("compiled in")
 
 
 def test_a_console_table_fits_120_columns_and_keeps_the_names_whole():
