@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -40,6 +41,8 @@ from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.evaluation.evaluate import parse_seeds
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy, make_policy
+from quad_dob_training.progress import Progress, compiling_notice
+from quad_dob_training.rollout import warm_up_copy
 from quad_dob_training.tuning.tune import MARGINS  # each benchmark's: what its gains keep
 
 
@@ -110,8 +113,18 @@ def main() -> None:
     seeds = parse_seeds(args.seeds)
     margin = MARGINS[args.benchmark]
     specs = args.policies.split(",")
-    # bare residual: the shipped policy of the benchmark flown
-    policies = [make_policy(spec, benchmark=args.benchmark) for spec in specs]
+    dithers = len([a for a in args.dither.split(",") if a]) * args.dither_draws
+    print(f"landings_under_margin: {len(specs)} policies"
+          + (f" and {dithers} dithers" if dithers else "")
+          + f" x {len(args.scenarios.split(','))} scenarios x {len(seeds)} seeds, Benchmark "
+          f"{args.benchmark}'s margin", file=sys.stderr, flush=True)
+    policies = []
+    with Progress("loading policies", len(specs)) as progress:
+        for spec in specs:
+            progress.start(spec)
+            # bare residual: the shipped policy of the benchmark flown
+            policies.append(make_policy(spec, benchmark=args.benchmark))
+            progress.done()
     amplitudes = [float(a) for a in args.dither.split(",") if a]
     if amplitudes:
         residuals = [p for p in policies if p.model is not None and p.base is not None]
@@ -128,33 +141,46 @@ def main() -> None:
             raise ValueError(f"--dither-time must be >= 0 s, got {args.dither_time}")
         policies += [Dither.of(residuals[-1], a, args.dither_time, draw) for a in amplitudes
                      for draw in range(args.dither_draws)]
+    names = args.scenarios.split(",")
+    # a first run compiles the kernels here, under a notice (a dither flies the env of a
+    # residual named, which compiles it)
+    with compiling_notice():
+        first = warm_up_copy(make_scenario(names[0], benchmark=args.benchmark, **margin))
+        for policy in policies:
+            if not isinstance(policy, Dither):
+                fly_policy(policy, first, seeds)
     report: dict[str, dict[str, dict]] = {}
     print("| scenario | policy | flights | landings | lost | lost that the base kept | "
           "lost seeds (L: a landing) |")
     print("|---|---|---|---|---|---|---|")
-    for name in args.scenarios.split(","):
-        scenario = make_scenario(name, benchmark=args.benchmark, **margin)
-        kind_of = dict(zip(seeds, reference_kinds(scenario, seeds), strict=True))
-        landings = sum(kind == "landing" for kind in kind_of.values())
-        report[name] = {}
-        base_lost: set[int] = set()
-        for index, policy in enumerate(policies):
-            spec = specs[index] if index < len(specs) else policy.name
-            if isinstance(policy, Dither):
-                policy.restart(scenario.dt)
-            flights = fly_policy(policy, scenario, seeds)
-            lost = [seed for seed, f in zip(seeds, flights, strict=True)
-                    if flight_metrics(f)["crashed"]]
-            if index == 0:
-                base_lost = set(lost)
-            beyond = [seed for seed in lost if seed not in base_lost]
-            report[name][spec] = {"flights": len(flights), "landings": landings, "lost": lost,
-                                  "lost_landings": [s for s in lost if kind_of[s] == "landing"],
-                                  "lost_base_kept": beyond}
-            shown = ", ".join(f"{seed}{' L' if kind_of[seed] == 'landing' else ''}"
-                              for seed in lost)
-            print(f"| {name} | {spec} | {len(flights)} | {landings} | {len(lost)} | "
-                  f"{len(beyond) if index else '-'} | {shown or '-'} |", flush=True)
+    with Progress("landings_under_margin", len(names) * len(policies)) as progress:
+        for name in names:
+            scenario = make_scenario(name, benchmark=args.benchmark, **margin)
+            kind_of = dict(zip(seeds, reference_kinds(scenario, seeds), strict=True))
+            landings = sum(kind == "landing" for kind in kind_of.values())
+            report[name] = {}
+            base_lost: set[int] = set()
+            for index, policy in enumerate(policies):
+                spec = specs[index] if index < len(specs) else policy.name
+                progress.start(f"{name}, {spec}")
+                if isinstance(policy, Dither):
+                    policy.restart(scenario.dt)
+                flights = fly_policy(policy, scenario, seeds)
+                lost = [seed for seed, f in zip(seeds, flights, strict=True)
+                        if flight_metrics(f)["crashed"]]
+                progress.done(f"{len(lost)} of {len(flights)} lost")
+                if index == 0:
+                    base_lost = set(lost)
+                beyond = [seed for seed in lost if seed not in base_lost]
+                report[name][spec] = {
+                    "flights": len(flights), "landings": landings, "lost": lost,
+                    "lost_landings": [s for s in lost if kind_of[s] == "landing"],
+                    "lost_base_kept": beyond}
+                shown = ", ".join(f"{seed}{' L' if kind_of[seed] == 'landing' else ''}"
+                                  for seed in lost)
+                progress.print(f"| {name} | {spec} | {len(flights)} | {landings} | "
+                               f"{len(lost)} | {len(beyond) if index else '-'} | "
+                               f"{shown or '-'} |")
     if args.json:
         with open(args.json, "w") as file:
             json.dump({"seeds": seeds, "benchmark": args.benchmark, "scenario_options": margin,

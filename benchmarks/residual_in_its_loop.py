@@ -20,6 +20,7 @@ residual learns.
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,8 +30,10 @@ import yaml
 from quad_dob_composition import make_vector_env
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.evaluation.evaluate import parse_seeds
-from quad_dob_training.policies import make_policy
+from quad_dob_training.policies import Policy, make_policy
+from quad_dob_training.progress import Progress, compiling_notice
 from quad_dob_training.rl.vec_env import env_options
+from quad_dob_training.rollout import warm_up_copy
 
 
 @dataclass
@@ -45,15 +48,25 @@ class Flown:
     vertical: float
 
 
-def fly(run: Path, scenario: str, seeds: list[int], with_policy: bool) -> Flown:
-    """The run's policy (or its base alone) on ``scenario`` in the run's own loop."""
-    policy = make_policy(f"residual:{run}", trust_pickle=True)
+def load(run: Path) -> Policy:
+    """The run's policy."""
+    return make_policy(f"residual:{run}", trust_pickle=True)
+
+
+def fly(run: Path, scenario: str, seeds: list[int], with_policy: bool,
+        warm_up: bool = False, policy: Policy | None = None) -> Flown:
+    """The run's policy (or its base alone) on ``scenario`` in the run's own loop.
+    ``warm_up``: the scenario's first few steps only (``rollout.warm_up_copy``), which
+    compile its kernels on a first run. ``policy``: the run's, already loaded."""
+    policy = load(run) if policy is None else policy
     config = yaml.safe_load((run / "config.yaml").read_text())
     options = env_options(config["env_kwargs"])
     options.pop("scenario", None)
     benchmark = options.pop("benchmark", None)
     flown = make_scenario(scenario, benchmark=benchmark,
                           **(options.pop("scenario_options", None) or {}))
+    if warm_up:
+        flown = warm_up_copy(flown)
     env = make_vector_env(len(seeds), flown, **options)
     observations, _ = env.reset(seed=seeds)
     errors, actions_flown, authorities = [], [], []
@@ -82,16 +95,33 @@ def main() -> None:
     parser.add_argument("--seeds", default="10000-10007")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
+    print(f"residual_in_its_loop: {len(args.runs)} runs x (policy, base) on {args.scenario} "
+          f"x {len(seeds)} seeds", file=sys.stderr, flush=True)
+    loaded = {}
+    with Progress("loading runs", len(args.runs)) as progress:  # a load takes seconds
+        for run in args.runs:
+            progress.start(str(run))
+            loaded[run] = load(run)
+            progress.done()
+    # a first run compiles each loop's kernels here, under a notice
+    with compiling_notice():
+        for run in args.runs:
+            fly(run, args.scenario, seeds, True, warm_up=True, policy=loaded[run])
     print(f"{args.scenario}, seeds {args.seeds}, after the first fifth of each flight: RMS "
           "position [mm]; the policy's action components at their bounds, steps flown below "
           "0.9 of its authority, mean Δa_z [m/s²]")
-    for run in args.runs:
-        policy = fly(run, args.scenario, seeds, True)
-        base = fly(run, args.scenario, seeds, False)
-        print(f"{run.name:24} policy {1000 * policy.rms:6.1f}  base {1000 * base.rms:6.1f}  "
-              f"({100 * (policy.rms / base.rms - 1):+.0f} %)  at bounds "
-              f"{100 * policy.saturated:.0f} %  faded {100 * policy.faded:.1f} %  "
-              f"Δa_z {policy.vertical:+.2f}", flush=True)
+    with Progress("residual_in_its_loop", 2 * len(args.runs)) as progress:
+        for run in args.runs:
+            progress.start(f"{run.name}, policy")
+            policy = fly(run, args.scenario, seeds, True, policy=loaded[run])
+            progress.done(f"{1000 * policy.rms:.1f} mm")
+            progress.start(f"{run.name}, base")
+            base = fly(run, args.scenario, seeds, False, policy=loaded[run])
+            progress.done(f"{1000 * base.rms:.1f} mm")
+            progress.print(f"{run.name:24} policy {1000 * policy.rms:6.1f}  base "
+                           f"{1000 * base.rms:6.1f}  ({100 * (policy.rms / base.rms - 1):+.0f} "
+                           f"%)  at bounds {100 * policy.saturated:.0f} %  faded "
+                           f"{100 * policy.faded:.1f} %  Δa_z {policy.vertical:+.2f}")
 
 
 if __name__ == "__main__":

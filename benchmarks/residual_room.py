@@ -23,6 +23,7 @@ docs/residual-v4.md uses it for the room Benchmark v4's loop leaves a residual.
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Callable
 
 import numpy as np
@@ -33,6 +34,8 @@ from quad_dob_env.envs import observation_table
 from quad_dob_env.residual import ResidualOptions
 from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.evaluation.evaluate import parse_seeds
+from quad_dob_training.progress import Progress, compiling_notice
+from quad_dob_training.rollout import warm_up_copy
 
 ACCELERATION_SCALE = 3.0  # [m/s²] per unit action: no correction here comes near it
 # the observer's force estimate among the acceleration residual's observation entries
@@ -71,9 +74,13 @@ def specific_force(gain: float, cutoff: float, dt: float) -> Correction:
 
 
 def settled_rms(scenario: str, base: str, seeds: list[int],
-                correction: Correction | None) -> float:
-    """RMS ‖x - x_d‖ [m] after the first fifth of each flight, all seeds together."""
+                correction: Correction | None, warm_up: bool = False) -> float:
+    """RMS ‖x - x_d‖ [m] after the first fifth of each flight, all seeds together.
+    ``warm_up``: the scenario's first few steps only (``rollout.warm_up_copy``), which
+    compile its kernels on a first run."""
     flown = make_scenario(scenario, benchmark="v4")
+    if warm_up:
+        flown = warm_up_copy(flown)
     env = make_vector_env(len(seeds), flown, base_controller=base,
                           residual_mode="acceleration", acceleration_scale=ACCELERATION_SCALE)
     observations, _ = env.reset(seed=seeds)
@@ -110,19 +117,33 @@ def main() -> None:
     if any(len(pair) != 2 for pair in pairs):
         parser.error(f"--specific-force takes gain/cutoff pairs such as 1/10, got "
                      f"{args.specific_force!r}")
+    scenarios = args.scenarios.split(",")
+    leads = _floats(args.lead)
+    print(f"residual_room: {len(scenarios)} scenarios x (the base, {len(leads)} leads, "
+          f"{len(pairs)} specific-force filters) x {len(seeds)} seeds", file=sys.stderr,
+          flush=True)
+    # a first run compiles the kernels here, under a notice
+    with compiling_notice():
+        for scenario in scenarios:
+            settled_rms(scenario, args.base, seeds, None, warm_up=True)
     print(f"{args.base} in Benchmark v4, seeds {args.seeds}: RMS position after the first "
           "fifth [mm], and against the base")
-    for scenario in args.scenarios.split(","):
-        dt = make_scenario(scenario, benchmark="v4").dt
-        base = 1000 * settled_rms(scenario, args.base, seeds, None)
-        print(f"{scenario:22} base {base:6.1f}", flush=True)
-        corrections = ([(f"lead {tau:g} s", lead(tau)) for tau in _floats(args.lead)]
-                       + [(f"specific-force k {k:g} fc {fc:g} Hz", specific_force(k, fc, dt))
-                          for k, fc in pairs])
-        for label, correction in corrections:
-            rms = 1000 * settled_rms(scenario, args.base, seeds, correction)
-            print(f"{'':22} {label:30} {rms:6.1f}  ({100 * (rms / base - 1):+.0f} %)",
-                  flush=True)
+    with Progress("residual_room", len(scenarios) * (1 + len(leads) + len(pairs))) as progress:
+        for scenario in scenarios:
+            dt = make_scenario(scenario, benchmark="v4").dt
+            progress.start(f"{scenario}, base")
+            base = 1000 * settled_rms(scenario, args.base, seeds, None)
+            progress.done(f"{base:.1f} mm")
+            progress.print(f"{scenario:22} base {base:6.1f}")
+            corrections = ([(f"lead {tau:g} s", lead(tau)) for tau in leads]
+                           + [(f"specific-force k {k:g} fc {fc:g} Hz",
+                               specific_force(k, fc, dt)) for k, fc in pairs])
+            for label, correction in corrections:
+                progress.start(f"{scenario}, {label}")
+                rms = 1000 * settled_rms(scenario, args.base, seeds, correction)
+                progress.done(f"{rms:.1f} mm")
+                progress.print(f"{'':22} {label:30} {rms:6.1f}  "
+                               f"({100 * (rms / base - 1):+.0f} %)")
 
 
 if __name__ == "__main__":

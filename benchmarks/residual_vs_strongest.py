@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 import numpy as np
 
@@ -33,6 +34,7 @@ from quad_dob_training.evaluation.evaluate import SUITES, evaluate, parse_seeds
 from quad_dob_training.evaluation.ranking import Standing, candidates, strongest
 from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
 from quad_dob_training.policies import make_policy
+from quad_dob_training.progress import Progress
 from quad_dob_training.rl.vec_env import loop_scenario_options
 
 
@@ -73,8 +75,16 @@ def main() -> None:
                       if args.suite else args.scenarios.split(","))
     residual_specs = args.residuals.split(",")
     before = [args.before] if args.before else []
-    base_spec = make_policy(residual_specs[0], benchmark=str(options["benchmark"]),
-                            trust_pickle=args.trust_pickle).base
+    classical = candidates(str(options["benchmark"]))
+    specs = list(dict.fromkeys((*classical, *residual_specs, *before)))
+    print(f"residual_vs_strongest: {len(specs)} policies ({len(classical)} classical, "
+          f"{len(residual_specs) + len(before)} learned) x {len(scenario_names)} scenarios x "
+          f"{len(seeds)} seeds, Benchmark {options['benchmark']}", file=sys.stderr, flush=True)
+    with Progress("loading", 1) as progress:  # a residual's load takes seconds
+        progress.start(f"{residual_specs[0]}, to find its base")
+        base_spec = make_policy(residual_specs[0], benchmark=str(options["benchmark"]),
+                                trust_pickle=args.trust_pickle).base
+        progress.done(base_spec)
     report = {}
     print("| scenario | strongest baseline (mm) | residual (mm), mean of seeds [min, max] | "
           "change vs strongest, mean [min, max] | seeds whose paired 95 % CI < 0 "
@@ -85,12 +95,13 @@ def main() -> None:
           + (f" {args.before}: mm, vs strongest, lost, command rate |" if before else ""))
     print("|---|---|---|---|---|---|---|---|" + ("---|" if before else ""))
     per_seed: dict[tuple[str, str], list[dict]] = {}
-    classical = candidates(str(options["benchmark"]))
-    specs = list(dict.fromkeys((*classical, *residual_specs, *before)))
-    for name in scenario_names:
-        # one scenario at a time, so each row prints as soon as it is flown
+    for number, name in enumerate(scenario_names, 1):
+        # one scenario at a time, so each row prints as soon as it is flown; the evaluation
+        # reports each policy it flies
+        print(f"residual_vs_strongest: scenario {number}/{len(scenario_names)} {name}",
+              file=sys.stderr, flush=True)
         evaluate(specs, [name], seeds, baseline=None, scenario_options=options,
-                 per_seed=per_seed, trust_pickle=args.trust_pickle)
+                 per_seed=per_seed, trust_pickle=args.trust_pickle, progress=True)
         flown = {spec: scores(per_seed.pop((name, spec))) for spec in specs}
         best = strongest({spec: Standing(int(flown[spec]["lost"].sum()),
                                          float(flown[spec]["rms"].mean()))

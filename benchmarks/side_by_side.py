@@ -45,7 +45,10 @@ import statistics
 import subprocess
 import sys
 import sysconfig
+from collections.abc import Callable
 from pathlib import Path
+
+from quad_dob_training.progress import Progress
 
 ROOT = Path(__file__).resolve().parent.parent
 # case name -> (kind, env id, scenario, vehicles)
@@ -105,16 +108,20 @@ def run(command: list[str], **kwargs) -> subprocess.CompletedProcess:
     return result
 
 
-def installed(commit: str, workdir: Path) -> Path:
+def _say(text: str) -> None:
+    print(text, flush=True)
+
+
+def installed(commit: str, workdir: Path, say: Callable[[str], None] = _say) -> Path:
     """The python of ``commit``'s own environment: a worktree of it and an editable install
-    of that worktree (both made once, then reused)."""
+    of that worktree (both made once, then reused). ``say``: how it prints what it does."""
     tree, venv = workdir / f"tree-{commit}", workdir / f"venv-{commit}"
     python = venv / "bin" / "python"
     if not tree.exists():
-        print(f"checking out {commit} into {tree} ...", flush=True)
+        say(f"checking out {commit} into {tree} ...")
         run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), commit])
     if not (venv / ".installed").exists():
-        print(f"installing {commit} into {venv} ...", flush=True)
+        say(f"installing {commit} into {venv} ...")
         # no pip of its own: this interpreter's pip and setuptools come through the .pth
         run([sys.executable, "-m", "venv", "--clear", "--without-pip", str(venv)])
         site = Path(run([str(python), "-c", "import sysconfig; "
@@ -139,16 +146,24 @@ def compare_cases(pair: list[str], repeats: int, steps: int, workdir: Path) -> N
     """Two cases interleaved on the working tree: each one's median rate, and A / B."""
     workdir.mkdir(parents=True, exist_ok=True)
     python = Path(sys.executable)
-    for case in pair:
-        measure(python, case, 3, workdir)  # compiles into the cache
+    print(f"side_by_side: {' and '.join(pair)} on the working tree, {repeats} interleaved "
+          "repeats, each a fresh process", file=sys.stderr, flush=True)
     rates: dict[str, list[float]] = {case: [] for case in pair}
-    for repeat in range(repeats):
+    with Progress("side_by_side", len(pair) * (1 + repeats)) as progress:
         for case in pair:
-            kind = CASES[case][0]
-            rates[case].append(measure(python, case, steps * (100 if kind == "single" else 1),
-                                       workdir)["rate"])
-        print(f"repeat {repeat + 1}/{repeats}: " + ", ".join(
-            f"{case} {values[-1] / 1e3:,.1f}k" for case, values in rates.items()), flush=True)
+            progress.start(f"compiling {case}")
+            measure(python, case, 3, workdir)  # compiles into the cache
+            progress.done()
+        for repeat in range(repeats):
+            for case in pair:
+                progress.start(f"repeat {repeat + 1}/{repeats}, {case}")
+                kind = CASES[case][0]
+                rates[case].append(measure(python, case,
+                                           steps * (100 if kind == "single" else 1),
+                                           workdir)["rate"])
+                progress.done(f"{rates[case][-1] / 1e3:,.1f}k steps/s")
+            progress.print(f"repeat {repeat + 1}/{repeats}: " + ", ".join(
+                f"{case} {values[-1] / 1e3:,.1f}k" for case, values in rates.items()))
     first, second = pair
     ratios = [a / b for a, b in zip(rates[first], rates[second], strict=True)]
     print("\n| case | steps/s (median) |\n|---|---|")
@@ -190,37 +205,59 @@ def main() -> None:
     unknown = [case for case in cases if case not in CASES]
     if unknown:
         parser.error(f"unknown case(s) {unknown}; the cases are {', '.join(CASES)}")
+    # each commit to install, once, in the order the versions are set side by side
+    commits = list(dict.fromkeys([*([args.against] if args.against else []),
+                                  *filter(None, args.commits.split(","))]))
+    print(f"side_by_side: {len(cases)} cases x {len(commits) + (not args.no_working_tree)} "
+          f"versions x {args.repeats} interleaved repeats, each a fresh process"
+          + (f"; installing {len(commits)} commits first" if commits else ""),
+          file=sys.stderr, flush=True)
+    made: dict[str, Path] = {}
+    with Progress("side_by_side install", len(commits)) as progress:
+        for commit in commits:
+            progress.start(commit)
+            made[commit] = installed(commit, workdir, progress.print)
+            progress.done()
     versions: dict[str, Path] = {}
     if args.against:
-        versions[args.against] = installed(args.against, workdir)
+        versions[args.against] = made[args.against]
     if not args.no_working_tree:
         versions["working tree"] = Path(sys.executable)
     for commit in filter(None, args.commits.split(",")):
         if commit not in versions:
-            versions[commit] = installed(commit, workdir)
+            versions[commit] = made[commit]
     for case in cases:
         kind, env_id, scenario, vehicles = CASES[case]
         steps = args.steps * (100 if kind == "single" else 1)
         print(f"\n## {case}: {env_id} on {scenario}, N = {vehicles}, {steps} steps, "
               f"{args.repeats} interleaved repeats", flush=True)
         flown = {}  # the versions that have this case (an old commit may lack the id)
-        for name, python in versions.items():  # compiles into each version's cache
-            try:
-                module = measure(python, case, 3, workdir)["module"]
-            except RuntimeError as error:
-                print(f"{name} cannot fly {case}: {str(error).splitlines()[-1]}", flush=True)
-                continue
-            flown[name] = python
-            print(f"compiled {name} ({module})", flush=True)
+        rates: dict[str, list[float]] = {}
+        with Progress(f"side_by_side {case}",
+                      len(versions) * (1 + args.repeats)) as progress:
+            for name, python in versions.items():  # compiles into each version's cache
+                progress.start(f"compiling {name}")
+                try:
+                    module = measure(python, case, 3, workdir)["module"]
+                except RuntimeError as error:
+                    progress.total -= args.repeats  # none of its repeats will run
+                    progress.done("cannot fly it")
+                    progress.print(f"{name} cannot fly {case}: "
+                                   f"{str(error).splitlines()[-1]}")
+                    continue
+                progress.done()
+                flown[name] = python
+                progress.print(f"compiled {name} ({module})")
+            rates = {name: [] for name in flown}
+            for repeat in range(args.repeats if flown else 0):
+                for name, python in flown.items():
+                    progress.start(f"repeat {repeat + 1}/{args.repeats}, {name}")
+                    rates[name].append(measure(python, case, steps, workdir)["rate"])
+                    progress.done(f"{rates[name][-1] / 1e3:,.1f}k steps/s")
+                progress.print(f"repeat {repeat + 1}/{args.repeats}: " + ", ".join(
+                    f"{name} {values[-1] / 1e3:,.1f}k" for name, values in rates.items()))
         if not flown:
             continue
-        rates: dict[str, list[float]] = {name: [] for name in flown}
-        for repeat in range(args.repeats):
-            for name, python in flown.items():
-                rates[name].append(measure(python, case, steps, workdir)["rate"])
-            print(f"repeat {repeat + 1}/{args.repeats}: " + ", ".join(
-                f"{name} {values[-1] / 1e3:,.1f}k" for name, values in rates.items()),
-                flush=True)
         first = next(iter(flown))
         print(f"\n| version | steps/s (median) | ratio {first} / version: median [min, max] "
               f"| all on one side of 1 |\n|---|---|---|---|")

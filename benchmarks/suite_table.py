@@ -1,5 +1,5 @@
-"""The compact Benchmark v2 table (the README's, docs/benchmark-v2.md's) from a ``quad-dob
-evaluate --suite --delay-margins`` run: one row per scenario, one column per policy.
+"""The compact benchmark table of docs/benchmark-v2.md (and of v3's and v4's pages) from a
+``quad-dob evaluate --suite --delay-margins`` run: one row per scenario, one column per policy.
 
 ``python benchmarks/suite_table.py results/v2-suite [--skip NAME ...]`` prints, per cell,
 the RMS position error after the scenario's settle time in mm with its 95 % bootstrap

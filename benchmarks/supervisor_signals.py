@@ -21,6 +21,7 @@ and below what the flights lost under the margin reach before they are lost.
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
@@ -28,8 +29,11 @@ from quad_dob_composition import make_vector_env
 from quad_dob_env.benchmark_v3 import TUNING_MARGIN
 from quad_dob_env.residual.supervisor import SIGNALS
 from quad_dob_env.scenarios import make_scenario
+from quad_dob_training.evaluation.console import text_table
 from quad_dob_training.evaluation.evaluate import parse_seeds
 from quad_dob_training.policies import make_policy
+from quad_dob_training.progress import Progress, compiling_notice
+from quad_dob_training.rollout import warm_up_copy
 
 SCENARIOS = ("hover-calm", "gusty-hover", "dryden-helix", "dryden-helix-gusts",
              "takeoff-landing-wind", "ground-effect-landing", "random-tracks",
@@ -39,10 +43,14 @@ WATCH_ONLY = {"body_rate": 1e9, "attitude_error": 1e9, "residual_share": 1e9}
 
 
 def fly(scenario: str, benchmark: str, seeds: list[int], model, env_kwargs: dict,
-        loop: dict) -> dict:
+        loop: dict, warm_up: bool = False) -> dict:
     """Every step's signals (steps, 3), the supervisor's factors, and the flights lost, for
-    ``model`` (a ``Policy`` with a model; None: a zero residual) in an env of ``env_kwargs``."""
+    ``model`` (a ``Policy`` with a model; None: a zero residual) in an env of ``env_kwargs``.
+    ``warm_up``: the scenario's first few steps only (``rollout.warm_up_copy``), which
+    compile its kernels on a first run."""
     flown = make_scenario(scenario, benchmark=benchmark, **loop)
+    if warm_up:
+        flown = warm_up_copy(flown)
     kwargs = dict(env_kwargs)
     own = kwargs.get("supervisor")
     kwargs["supervisor"] = own if own is not None else WATCH_ONLY
@@ -81,6 +89,11 @@ def main() -> None:
                              "counted)")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
+    scenarios = args.scenarios.split(",")
+    loops = (("nominal", {}), ("margin", dict(TUNING_MARGIN)))
+    print(f"supervisor_signals: {args.policy or args.base + ' alone'} on {len(scenarios)} "
+          f"scenarios x (nominal, margin) x {len(seeds)} seeds, Benchmark {args.benchmark}",
+          file=sys.stderr, flush=True)
     if args.policy is None:  # the base alone: a zero residual in the acceleration mode
         model = None
         options = {"base_controller": args.base, "residual_mode": "acceleration"}
@@ -90,24 +103,31 @@ def main() -> None:
     else:
         model = make_policy(args.policy, trust_pickle=True)
         options = model.env_kwargs()
+    # a first run compiles each loop's kernels here, under a notice
+    with compiling_notice():
+        for _, loop in loops:
+            fly(scenarios[0], args.benchmark, seeds, model, options, loop, warm_up=True)
+    rows = []
+    with Progress("supervisor_signals", len(scenarios) * len(loops)) as progress:
+        for scenario in scenarios:
+            for label, loop in loops:
+                progress.start(f"{scenario}, {label}")
+                result = fly(scenario, args.benchmark, seeds, model, options, loop)
+                progress.done(f"{result['lost']} lost")
+                cells = []
+                for k in range(len(SIGNALS)):
+                    values = result["signals"][:, k]
+                    p99, p999 = np.percentile(values, [99.0, 99.9])
+                    cells.append(f"{p99:.3f}/{p999:.3f}/{values.max():.3f}")
+                faded = (f"{100 * np.mean(result['factors'] < 0.9):.2f} %" if result["own"]
+                         else "-")
+                rows.append([scenario, label, str(result["lost"]), *cells, faded])
+    # a table as wide as its cells (120 columns at most): printed once every row is flown
     print(f"policy {args.policy or args.base + ' alone'}, benchmark {args.benchmark}, seeds "
-          f"{args.seeds}; per signal: p99 / p99.9 / max over every step flown")
-    header = (f"{'scenario':24} {'loop':7} {'lost':>4}  " + "  ".join(f"{name:>24}"
-                                                                 for name in SIGNALS)
-              + "  faded<0.9")
-    print(header)
-    for scenario in args.scenarios.split(","):
-        for label, loop in (("nominal", {}), ("margin", dict(TUNING_MARGIN))):
-            result = fly(scenario, args.benchmark, seeds, model, options, loop)
-            cells = []
-            for k in range(len(SIGNALS)):
-                values = result["signals"][:, k]
-                p99, p999 = np.percentile(values, [99.0, 99.9])
-                cells.append(f"{p99:7.3f} /{p999:7.3f} /{values.max():7.3f}")
-            faded = (f"{100 * np.mean(result['factors'] < 0.9):8.2f} %" if result["own"]
-                     else "       -")
-            print(f"{scenario:24} {label:7} {result['lost']:4d}  " + "  ".join(cells)
-                  + f"  {faded}", flush=True)
+          f"{args.seeds}; per signal: p99 / p99.9 / max over every step flown\n")
+    print(text_table(["scenario", "loop", "lost",
+                      *(f"{name} p99/p99.9/max" for name in SIGNALS), "faded < 0.9"],
+                     rows))
 
 
 if __name__ == "__main__":

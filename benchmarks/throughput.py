@@ -16,6 +16,7 @@ import argparse
 import os
 import platform
 import statistics
+import sys
 import time
 import tracemalloc
 from dataclasses import dataclass
@@ -29,6 +30,7 @@ from quad_dob_composition import ResidualVectorEnv
 from quad_dob_env.benchmark import V2_INNER_RATE, V3_LOOP_FIELDS
 from quad_dob_env.envs import QuadrotorBatch, QuadrotorVectorEnv
 from quad_dob_env.scenarios import make_scenario
+from quad_dob_training.progress import Progress, compiling_notice
 
 CALM, WINDY = "paper-none", "dryden-helix-gusts"
 SENSING_PRESETS = ("mocap", "gnss-imu")  # compared with the ideal sensing (None)
@@ -136,14 +138,20 @@ def print_sensing_table(n: int, steps: int, repeats: int) -> None:
     timed in turn ``repeats`` times (the variants interleaved, so the machine's drift falls
     on all of them alike); the median of each, and its ratio to the ideal sensing's."""
     variants = sensing_variants()
-    envs = {variant: vector_env(n, variant.with_base, variant.sensing, variant.compiled)
-            for variant in variants}
-    actions = {variant: compiled_and_warm(env) for variant, env in envs.items()}
+    envs, actions = {}, {}
     rates: dict[SensingVariant, list[float]] = {variant: [] for variant in variants}
-    for _ in range(repeats):
+    with Progress("throughput sensing", len(variants) + repeats) as progress:
         for variant in variants:
-            rates[variant].append(timed_env_steps_per_second(envs[variant], actions[variant],
-                                                             steps))
+            progress.start(f"building and warming {variant.label}")
+            envs[variant] = vector_env(n, variant.with_base, variant.sensing, variant.compiled)
+            actions[variant] = compiled_and_warm(envs[variant])
+            progress.done()
+        for repeat in range(repeats):
+            progress.start(f"repeat {repeat + 1}/{repeats} of {len(variants)} variants")
+            for variant in variants:
+                rates[variant].append(timed_env_steps_per_second(envs[variant],
+                                                                 actions[variant], steps))
+            progress.done()
     print(f"\nsensing: vector env ({CALM}, N = {n}, {steps} steps from a reset, median of "
           f"{repeats} interleaved repeats); ratio to the ideal sensing of the same base\n")
     print("| base | sensing | base path | env-steps/s | spread (min-max) / median | / ideal | "
@@ -199,17 +207,21 @@ def print_loop_table(n: int, steps: int, repeats: int,
     """Every one of ``variants``' residual envs (the geometric-ndob:tuned base, zero
     residual) on ``WINDY`` at ``n`` vehicles, built and warmed first, then timed
     interleaved ``repeats`` times; the median of each and its ratio to v1's."""
-    envs = [ResidualVectorEnv(n, WINDY, scenario_options=options,
-                              base_controller="geometric-ndob:tuned", compiled=compiled)
-            for _, options, compiled in variants]
-    actions = [np.zeros((n, 4)) for _ in envs]
-    for env, action in zip(envs, actions, strict=True):
-        compiled_and_warm(env)
-        action[:] = 0.0
-    rates: list[list[float]] = [[] for _ in envs]
-    for _ in range(repeats):
-        for k, env in enumerate(envs):
-            rates[k].append(timed_env_steps_per_second(env, actions[k], steps))
+    envs, actions = [], [np.zeros((n, 4)) for _ in variants]
+    rates: list[list[float]] = [[] for _ in variants]
+    with Progress("throughput loop", len(variants) + repeats) as progress:
+        for label, options, compiled in variants:
+            progress.start(f"building and warming {label}")
+            envs.append(ResidualVectorEnv(n, WINDY, scenario_options=options,
+                                          base_controller="geometric-ndob:tuned",
+                                          compiled=compiled))
+            compiled_and_warm(envs[-1])
+            progress.done()
+        for repeat in range(repeats):
+            progress.start(f"repeat {repeat + 1}/{repeats} of {len(variants)} loops")
+            for k, env in enumerate(envs):
+                rates[k].append(timed_env_steps_per_second(env, actions[k], steps))
+            progress.done()
     print(f"\nvehicle loop: residual vector env ({WINDY}, base geometric-ndob:tuned, zero "
           f"residual, N = {n}, {steps} steps from a reset, median of {repeats} interleaved "
           "repeats); ratio to v1\n")
@@ -237,6 +249,18 @@ def memory_per_env(n: int, with_base: bool) -> float:
     return held / n
 
 
+def warm_up() -> None:
+    """A few steps of a single env and of a small vector env with the base: a first run
+    compiles the kernels here, under a notice (``progress.compiling_notice``), not in the
+    first measurement's silence."""
+    with compiling_notice():
+        env = gym.make("QuadDOB/Track-v1", scenario=CALM)
+        env.reset(seed=0)
+        for _ in range(3):
+            env.step(np.zeros(4, dtype=np.float32))
+        compiled_and_warm(vector_env(2, with_base=True))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--single-steps", type=int, default=50_000)
@@ -260,6 +284,13 @@ def main() -> None:
     parser.add_argument("--v3-factors-only", action="store_true",
                         help="run v1, v2 and v3 and v3 with each of its factors off")
     args = parser.parse_args()
+    sections = ("the sensing table" if args.sensing_only else
+                "the vehicle-loop table" if args.loop_only or args.benchmarks_only
+                or args.v3_factors_only else
+                "single env, batched core, vector env, sensing and vehicle-loop tables, memory")
+    print(f"throughput: {sections}; each section reports its progress", file=sys.stderr,
+          flush=True)
+    warm_up()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, numpy {np.__version__}")
     if args.sensing_only:
@@ -272,28 +303,37 @@ def main() -> None:
         return
     print(f"\ncalm: {CALM} (no wind, no drag, instant motors); windy: {WINDY} (Dryden "
           "moderate + gusts, drag, motor lag)\n")
-    calm, windy = (single_env_steps_per_second(args.single_steps, s) for s in (CALM, WINDY))
-    print("| measurement | calm | windy | windy / calm |")
-    print("|---|---|---|---|")
-    print(f"| single env (gym.make QuadDOB/Track-v1, random actions, 100 Hz), steps/s | "
-          f"{calm:,.0f} | {windy:,.0f} | {windy / calm:.2f} |")
-    for n in args.batch_sizes:
-        steps = max(10, min(1000, args.batch_vehicle_steps // n))
-        calm, windy = (batch_steps_per_second(n, steps, s) for s in (CALM, WINDY))
-        print(f"| batched core N = {n}, vehicle-steps/s | {calm:,.0f} | {windy:,.0f} | "
-              f"{windy / calm:.2f} |")
+    with Progress("throughput single env and core", 1 + len(args.batch_sizes)) as progress:
+        progress.start("single env, calm and windy")
+        calm, windy = (single_env_steps_per_second(args.single_steps, s) for s in (CALM, WINDY))
+        progress.done()
+        progress.print("| measurement | calm | windy | windy / calm |")
+        progress.print("|---|---|---|---|")
+        progress.print(f"| single env (gym.make QuadDOB/Track-v1, random actions, 100 Hz), "
+                       f"steps/s | {calm:,.0f} | {windy:,.0f} | {windy / calm:.2f} |")
+        for n in args.batch_sizes:
+            progress.start(f"batched core N = {n}")
+            steps = max(10, min(1000, args.batch_vehicle_steps // n))
+            calm, windy = (batch_steps_per_second(n, steps, s) for s in (CALM, WINDY))
+            progress.done()
+            progress.print(f"| batched core N = {n}, vehicle-steps/s | {calm:,.0f} | "
+                           f"{windy:,.0f} | {windy / calm:.2f} |")
     print(f"\nvector env (QuadrotorVectorEnv, {CALM}, next-step autoreset, info included); "
           "base = geometric-ndob:tuned run inside it for all N (QuadDOB/TrackResidual-v1)\n")
     print("| N | env-steps/s, bare | env-steps/s, base in the loop | base / bare | "
           "µs per env-step with base |")
     print("|---|---|---|---|---|")
     per_env, per_env_bare = {}, {}
-    for n in args.vector_sizes:
-        steps = max(20, min(2000, args.batch_vehicle_steps // n))
-        bare = vector_env_steps_per_second(n, steps, with_base=False)
-        based = vector_env_steps_per_second(n, steps, with_base=True)
-        per_env[n], per_env_bare[n] = 1e6 / based, 1e6 / bare
-        print(f"| {n} | {bare:,.0f} | {based:,.0f} | {based / bare:.2f} | {1e6 / based:.3f} |")
+    with Progress("throughput vector env", len(args.vector_sizes)) as progress:
+        for n in args.vector_sizes:
+            progress.start(f"N = {n}, bare and with base")
+            steps = max(20, min(2000, args.batch_vehicle_steps // n))
+            bare = vector_env_steps_per_second(n, steps, with_base=False)
+            based = vector_env_steps_per_second(n, steps, with_base=True)
+            per_env[n], per_env_bare[n] = 1e6 / based, 1e6 / bare
+            progress.done()
+            progress.print(f"| {n} | {bare:,.0f} | {based:,.0f} | {based / bare:.2f} | "
+                           f"{1e6 / based:.3f} |")
     print()
     for label, costs in (("with base", per_env), ("bare", per_env_bare)):
         flat = [cost for n, cost in costs.items() if n >= 256]
@@ -302,9 +342,13 @@ def main() -> None:
     print_sensing_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
     print_loop_table(args.sensing_size, args.sensing_steps, args.sensing_repeats)
     print()
-    for with_base in (False, True):
-        print(f"memory per env ({'base in the loop' if with_base else 'bare'}, N = 4096): "
-              f"{memory_per_env(4096, with_base) / 1024:.1f} KiB")
+    with Progress("throughput memory", 2) as progress:
+        for with_base in (False, True):
+            label = "base in the loop" if with_base else "bare"
+            progress.start(label)
+            held = memory_per_env(4096, with_base)
+            progress.done()
+            progress.print(f"memory per env ({label}, N = 4096): {held / 1024:.1f} KiB")
 
 
 if __name__ == "__main__":

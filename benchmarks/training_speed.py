@@ -15,27 +15,39 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import torch
 from stable_baselines3.common.callbacks import BaseCallback
 
 from quad_dob_training.learning.train import make_model, make_vec_env
+from quad_dob_training.progress import Progress, compiling_notice
 from quad_dob_training.rl.run_config import resolve_config
 
 
 class Stopwatch(BaseCallback):
-    """Seconds spent collecting rollouts (everything between a rollout's start and end)."""
+    """Seconds spent collecting rollouts (everything between a rollout's start and end);
+    with ``progress``, each iteration (a rollout and the update after it) reported there as
+    the next rollout starts."""
 
-    def __init__(self) -> None:
+    def __init__(self, progress: Progress | None = None, per_rollout: int = 0) -> None:
         super().__init__()
         self.collecting = 0.0
         self._start = 0.0
+        self.progress, self.per_rollout = progress, per_rollout
+        self.iteration = 0  # the iteration running
 
     def _on_rollout_start(self) -> None:
         self._start = time.perf_counter()
+        if self.progress is not None:
+            if self.iteration >= 1:  # the last one's update is over too
+                self.progress.done()
+            self.iteration += 1
+            self.progress.start(f"iteration {self.iteration} ({self.per_rollout:,} timesteps)")
 
     def _on_rollout_end(self) -> None:
         self.collecting += time.perf_counter() - self._start
@@ -77,16 +89,32 @@ def main() -> None:
     for key in ("batch_size", "n_epochs"):
         if getattr(args, key):
             config["algo_kwargs"][key] = getattr(args, key)
+    per_rollout = config["n_envs"] * config["algo_kwargs"].get("n_steps", 2048)
+    iterations = -(-args.timesteps // per_rollout)
+    print(f"training_speed: PPO on {args.env_id}, one iteration of warm-up, then "
+          f"{args.timesteps:,} timesteps timed ({iterations} iterations of {per_rollout:,})",
+          file=sys.stderr, flush=True)
     with tempfile.TemporaryDirectory() as folder:
         # train's setup_process sets the recipe's 1; make_vec_env and make_model set none
         torch.set_num_threads(args.threads)
         venv = make_vec_env(config)
-        model = make_model(config, venv, Path(folder) / "tb")
-        model.learn(config["n_envs"] * config["algo_kwargs"].get("n_steps", 2048))  # warm up
-        env_seconds, stopwatch = timed_env_steps(venv), Stopwatch()
-        start = time.perf_counter()
-        model.learn(args.timesteps, reset_num_timesteps=False, callback=stopwatch)
-        wall = time.perf_counter() - start
+        with compiling_notice():  # a first run compiles the env's kernels on its first step
+            venv.reset()
+            venv.step(np.zeros((venv.num_envs, *venv.action_space.shape),
+                               dtype=venv.action_space.dtype))
+        with Progress("training_speed", 2 + iterations) as progress:
+            progress.start("building the model")
+            model = make_model(config, venv, Path(folder) / "tb")
+            progress.done()
+            progress.start("warm-up iteration (not timed)")
+            model.learn(per_rollout)  # warm up
+            progress.done()
+            env_seconds = timed_env_steps(venv)
+            stopwatch = Stopwatch(progress, per_rollout)
+            start = time.perf_counter()
+            model.learn(args.timesteps, reset_num_timesteps=False, callback=stopwatch)
+            wall = time.perf_counter() - start
+            progress.done()  # the last iteration's update
         rate = args.timesteps / wall
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, torch {torch.__version__}")

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import sys
 
 import numpy as np
 
@@ -25,6 +26,8 @@ from quad_dob_training.evaluation.evaluate import SUITES, parse_seeds
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
 from quad_dob_training.policies import fly_policy, make_policy
+from quad_dob_training.progress import Progress, compiling_notice
+from quad_dob_training.rollout import warm_up_copy
 
 
 def settled_rms(policy, scenario, seeds) -> tuple[np.ndarray, np.ndarray]:
@@ -45,9 +48,16 @@ def main() -> None:
     seeds = parse_seeds(args.seeds)
     names = (args.scenarios.split(",") if args.scenarios else
              [name for family in SUITES[args.benchmark].values() for name in family])
-    # bare residual: the shipped policy of the benchmark flown
-    residuals = [make_policy(spec, benchmark=args.benchmark)
-                 for spec in args.residuals.split(",")]
+    specs = args.residuals.split(",")
+    print(f"transfer_bases: {len(specs)} residuals and their bases x {len(names)} scenarios x "
+          f"{len(seeds)} seeds, Benchmark {args.benchmark}", file=sys.stderr, flush=True)
+    residuals = []
+    with Progress("loading residuals", len(specs)) as progress:
+        for spec in specs:
+            progress.start(spec)
+            # bare residual: the shipped policy of the benchmark flown
+            residuals.append(make_policy(spec, benchmark=args.benchmark))
+            progress.done()
     # the base alone, as the residual loads it: the same env, the residual held at zero
     bases = [dataclasses.replace(policy, model=None,
                                  name=f"{policy.base} at {policy.base_benchmark} gains")
@@ -56,25 +66,35 @@ def main() -> None:
         f"{r.name} (mm) | its base at {r.base_benchmark} gains (mm) | change [95 % CI] | lost "
         "(residual / base)" for r in residuals) + " |")
     print("|---|" + "---|---|---|---|" * len(residuals))
+    # a first run compiles the kernels here, under a notice
+    with compiling_notice():
+        first = warm_up_copy(make_scenario(names[0], benchmark=args.benchmark))
+        for policy in (*residuals, *bases):
+            fly_policy(policy, first, seeds)
     report = {}
-    for name in names:
-        scenario = make_scenario(name, benchmark=args.benchmark)
-        cells, report[name] = [], {}
-        for residual, base in zip(residuals, bases, strict=True):
-            mine, lost = settled_rms(residual, scenario, seeds)
-            theirs, base_lost = settled_rms(base, scenario, seeds)
-            difference = paired_difference(mine, theirs)
-            scale = 100 / theirs.mean()
-            report[name][residual.name] = {
-                "residual": bootstrap_mean(mine)._asdict(),
-                "base": bootstrap_mean(theirs)._asdict(),
-                "paired": difference._asdict(), "lost": int(lost.sum()),
-                "base_lost": int(base_lost.sum())}
-            cells.append(f"{1e3 * mine.mean():.1f} | {1e3 * theirs.mean():.1f} | "
-                         f"{scale * difference.mean:+.0f} % [{scale * difference.low:+.0f}, "
-                         f"{scale * difference.high:+.0f}] | {int(lost.sum())} / "
-                         f"{int(base_lost.sum())}")
-        print(f"| {name} | " + " | ".join(cells) + " |", flush=True)
+    with Progress("transfer_bases", 2 * len(names) * len(residuals)) as progress:
+        for name in names:
+            scenario = make_scenario(name, benchmark=args.benchmark)
+            cells, report[name] = [], {}
+            for residual, base in zip(residuals, bases, strict=True):
+                progress.start(f"{name}, {residual.name}")
+                mine, lost = settled_rms(residual, scenario, seeds)
+                progress.done(f"{1e3 * mine.mean():.1f} mm")
+                progress.start(f"{name}, {base.name}")
+                theirs, base_lost = settled_rms(base, scenario, seeds)
+                progress.done(f"{1e3 * theirs.mean():.1f} mm")
+                difference = paired_difference(mine, theirs)
+                scale = 100 / theirs.mean()
+                report[name][residual.name] = {
+                    "residual": bootstrap_mean(mine)._asdict(),
+                    "base": bootstrap_mean(theirs)._asdict(),
+                    "paired": difference._asdict(), "lost": int(lost.sum()),
+                    "base_lost": int(base_lost.sum())}
+                cells.append(f"{1e3 * mine.mean():.1f} | {1e3 * theirs.mean():.1f} | "
+                             f"{scale * difference.mean:+.0f} % [{scale * difference.low:+.0f}, "
+                             f"{scale * difference.high:+.0f}] | {int(lost.sum())} / "
+                             f"{int(base_lost.sum())}")
+            progress.print(f"| {name} | " + " | ".join(cells) + " |")
     if args.json:
         with open(args.json, "w") as file:
             json.dump({"seeds": seeds, "benchmark": args.benchmark, "scenarios": report}, file,

@@ -11,6 +11,7 @@ its 95 % bootstrap interval; docs/benchmark-v1.md quotes it. The gains were tune
 from __future__ import annotations
 
 import argparse
+import sys
 
 from quad_dob_env import DEFAULT_BASE_CONTROLLER
 from quad_dob_training.evaluation.evaluate import evaluate, parse_seeds
@@ -25,7 +26,10 @@ def main() -> None:
     parser.add_argument("--seeds", default="9001-9020")
     args = parser.parse_args()
     seeds = parse_seeds(args.seeds)
-    rows = evaluate(list(CONTROLLERS), list(SCENARIOS), seeds, baseline=DEFAULT_BASE_CONTROLLER)
+    print(f"wind_tracking: {len(CONTROLLERS)} controllers x {len(SCENARIOS)} scenarios x "
+          f"{len(seeds)} seeds, Benchmark v1", file=sys.stderr, flush=True)
+    rows = evaluate(list(CONTROLLERS), list(SCENARIOS), seeds, baseline=DEFAULT_BASE_CONTROLLER,
+                    progress=True)
     print(f"Seeds {args.seeds}; after t = 2 s; Δ: paired difference of the RMS position error "
           f"to {DEFAULT_BASE_CONTROLLER} [m], mean [95 % CI]\n")
     print("| scenario | controller | RMS ‖e_x‖ [m] | RMS tilt [rad] | RMS heading [rad] | lost | "

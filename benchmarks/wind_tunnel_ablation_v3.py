@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import sys
 from typing import Any
 
 import numpy as np
@@ -107,7 +108,14 @@ def main() -> None:
     if not wanted:
         return
     seeds = parse_seeds(args.seeds)
-    flown = {label: simulate("v3", seeds, None, set(), table[label]) for label in wanted}
+    print(f"wind_tunnel_ablation_v3: {len(wanted)} variants x {len(COUNTERPARTS)} controllers x "
+          f"{len(WIND_SPEEDS)} winds x {len(seeds)} seeds", file=sys.stderr, flush=True)
+    flown = {}
+    for number, label in enumerate(wanted, 1):
+        # each variant's flights report themselves (a controller in a wind a line)
+        print(f"wind_tunnel_ablation_v3: variant {number}/{len(wanted)} {label}",
+              file=sys.stderr, flush=True)
+        flown[label] = simulate("v3", seeds, None, set(), table[label], progress=True)
     print(f"Benchmark v3's ablation, seeds {args.seeds}: RMS ‖e_x‖ after 5 s [mm], mean of "
           "the flights kept; flights lost in brackets. The calm z share is z's share of the "
           "squared error at 0 m/s, pooled over the seeds")

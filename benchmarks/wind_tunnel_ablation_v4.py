@@ -22,6 +22,7 @@ import contextlib
 import dataclasses
 import json
 import math
+import sys
 from collections.abc import Iterator
 from typing import Any
 
@@ -147,12 +148,17 @@ def main() -> None:
     if "Benchmark v4" not in wanted:
         wanted.insert(0, "Benchmark v4")
     seeds = parse_seeds(args.seeds)
+    print(f"wind_tunnel_ablation_v4: {len(wanted)} variants x {len(COUNTERPARTS)} controllers x "
+          f"{len(WIND_SPEEDS)} winds x {len(seeds)} seeds", file=sys.stderr, flush=True)
     flown = {}
-    for label in wanted:
+    for number, label in enumerate(wanted, 1):
+        # each variant's flights report themselves (a controller in a wind a line)
+        print(f"wind_tunnel_ablation_v4: variant {number}/{len(wanted)} {label}",
+              file=sys.stderr, flush=True)
         options, inputs = table[label]
         with indi_inputs(inputs), v3_gains():
             flown[label] = per_seed(simulate("v4", seeds, DURATION, {LAPS}, options,
-                                             COUNTERPARTS))
+                                             COUNTERPARTS, progress=True))
         print(f"flown: {label}", flush=True)
     base = flown["Benchmark v4"]
     document: dict[str, Any] = {}
