@@ -146,6 +146,7 @@ def test_evaluate_says_what_it_flies_then_each_unit_and_prints_a_table_that_fits
     lines = err.splitlines()
     assert lines[0] == ("evaluate: 2 policies x 1 scenarios x 2 seeds, Benchmark v4, into "
                         f"{tmp_path}")
+    assert lines[1] == "evaluate: loading 2 policies"
     assert any(line.startswith("evaluate 1/2 hover-calm, geometric-ndob:tuned: 2 flights")
                for line in lines)
     assert any(line.startswith("evaluate 2/2 hover-calm, pid: 2 flights") for line in lines)

@@ -165,6 +165,8 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
     # every policy each scenario's benchmark resolves a spec to, built before any flies (a
     # bad spec or file fails first), each once
     built_as: dict[str, object] = {}
+    if progress:  # a model's load takes seconds (torch, the zip's checks)
+        print(f"evaluate: loading {len(flown)} policies", file=sys.stderr, flush=True)
     for scenario in made.values():
         for spec in flown:
             resolved = resolve_spec(spec, scenario.loop.benchmark)
