@@ -41,7 +41,7 @@ from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.evaluation.evaluate import parse_seeds
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy, make_policy
-from quad_dob_training.progress import Progress, compiling_notice
+from quad_dob_training.progress import Progress, compiling_notice, steps
 from quad_dob_training.rollout import warm_up_copy
 from quad_dob_training.tuning.tune import MARGINS  # each benchmark's: what its gains keep
 
@@ -118,13 +118,9 @@ def main() -> None:
           + (f" and {dithers} dithers" if dithers else "")
           + f" x {len(args.scenarios.split(','))} scenarios x {len(seeds)} seeds, Benchmark "
           f"{args.benchmark}'s margin", file=sys.stderr, flush=True)
-    policies = []
-    with Progress("loading policies", len(specs)) as progress:
-        for spec in specs:
-            progress.start(spec)
-            # bare residual: the shipped policy of the benchmark flown
-            policies.append(make_policy(spec, benchmark=args.benchmark))
-            progress.done()
+    # bare residual: the shipped policy of the benchmark flown
+    policies = [make_policy(spec, benchmark=args.benchmark)
+             for spec in steps(specs, "loading policies")]
     amplitudes = [float(a) for a in args.dither.split(",") if a]
     if amplitudes:
         residuals = [p for p in policies if p.model is not None and p.base is not None]

@@ -26,7 +26,7 @@ from quad_dob_training.evaluation.evaluate import SUITES, parse_seeds
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
 from quad_dob_training.policies import fly_policy, make_policy
-from quad_dob_training.progress import Progress, compiling_notice
+from quad_dob_training.progress import Progress, compiling_notice, steps
 from quad_dob_training.rollout import warm_up_copy
 
 
@@ -51,13 +51,9 @@ def main() -> None:
     specs = args.residuals.split(",")
     print(f"transfer_bases: {len(specs)} residuals and their bases x {len(names)} scenarios x "
           f"{len(seeds)} seeds, Benchmark {args.benchmark}", file=sys.stderr, flush=True)
-    residuals = []
-    with Progress("loading residuals", len(specs)) as progress:
-        for spec in specs:
-            progress.start(spec)
-            # bare residual: the shipped policy of the benchmark flown
-            residuals.append(make_policy(spec, benchmark=args.benchmark))
-            progress.done()
+    # bare residual: the shipped policy of the benchmark flown
+    residuals = [make_policy(spec, benchmark=args.benchmark)
+             for spec in steps(specs, "loading residuals")]
     # the base alone, as the residual loads it: the same env, the residual held at zero
     bases = [dataclasses.replace(policy, model=None,
                                  name=f"{policy.base} at {policy.base_benchmark} gains")

@@ -5,7 +5,6 @@ here with a stub of its work, so that only its reporting is under test."""
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import sys
 from pathlib import Path
@@ -27,14 +26,6 @@ UNDER_10_S = {
     "wind_tunnel_table": "2.7 s: reads seven evaluation.csv files",
     "variants": "a module the table readers import, not a script",
 }
-
-
-def _script(name: str, monkeypatch: pytest.MonkeyPatch):
-    spec = importlib.util.spec_from_file_location(f"_progress_{name}", BENCHMARKS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    monkeypatch.setitem(sys.modules, spec.name, module)  # its dataclasses look it up
-    spec.loader.exec_module(module)
-    return module
 
 
 def _identity(scenario, *_, **__):
@@ -343,10 +334,11 @@ CASES = {
 
 @pytest.mark.parametrize("case", list(CASES))
 def test_a_long_script_says_what_it_will_do_then_reports_each_unit(monkeypatch, capsys,
-                                                                   tmp_path, case):
+                                                                   tmp_path, case,
+                                                                   benchmark_script):
     stubs, argv, first, expected = CASES[case]
     name = case.split()[0].rstrip(",")
-    module = _script(name, monkeypatch)
+    module = benchmark_script(name)
     stubs(monkeypatch, module)
     monkeypatch.setattr(sys, "argv", [name, *(arg.replace("{tmp}", str(tmp_path))
                                               for arg in argv)])
@@ -380,8 +372,8 @@ def test_a_long_script_says_what_it_will_do_then_reports_each_unit(monkeypatch, 
                              for call in calls)
 
 
-def test_supervisor_signals_table_fits_120_columns(monkeypatch, capsys):
-    module = _script("supervisor_signals", monkeypatch)
+def test_supervisor_signals_table_fits_120_columns(monkeypatch, capsys, benchmark_script):
+    module = benchmark_script("supervisor_signals")
     _supervisor_signals(monkeypatch, module)
     monkeypatch.setattr(sys, "argv", ["supervisor_signals"])  # every scenario
     module.main()

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
 
@@ -18,14 +17,6 @@ class _BuiltError(Exception):
     """Raised by the stand-in make_policy once it has seen what the script asked for."""
 
 
-def _script(name: str, monkeypatch: pytest.MonkeyPatch):
-    spec = importlib.util.spec_from_file_location(f"_script_{name}", BENCHMARKS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    monkeypatch.setitem(sys.modules, spec.name, module)  # its dataclasses look it up
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.mark.parametrize("name, argv, flown", [
     ("landings_under_margin", ["--policies", "residual", "--scenarios", "hover-calm",
                                "--benchmark", "v3"], "v3"),
@@ -35,8 +26,8 @@ def _script(name: str, monkeypatch: pytest.MonkeyPatch):
                                "--scenario-option", "benchmark=v3"], "v3"),
 ])
 def test_each_script_builds_bare_residual_for_the_benchmark_it_flies(monkeypatch, name, argv,
-                                                                     flown):
-    module = _script(name, monkeypatch)
+                                                                     flown, benchmark_script):
+    module = benchmark_script(name)
     asked: list[str] = []
 
     def make_policy(spec, **options):
