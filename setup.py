@@ -8,10 +8,16 @@ temporary folder keeps ``pip install .`` from writing into the clone.
 
 import atexit
 import shutil
+import sys
 import tempfile
 
 from setuptools import setup
 
-scratch = tempfile.mkdtemp(prefix="quad_dob_build_")
-atexit.register(shutil.rmtree, scratch, ignore_errors=True)
-setup(options={"build": {"build_base": scratch}, "egg_info": {"egg_base": scratch}})
+if "editable_wheel" in sys.argv:
+    # an editable install in strict mode links files under build_base: they must outlive
+    # the build, so such an install builds where setuptools puts it
+    setup()
+else:
+    scratch = tempfile.mkdtemp(prefix="quad_dob_build_")
+    atexit.register(shutil.rmtree, scratch, ignore_errors=True)
+    setup(options={"build": {"build_base": scratch}, "egg_info": {"egg_base": scratch}})

@@ -12,6 +12,7 @@ takes, that the kernels are compiling and what to expect, and when done how long
 from __future__ import annotations
 
 import functools
+import multiprocessing
 import sys
 import threading
 import time
@@ -84,6 +85,8 @@ class CompileNotice:
             self._write(COMPILE_MESSAGE)
         else:
             self._write("compiling more of the simulator's kernels")
+        if multiprocessing.parent_process() is not None:
+            return  # a worker (SubprocVecEnv, a pool): its parent speaks for the rest
         while not self._done.wait(COMPILE_HEARTBEAT):
             self._write(f"still compiling ({duration_text(time.monotonic() - self.began)})")
 
@@ -100,15 +103,19 @@ class CompileNotice:
 @contextmanager
 def compiling_notice(stream: TextIO | None = None,
                      after: float | None = None) -> Iterator[None]:
-    """``CompileNotice`` around the work inside; inside another, none of its own."""
+    """``CompileNotice`` around the work inside; inside another, none of its own. Work
+    that raises ends the notice without a "compiled in"."""
     if getattr(_TIMING, "active", False):
         yield
         return
     notice = CompileNotice(stream, after)
-    _TIMING.active = True
-    notice.start()
     try:
+        _TIMING.active = True
+        notice.start()
         yield
+    except BaseException:
+        notice.fired = False  # nothing was compiled to the end: no summary
+        raise
     finally:
         notice.stop()
         _TIMING.active = False
@@ -116,7 +123,9 @@ def compiling_notice(stream: TextIO | None = None,
 
 def announces_compiling(method: Method) -> Method:
     """Mark an entry point of the simulator: its first call in this process runs under a
-    ``compiling_notice``; every later call costs one set lookup."""
+    ``compiling_notice``; every later call costs a wrapper's call and a set lookup, 0.17 µs
+    measured (0.08 -> 0.25 µs a call of an empty method); a single env's step passes two,
+    0.6 % of its 60 µs."""
     name = method.__qualname__
 
     @functools.wraps(method)

@@ -33,6 +33,15 @@ def test_a_log_gets_one_line_per_unit_and_a_heartbeat_while_one_runs_long():
     assert re.fullmatch(r"job 1/2 first: 3 flights \(\d+ s in\)", lines[0])
     assert any(re.fullmatch(r"job 1/2: still on second \(\d+ s in\)", line) for line in lines)
     assert re.fullmatch(r"job 2/2 second \(\d+ s in\)", lines[-1])
+    # a unit that is done is not named by the heartbeat, and more units grow the total
+    with Progress("job", 1, stream=stream, heartbeat=0.1) as report:
+        report.start("first")
+        report.done()
+        report.done()
+        time.sleep(0.3)
+    tail = stream.getvalue().splitlines()
+    assert any(line.startswith("job 2/2") for line in tail)
+    assert not any("still on first" in line for line in tail)
     assert "\r" not in stream.getvalue()
 
 
@@ -46,7 +55,7 @@ def test_a_terminal_gets_one_bar_redrawn_in_place_and_ended_with_a_newline():
     assert text.count("\n") == 2  # the result line and the bar's end
     assert "\rjob [#####...............] 1/4 a" in text
     assert "a result line\n" in text
-    assert text.rstrip().endswith("4/4 done (0 s)") or "1/4 done" in text.splitlines()[-1]
+    assert "1/4 done" in text.splitlines()[-1]  # closed: the bar's last state, then a newline
 
 
 def test_quiet_reports_nothing_and_steps_reports_each_item():
@@ -119,6 +128,14 @@ def test_a_console_table_fits_120_columns_and_keeps_the_names_whole():
     # a name past NAME_WIDTH is cut, with an ellipsis
     long = console.text_table(["scenario", "policy", "x"], [["s", "p" * 40, "1"]])
     assert "p" * (console.NAME_WIDTH - 1) + "…" in long
+    # too wide even with the names cut (a long text cell beyond them): it is cut as well
+    wide = console.text_table(["policy", "source", "seeds", "across sources"],
+                              [["pid", "alice", "0-2", "agrees with " + "bob, " * 40]], names=2)
+    assert max(len(line) for line in wide.splitlines()) <= console.WIDTH
+    assert "agrees with bob" in wide and "…" in wide
+    # ± with the mean's decimals, never an exponent
+    row = {"rate_mean": 1234.0, "rate_low": 1100.0, "rate_high": 1340.0}
+    assert console.mean_text(row, "rate", 1.0, 0) == "1234 ± 120"
 
 
 @pytest.fixture
@@ -186,10 +203,10 @@ def test_tune_says_what_it_tunes_then_each_trial(tmp_path, capsys, monkeypatch):
     assert cli.main(["tune", "--controllers", "pid", "--benchmark", "v1", "--passes", "1",
                      "--seeds", "2", "--out", str(tmp_path)]) == 0
     err = capsys.readouterr().err
-    trials = tune.planned_trials("pid", "v1", 1)
+    # the start, then pid's seven gains at four factors in one pass: 29 trials
+    assert tune.planned_trials("pid", "v1", "paper", 1) == 29
     assert err.splitlines()[0].startswith("tune: pid for Benchmark v1 on the paper vehicle")
-    assert f"tune pid 1/{trials} pid, trial 1" in err
-    assert f"tune pid {trials}/{trials} pid, trial {trials}" in err
+    assert "tune pid 1/29 trial 1" in err and "tune pid 29/29 trial 29" in err
 
 
 def test_wind_tunnel_says_what_it_flies_then_each_wind_and_controller(
@@ -223,7 +240,22 @@ def test_train_off_a_terminal_prints_a_line_per_rollout_with_the_reward(tmp_path
                      "--n-envs", "4", "--evaluate-every", "100000", "--out",
                      str(tmp_path / "run")]) == 0
     captured = capsys.readouterr()
-    assert captured.out.splitlines()[0].startswith("train: ppo on QuadDOB/HoverResidual-v3")
+    assert captured.err.splitlines()[0].startswith("train: ppo on QuadDOB/HoverResidual-v3")
     lines = [line for line in captured.err.splitlines() if line.startswith("train ")]
     assert lines and re.match(r"train 1/\d+ [\d,]+ timesteps", lines[0])
     assert lines[-1].split()[1].split("/")[0] == lines[-1].split()[1].split("/")[1]
+
+
+def test_a_training_that_fails_leaves_no_reporter_running(tmp_path, monkeypatch):
+    from quad_dob_training.learning import train
+
+    def fails(self):
+        raise RuntimeError("a step failed")
+
+    monkeypatch.setattr(train.BaselineEvaluation, "_on_step", fails)
+    with pytest.raises(RuntimeError, match="a step failed"):
+        cli.main(["train", "--env", "QuadDOB/HoverResidual-v3", "--timesteps", "512",
+                  "--n-envs", "2", "--out", str(tmp_path / "run")])
+    time.sleep(0.1)
+    assert not [thread for thread in threading.enumerate()
+                if thread.name.startswith("progress:") and thread.is_alive()]

@@ -63,14 +63,16 @@ INSTALLED_AS = {"baselines": "quad_dob_baselines", "composition": "quad_dob_comp
 
 
 def _tree_packages() -> set[str]:
-    """Every folder of the source tree Python imports as a package, by its installed name:
-    those with an ``__init__.py`` and the data folders beside them."""
+    """Every folder of the repository Python imports as a package, by its installed name:
+    those with an ``__init__.py`` and the data folders beside them (git's files: a run
+    folder or a notebook checkpoint left in the working tree is not the package's)."""
+    tracked = subprocess.run(["git", "ls-files", *INSTALLED_AS], cwd=ROOT, check=True,
+                             capture_output=True, text=True).stdout.split()
     found = set(INSTALLED_AS.values())
-    for folder, name in INSTALLED_AS.items():
-        for path in (ROOT / folder).rglob("*"):
-            if (path.is_dir() and path.name != "__pycache__"
-                    and any(child.is_file() for child in path.iterdir())):
-                found.add(".".join([name, *path.relative_to(ROOT / folder).parts]))
+    for path in map(Path, tracked):
+        folder, *inside = path.parent.parts
+        if folder in INSTALLED_AS:
+            found.add(".".join([INSTALLED_AS[folder], *inside]))
     return found
 
 

@@ -17,7 +17,6 @@ import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
-from typing import TextIO
 
 from quad_dob_baselines import make_controller
 from quad_dob_env.scenarios import make_scenario
@@ -55,15 +54,14 @@ def run_paper(scenarios: list[str] = list(PAPER_SCENARIOS),  # noqa: B006
               controllers: list[str] = list(PAPER_CONTROLLERS),  # noqa: B006
               torque_reading: str = "0.6*dx", dt: float | None = None,
               substeps: int | None = None, out_dir: Path | None = None,
-              figures: bool = True, progress: TextIO | None = None) -> list[dict]:
-    """Fly every controller in every scenario; return one metrics row per pair. Each
-    controller and each scenario's figures are reported to ``progress`` as they finish
-    (``quad_dob_training.progress``; None: standard error)."""
+              figures: bool = True, progress: bool = False) -> list[dict]:
+    """Fly every controller in every scenario; return one metrics row per pair.
+    ``progress``: report on standard error (``quad_dob_training.progress``): a notice while
+    a first run compiles, then each controller and each scenario's figures as they finish."""
     built = build_scenarios(scenarios, torque_reading, dt, substeps)
-    warm_up(controllers, built)  # compile once here, before the pool forks
-    with Progress("paper", len(controllers), stream=progress) as report:
-        flown = parallel_map(_fly_named, controllers, [built] * len(controllers),
-                             report=report)
+    warm_up(controllers, built)  # compile once here, under a notice, before forking
+    flown = parallel_map(_fly_named, controllers, [built] * len(controllers),
+                         label="paper" if progress else None)
     flights = dict(zip(controllers, flown, strict=True))
     rows = [flight_metrics(flights[c][i]) for i in range(len(built)) for c in controllers]
     if out_dir is not None:
@@ -76,10 +74,11 @@ def run_paper(scenarios: list[str] = list(PAPER_SCENARIOS),  # noqa: B006
             writer.writerows(rows)
         if figures:
             compared = [c for c in controllers if c in FIGURE_CONTROLLERS] or controllers
-            with Progress("paper figures", len(built), stream=progress) as report:
-                draw_figures([[flights[c][i] for c in compared] for i in range(len(built))],
-                             out_dir / "figures", report)
-            print(f"paper: writing {out_dir / 'report.html'}", file=sys.stderr, flush=True)
+            draw_figures([[flights[c][i] for c in compared] for i in range(len(built))],
+                         out_dir / "figures", "paper figures" if progress else None)
+            if progress:
+                print(f"paper: writing {out_dir / 'report.html'}", file=sys.stderr,
+                      flush=True)
             write_report(out_dir / "report.html", "quad-dob paper",
                          rows, [("scenario", "scenario"), ("controller", "controller"),
                                 *COLUMNS, ("ended", "ended")],
@@ -103,41 +102,43 @@ def warm_up(controllers: list[str], scenarios: list) -> None:
             _fly_named(name, short)
 
 
-def parallel_map(function, *iterables, report: Progress | None = None,
+def parallel_map(function, *iterables, label: str | None = None,
                  names: Sequence[str] | None = None) -> list:
     """``list(map(function, *iterables))``, over two or more cores in forked processes;
-    each item told to ``report`` as it finishes, by its name in ``names`` (default: its
-    first argument)."""
+    with a ``label``, each item reported as it finishes (``progress.Progress``), by its name
+    in ``names`` (default: its first argument)."""
     items = list(zip(*iterables, strict=True))
     names = [str(item[0]) for item in items] if names is None else list(names)
     workers = min(len(items), os.cpu_count() or 1)
     if workers < 2 or sys.platform != "linux":
         results = []
-        for item in items:
-            if report is not None:
-                report.start(names[len(results)])
-            results.append(function(*item))
-            if report is not None:
+        with Progress(label or "", len(items), quiet=label is None) as report:
+            for name, item in zip(names, items, strict=True):
+                report.start(name)
+                results.append(function(*item))
                 report.done()
         return results
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        # every worker forked before the reporter's thread starts: a fork while another
+        # thread holds the stream's lock would leave the child's copy of it locked
         futures = {pool.submit(function, *item): k for k, item in enumerate(items)}
         results: list = [None] * len(items)
-        for future in as_completed(futures):
-            results[futures[future]] = future.result()
-            if report is not None:
+        with Progress(label or "", len(items), quiet=label is None) as report:
+            for future in as_completed(futures):
+                results[futures[future]] = future.result()
+                # the unit is named as it finishes: the workers run several at once
                 report.start(names[futures[future]])
                 report.done()
         return results
 
 
-def draw_figures(per_scenario: list[list], out_dir: Path,
-                 report: Progress | None = None) -> None:
-    """Each scenario's figures (matplotlib is the slow part, so in parallel)."""
+def draw_figures(per_scenario: list[list], out_dir: Path, label: str | None = None) -> None:
+    """Each scenario's figures (matplotlib is the slow part, so in parallel); with a
+    ``label``, each reported as it is drawn."""
     from quad_dob_training.evaluation.plots import scenario_figures
 
-    parallel_map(scenario_figures, per_scenario, [out_dir] * len(per_scenario),
-                 report=report, names=[flights[0].scenario for flights in per_scenario])
+    parallel_map(scenario_figures, per_scenario, [out_dir] * len(per_scenario), label=label,
+                 names=[flights[0].scenario for flights in per_scenario])
 
 
 def markdown_table(rows: list[dict]) -> str:
@@ -153,7 +154,7 @@ def markdown_table(rows: list[dict]) -> str:
 
 # what the console shows of COLUMNS (table.md and table.csv hold them all), and the
 # factor to its unit
-CONSOLE_COLUMNS = (("rms_position", "RMS ‖e_x‖ [mm]", 1e3, 1),
+PAPER_CONSOLE_COLUMNS = (("rms_position", "RMS ‖e_x‖ [mm]", 1e3, 1),
                    ("rms_position_settled", "t≥2 s [mm]", 1e3, 1),
                    ("rms_attitude_settled", "‖log RdᵀR‖ [mrad]", 1e3, 1),
                    ("final_position_error", "final ‖e_x‖ [mm]", 1e3, 1),
@@ -163,12 +164,12 @@ CONSOLE_COLUMNS = (("rms_position", "RMS ‖e_x‖ [mm]", 1e3, 1),
 
 def console_table(rows: list[dict]) -> str:
     """The table as the console shows it: one flight per row, so no ± to name."""
-    header = ["scenario", "controller", *(label for _, label, _, _ in CONSOLE_COLUMNS),
+    header = ["scenario", "controller", *(label for _, label, _, _ in PAPER_CONSOLE_COLUMNS),
               "ended"]
     lines, shown = [], None
     for row in rows:
         cells = ["—" if row[key] is None else f"{row[key] * scale:.{digits}f}"
-                 for key, _, scale, digits in CONSOLE_COLUMNS]
+                 for key, _, scale, digits in PAPER_CONSOLE_COLUMNS]
         lines.append([row["scenario"] if row["scenario"] != shown else "",
                       row["controller"], *cells, row["ended"]])
         shown = row["scenario"]
@@ -181,7 +182,8 @@ def main(scenarios: list[str], controllers: list[str], torque_reading: str,
     start = time.perf_counter()
     print(f"paper: {len(controllers)} controllers x {len(scenarios)} scenarios, one flight "
           f"each" + ("" if as_json else f", into {out_dir}"), file=sys.stderr, flush=True)
-    rows = run_paper(scenarios, controllers, torque_reading, dt, substeps, out_dir, figures)
+    rows = run_paper(scenarios, controllers, torque_reading, dt, substeps, out_dir, figures,
+                     progress=True)
     if as_json:
         import json
 

@@ -39,6 +39,8 @@ Item = TypeVar("Item")
 # seconds without a printed line after which a log is told what is still running: the
 # silence a person reading a log should have to sit through at most (issue target: 10 s)
 HEARTBEAT = 8.0
+
+
 class Progress:
     """Units of work done out of ``total``, reported as they finish.
 
@@ -59,6 +61,8 @@ class Progress:
         self.stream = sys.stderr if stream is None else stream
         self.bar = not quiet and (self._is_terminal(self.stream) if bar is None else bar)
         self.heartbeat = HEARTBEAT if heartbeat is None else heartbeat
+        if self.heartbeat <= 0:
+            raise ValueError(f"Progress heartbeat must be > 0 seconds, got {self.heartbeat}")
         self.clock = clock
         self.count, self.unit = 0, ""
         self.began = self.last_line = clock()
@@ -91,6 +95,8 @@ class Progress:
         """The unit running is finished; ``note`` says what it produced."""
         with self._lock:
             self.count += 1
+            # more units than announced (a search that adds passes): the total grows
+            self.total = max(self.total, self.count)
             if self.bar:
                 self._draw()
             else:
@@ -98,6 +104,7 @@ class Progress:
                 what = ": ".join(part for part in (self.unit, note) if part)
                 self._line(f"{self.label} {self.count}/{self.total}"
                            + (f" {what}" if what else "") + f" ({duration_text(elapsed)} in)")
+            self.unit = ""  # the heartbeat names no unit that is done
 
     def print(self, text: str, file: TextIO | None = None) -> None:
         """``text`` as a line of the command's own output (``file``, default standard

@@ -250,7 +250,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="timesteps between evaluations against the base, each run at "
                        "the first rollout's start past it (default: 100000, or the resumed "
                        "run's own)")
-    train.add_argument("--no-progress", action="store_true", help="no progress bar")
+    train.add_argument("--no-progress", action="store_true",
+                       help="no progress bar on a terminal: a line per rollout instead, as in "
+                       "a log")
     _trust_pickle_option(train)
     train.set_defaults(handler=_train)
     evaluate = commands.add_parser(

@@ -24,14 +24,16 @@ def text_table(header: Sequence[str], rows: Sequence[Sequence[str]],
     """Columns two spaces apart, each as wide as its widest cell; a header wider than its
     column wraps onto more lines at its spaces. The first ``names`` columns hold text,
     left-aligned and cut with "…" past ``NAME_WIDTH``, and further only while the table
-    is wider than ``width``; the others, numbers, right-aligned."""
+    is wider than ``width``; the others, numbers, right-aligned. A table that is still
+    wider, its headers wrapped and its names cut to 12, has its widest columns cut too:
+    it never prints wider than ``width`` (given room for four characters a column)."""
     cells = [list(row) for row in rows]
     count = len(header)
     text_columns = list(range(min(names, count)))
     widths, floors = [], []
     for k in range(count):
         widest = max((len(row[k]) for row in cells), default=0)
-        longest_word = max(len(word) for word in header[k].split())
+        longest_word = max((len(word) for word in header[k].split()), default=0)
         floor = max(widest, longest_word)
         if k in text_columns:
             floor = min(floor, NAME_WIDTH)
@@ -48,6 +50,8 @@ def text_table(header: Sequence[str], rows: Sequence[Sequence[str]],
             widths[roomy] -= 1
         elif any(widths[k] > 12 for k in text_columns):
             widths[max(text_columns, key=lambda k: widths[k])] -= 1
+        elif max(widths) > 4:  # the last resort: cut the widest column's cells
+            widths[max(range(count), key=lambda k: widths[k])] -= 1
         else:
             break
 
@@ -55,7 +59,8 @@ def text_table(header: Sequence[str], rows: Sequence[Sequence[str]],
         return text if len(text) <= size else text[:size - 1] + "…"
 
     def line(row: Sequence[str]) -> str:
-        return "  ".join(cut(text, size).ljust(size) if k in text_columns else text.rjust(size)
+        return "  ".join(cut(text, size).ljust(size) if k in text_columns
+                         else cut(text, size).rjust(size)
                          for k, (text, size) in enumerate(zip(row, widths, strict=True))
                          ).rstrip()
 
@@ -69,17 +74,15 @@ def text_table(header: Sequence[str], rows: Sequence[Sequence[str]],
                       *(line(row) for row in cells)])
 
 
-def _half_width(row: dict, key: str, scale: float) -> str:
-    low, high = row.get(f"{key}_low"), row.get(f"{key}_high")
-    if low is None or high is None or high == low:
-        return ""
-    return f" ± {(high - low) / 2 * scale:.2g}"
-
-
-def _mean(row: dict, key: str, scale: float, digits: int) -> str:
+def mean_text(row: dict, key: str, scale: float, digits: int) -> str:
+    """The mean ± the half-width of its 95 % interval, both to ``digits`` decimals."""
     value = row.get(f"{key}_mean")
-    return "—" if value is None else f"{value * scale:.{digits}f}" + _half_width(row, key,
-                                                                                  scale)
+    if value is None:
+        return "—"
+    low, high = row.get(f"{key}_low"), row.get(f"{key}_high")
+    spread = ("" if low is None or high is None or high == low
+              else f" ± {(high - low) / 2 * scale:.{digits}f}")
+    return f"{value * scale:.{digits}f}{spread}"
 
 
 def _change(row: dict, baseline: str) -> str:
@@ -111,9 +114,9 @@ def evaluation_table(rows: Sequence[dict], baseline: str | None) -> str:
     shown = None
     for row in rows:
         cells = [row["scenario"] if row["scenario"] != shown else "", row["policy"],
-                 _mean(row, "rms_position_settled", 1e3, 2),
-                 _mean(row, "rms_tilt_settled", 1e3, 1), _mean(row, "rms_moment", 1.0, 3),
-                 _mean(row, "rms_command_rate", 1.0, 0),
+                 mean_text(row, "rms_position_settled", 1e3, 2),
+                 mean_text(row, "rms_tilt_settled", 1e3, 1), mean_text(row, "rms_moment", 1.0, 3),
+                 mean_text(row, "rms_command_rate", 1.0, 0),
                  f"{row['crashes']}/{row['flights']}"]
         if baseline:
             cells.append(_change(row, baseline))

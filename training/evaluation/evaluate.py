@@ -189,12 +189,11 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
             for resolved in dict.fromkeys(resolved_of.values()):
                 report.start(f"{scenario_name}, {built_as[resolved].name}")
                 flights = flights_of[resolved] = fly_policy(built_as[resolved], scenario, seeds)
-                lost = sum(flight.termination_reason not in ("", "time_limit")
-                           for flight in flights)
+                metrics[resolved] = [flight_metrics(f) for f in flights]
+                lost = sum(bool(m["crashed"]) for m in metrics[resolved])
                 report.done(f"{len(flights)} flights" + (f", {lost} lost" if lost else ""))
                 if first_flights is not None and resolved in listed:
                     first_flights.setdefault(scenario_name, []).append(flights[0])
-                metrics[resolved] = [flight_metrics(f) for f in flights]
                 distinct[resolved] = distinct_flights(flights)
             if per_seed is not None:
                 for spec in flown:
@@ -217,6 +216,8 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
                                             "quad_dob_env.envs:QuadrotorVectorEnv"),
                            env_id=(policy.config or {}).get("env_id", ""))
                 if delay_grid is not None:
+                    # its own flights, often the longest part: the heartbeat names it
+                    report.start(f"{scenario_name}, {policy.name}: delay margin")
                     path = delay_path or benchmark_delay_path(scenario.loop.benchmark)
                     margin = delay_margin(policy, scenario_name, seeds, scenario_options,
                                           check_grid(delay_grid), flown=flights_of[spec],

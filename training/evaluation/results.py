@@ -156,7 +156,7 @@ def configuration(row: dict) -> tuple[str, str, str, str]:
 LEADERBOARD_HEADER = ("policy", "source", "seeds", "RMS ‖e_x‖ [m] (95 % CI)", "crashed",
                       "project", "machine", "across sources")
 # what the console shows of them (the Markdown file holds all)
-CONSOLE_COLUMNS = (0, 1, 2, 3, 4, 7)
+LEADERBOARD_CONSOLE_COLUMNS = (0, 1, 2, 3, 4, 7)
 
 
 def _leaderboard_sections(sources: list[tuple[str, dict[str, Any]]]
@@ -217,9 +217,9 @@ def console_leaderboard(sources: list[tuple[str, dict[str, Any]]]) -> str:
         if benchmark != shown:
             parts += [f"Benchmark {benchmark}", ""]
             shown = benchmark
-        parts += [heading, text_table([LEADERBOARD_HEADER[k] for k in CONSOLE_COLUMNS],
-                                      [[row[k] for k in CONSOLE_COLUMNS] for row in cells]),
-                  ""]
+        shown_columns = LEADERBOARD_CONSOLE_COLUMNS
+        parts += [heading, text_table([LEADERBOARD_HEADER[k] for k in shown_columns],
+                                      [[row[k] for k in shown_columns] for row in cells]), ""]
     parts.append(textwrap.fill("95 % CI: the bootstrap interval of the mean over the seeds. "
                                "The project version and machine of each row: the Markdown "
                                "(--out FILE).", WIDTH))

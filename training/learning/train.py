@@ -53,7 +53,7 @@ from quad_dob_training.learning.baseline_evaluation import (
     normalization,
     plot_training_curve,
 )
-from quad_dob_training.progress import CompileNotice, Progress
+from quad_dob_training.progress import Progress
 from quad_dob_training.rl.checkpoints import (
     ResumableCheckpoint,
     latest_checkpoint,
@@ -285,12 +285,12 @@ class TrainingProgress(BaseCallback):
     """Off a terminal (where SB3's bar draws nothing until the end), a line per rollout of
     an on-policy algorithm (``OFF_POLICY_LINE_EVERY`` timesteps of another), with the mean
     episode reward so far, and ``progress.Progress``'s heartbeat while an evaluation runs
-    long. On both, the notice while the first steps compile the kernels."""
+    long. (A first run's compilation the simulator announces itself.) ``close()`` ends it
+    whether or not the training ended normally."""
 
     def __init__(self, remaining: int, lines: bool) -> None:
         super().__init__()
         self.remaining, self.lines = remaining, lines
-        self.notice = CompileNotice()
         self.report: Progress | None = None
         self._next = 0
         self._every = 1
@@ -302,10 +302,8 @@ class TrainingProgress(BaseCallback):
         self._next = self.num_timesteps + self._every
         self.report = Progress("train", -(-max(self.remaining, 0) // self._every),
                                quiet=not self.lines, bar=False)
-        self.notice.start()
 
     def _on_step(self) -> bool:
-        self.notice.stop()  # the first step has run: whatever it compiled is compiled
         if self.report is not None and self.num_timesteps >= self._next:
             self._next += self._every
             rewards = [episode["r"] for episode in self.model.ep_info_buffer or ()]
@@ -313,8 +311,7 @@ class TrainingProgress(BaseCallback):
                 f", ep_rew_mean {np.mean(rewards):.1f}" if rewards else ""))
         return True
 
-    def _on_training_end(self) -> None:
-        self.notice.stop()
+    def close(self) -> None:
         if self.report is not None:
             self.report.close()
 
@@ -322,7 +319,7 @@ class TrainingProgress(BaseCallback):
 def _learn(start: RunStart, out: Path, progress_bar: bool) -> Any:
     config, model = start.config, start.model
     print(f"train: {config['algo']} on {config.get('env_id')}, {max(start.remaining, 0):,} "
-          f"timesteps into {out}", flush=True)
+          f"timesteps into {out}", file=sys.stderr, flush=True)
     write_text_atomically(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))
     evaluation = BaselineEvaluation(config, out, config["evaluate_every"])
     checkpoint = ResumableCheckpoint(out / "checkpoints", config["checkpoint_every"], config,
@@ -334,12 +331,13 @@ def _learn(start: RunStart, out: Path, progress_bar: bool) -> Any:
     steps_before = model.num_timesteps
     # off a terminal the bar draws nothing until the end: the evaluations print lines instead
     bar = progress_bar and sys.stdout.isatty()
-    model.learn(max(start.remaining, 0),
-                callback=[checkpoint, evaluation,
-                          TrainingProgress(start.remaining, lines=not bar)],
-                progress_bar=bar,
-                reset_num_timesteps=start.count_from_zero,
-                tb_log_name=config["algo"])
+    lines = TrainingProgress(start.remaining, lines=not bar)
+    try:
+        model.learn(max(start.remaining, 0), callback=[checkpoint, evaluation, lines],
+                    progress_bar=bar, reset_num_timesteps=start.count_from_zero,
+                    tb_log_name=config["algo"])
+    finally:  # an error or Ctrl-C mid-run leaves no heartbeat behind
+        lines.close()
     wall = time.perf_counter() - began
     config["observation_normalization"] = normalization(model.get_env())
     write_text_atomically(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))

@@ -397,11 +397,13 @@ def warm_up(controller: str, benchmark: str, vehicle: str, seeds: tuple[int, ...
                            scenario, list(seeds))
 
 
-def planned_trials(controller: str, benchmark: str = "v1", passes: int = PASSES) -> int:
+def planned_trials(controller: str, benchmark: str = "v1", vehicle: str = "paper",
+                   passes: int = PASSES) -> int:
     """The trials ``coordinate_descent`` flies unless the margin stops some early or asks
-    for more passes: the starts, then each searched gain at each factor its cap allows."""
+    for more passes: the starts, then each searched gain at each factor its cap allows at
+    the start (a report's total, which grows where the search flies more)."""
     caps = bandwidth_caps(controller)
-    gains = start_gains(controller, benchmark)
+    gains = start_gains(controller, benchmark, vehicle)
     starts = (len(TIME_SCALES) if benchmark in SLOWED_SEARCH and controller in SEARCHED
               and controller not in SHARES_GAINS_OF.get(benchmark, {}) else 1)
     per_pass = sum(1 for name in searched_gains(controller, benchmark) for factor in FACTORS
@@ -435,7 +437,7 @@ def coordinate_descent(controller: str, log: Callable[[str], None] = print,
         objective is then not flown)."""
         build = lambda: make_controller(controller, vehicle, benchmark, **candidate)  # noqa: E731
         if report is not None:
-            report.start(f"{controller}, trial {len(history) + 1}")
+            report.start(f"trial {len(history) + 1}")
         try:
             return fly_trial(build, candidate, to_beat)
         finally:
@@ -591,7 +593,7 @@ def main(controllers: list[str] | None, out: Path, benchmark: str = TOOLS_BENCHM
     for controller in chosen:
         trials = (len(list(itertools.product(*OBSERVER_RATES.values())))
                   if controller == "geometric-ndob" else
-                  planned_trials(controller, benchmark, passes))
+                  planned_trials(controller, benchmark, vehicle, passes))
         with Progress(f"tune {controller}", trials) as progress:
             if controller == "geometric-ndob":
                 winner, history = observer_grid(progress.print, seeds=seeds, report=progress)

@@ -234,15 +234,21 @@ def statistics_table(first: list[str], rows: list[tuple[list[str], dict | None]]
     return "\n".join(lines)
 
 
-def report(benchmark: str, simulated: list[dict], real_rows: list[dict]) -> str:
-    """The tables ``quad-dob wind-tunnel`` prints."""
+def _published_comparison(benchmark: str, simulated: list[dict]) -> tuple[str, str]:
+    """The title and the Markdown table of the simulated RMS after ``SKIP`` s beside
+    Neural-Fly's published figures (``side_by_side``)."""
     rows = [{"scenario": run["scenario"], "policy": run["policy"],
              "rms_position_settled_mean": float(np.mean(run["rms_after_skip"])),
              "crashes": run["crashes"]} for run in simulated]
-    parts = [f"Benchmark {benchmark}: RMS position error after {SKIP:g} s [mm], the "
-             "simulated mean over the seeds beside Neural-Fly's published figure",
-             side_by_side(rows, "controller",
-                          {run["policy"]: run["counterpart"] for run in simulated}), "",
+    return (f"Benchmark {benchmark}: RMS position error after {SKIP:g} s [mm], the simulated "
+            "mean over the seeds beside Neural-Fly's published figure",
+            side_by_side(rows, "controller",
+                         {run["policy"]: run["counterpart"] for run in simulated}))
+
+
+def report(benchmark: str, simulated: list[dict], real_rows: list[dict]) -> str:
+    """Every table of ``quad-dob wind-tunnel`` in full, as Markdown: wind_tunnel.md."""
+    parts = [*_published_comparison(benchmark, simulated), "",
              "Simulated, over the whole laps after 5 s (mean over the seeds; z share "
              "pooled: Σ rms_z² / Σ rms²)",
              statistics_table(["controller", "wind [m/s]", "lost"], [
@@ -265,7 +271,7 @@ def report(benchmark: str, simulated: list[dict], real_rows: list[dict]) -> str:
 
 
 # what the console shows of COLUMNS (wind_tunnel.md holds them all)
-CONSOLE_COLUMNS = ("laps", "rms.x", "rms.y", "rms.z", "rms_total", "z_share",
+TUNNEL_CONSOLE_COLUMNS = ("laps", "rms.x", "rms.y", "rms.z", "rms_total", "z_share",
                    "command_over_hover_peak", "limit_share")
 
 
@@ -273,10 +279,7 @@ def console_report(benchmark: str, simulated: list[dict], real_rows: list[dict])
     """What ``quad-dob wind-tunnel`` prints, in 120 columns: the published comparison, the
     simulated laps' main statistics, and how many of the real runs' statistics each verdict
     holds; ``report`` (wind_tunnel.md) has every column."""
-    rows = [{"scenario": run["scenario"], "policy": run["policy"],
-             "rms_position_settled_mean": float(np.mean(run["rms_after_skip"])),
-             "crashes": run["crashes"]} for run in simulated]
-    shown = [column for column in COLUMNS if column[0] in CONSOLE_COLUMNS]
+    shown = [column for column in COLUMNS if column[0] in TUNNEL_CONSOLE_COLUMNS]
     labels = {"rms.x": "RMS x [mm]", "rms.y": "y [mm]", "rms.z": "z [mm]",
               "command_over_hover_peak": "command / hover peak"}
     table = text_table(
@@ -284,12 +287,10 @@ def console_report(benchmark: str, simulated: list[dict], real_rows: list[dict])
                                                for key, label, _, _ in shown)],
         [[run["policy"], f"{run['wind_speed']:g}", str(run["crashes"]),
           *_cells(run["mean"].get(str(run["laps"])), shown)] for run in simulated], names=1)
-    parts = [f"Benchmark {benchmark}: RMS position error after {SKIP:g} s [mm], the "
-             "simulated mean over the seeds beside Neural-Fly's published figure",
-             text_table(*_markdown_rows(side_by_side(
-                 rows, "controller", {run["policy"]: run["counterpart"]
-                                      for run in simulated})), names=1), "",
-             "Simulated, over the whole laps after 5 s (mean over the seeds)", table]
+    title, published = _published_comparison(benchmark, simulated)
+    parts = [title, text_table(*_markdown_rows(published), names=1), "",
+             "Simulated, over the whole laps after 5 s (mean over the seeds; z share pooled: "
+             "Σ rms_z² / Σ rms²)", table]
     if real_rows:
         verdicts = [str(entry["verdict"]).split(":")[0] for row in real_rows
                     for entry in row["verdicts"] or ()]
