@@ -133,6 +133,20 @@ def test_a_console_table_fits_120_columns_and_keeps_the_names_whole():
                               [["pid", "alice", "0-2", "agrees with " + "bob, " * 40]], names=2)
     assert max(len(line) for line in wide.splitlines()) <= console.WIDTH
     assert "agrees with bob" in wide and "…" in wide
+    # the demo's rows (a long scenario and policy, wide spreads) fit whole
+    base = {"scenario": "dryden-helix-gusts", "crashes": 0, "flights": 20}
+    values = {"rms_position_settled": (0.13333, 0.1272, 0.1394), "rms_moment": (5.335, 5.2, 5.4),
+              "rms_command_rate": (2648.0, 2092.0, 3204.0)}
+    rows = [{**base, "policy": name, "policy_spec": name,
+             **{f"{key}_{part}": value for key, triple in values.items()
+                for part, value in zip(("mean", "low", "high"), triple, strict=True)},
+             "rms_position_settled_diff_mean": 0.0868, "rms_position_settled_diff_low": 0.083,
+             "rms_position_settled_diff_high": 0.0909}
+            for name in ("geometric-ndob:tuned", "residual:v4")]
+    table = console.evaluation_table(rows, "geometric-ndob:tuned")
+    assert max(len(line) for line in table.splitlines()) <= console.WIDTH
+    assert "dryden-helix-gusts  geometric-ndob:tuned" in table and "…" not in table
+    assert "+187% [+83.0, +90.9]" in table
     # ± with the mean's decimals, never an exponent
     row = {"rate_mean": 1234.0, "rate_low": 1100.0, "rate_high": 1340.0}
     assert console.mean_text(row, "rate", 1.0, 0) == "1234 ± 120"

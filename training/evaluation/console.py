@@ -104,10 +104,11 @@ def _change(row: dict, baseline: str) -> str:
 
 
 def evaluation_table(rows: Sequence[dict], baseline: str | None) -> str:
-    """One line per scenario and policy: position error, tilt, effort and command rate as
-    means ± the 95 % interval's half-width, flights lost, and the change to ``baseline``."""
-    header = ["scenario", "policy", "RMS ‖e_x‖ [mm]", "tilt [mrad]", "‖M‖ [N m]",
-              "rate [N/s]", "lost"]
+    """One line per scenario and policy: position error, effort and command rate as means
+    ± the 95 % interval's half-width, flights lost, and the change to ``baseline`` (the
+    attitude errors are in the files)."""
+    header = ["scenario", "policy", "RMS ‖e_x‖ [mm]", "effort [N m]",
+              "command rate [N/s]", "lost"]
     if baseline:
         header.append("Δ ‖e_x‖ % [mm]")
     lines = []
@@ -115,19 +116,20 @@ def evaluation_table(rows: Sequence[dict], baseline: str | None) -> str:
     for row in rows:
         cells = [row["scenario"] if row["scenario"] != shown else "", row["policy"],
                  mean_text(row, "rms_position_settled", 1e3, 2),
-                 mean_text(row, "rms_tilt_settled", 1e3, 1), mean_text(row, "rms_moment", 1.0, 3),
-                 mean_text(row, "rms_command_rate", 1.0, 0),
+                 mean_text(row, "rms_moment", 1.0, 3), mean_text(row, "rms_command_rate", 1.0, 0),
                  f"{row['crashes']}/{row['flights']}"]
         if baseline:
             cells.append(_change(row, baseline))
         shown = row["scenario"]
         lines.append(cells)
     legend = ("± : half-width of the 95 % bootstrap interval of the mean over the seeds. "
+              "effort: RMS of the moment's norm ‖M‖. "
               "lost: flights that ended before their time.")
     if baseline:
         legend += (f" Δ: paired change against {baseline}, in % of its mean, with the 95 % "
                    "interval of the change in mm; n.s.: the interval holds 0.")
-    legend += " Every column, with spreads and estimator errors: evaluation.md and .csv."
+    legend += (" Every column (attitude errors, spreads, the estimator's errors): evaluation.md"
+               " and .csv.")
     return text_table(header, lines) + "\n\n" + textwrap.fill(legend, WIDTH)
 
 
