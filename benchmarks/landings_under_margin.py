@@ -41,7 +41,7 @@ from quad_dob_env.scenarios import make_scenario
 from quad_dob_training.evaluation.evaluate import parse_seeds
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.policies import Policy, fly_policy, make_policy
-from quad_dob_training.progress import Progress, compiling_notice, steps
+from quad_dob_training.progress import Progress, compiling_notice, reported
 from quad_dob_training.rollout import warm_up_copy
 from quad_dob_training.tuning.tune import MARGINS  # each benchmark's: what its gains keep
 
@@ -120,7 +120,7 @@ def main() -> None:
           f"{args.benchmark}'s margin", file=sys.stderr, flush=True)
     # bare residual: the shipped policy of the benchmark flown
     policies = [make_policy(spec, benchmark=args.benchmark)
-             for spec in steps(specs, "loading policies")]
+             for spec in reported(specs, "loading policies")]
     amplitudes = [float(a) for a in args.dither.split(",") if a]
     if amplitudes:
         residuals = [p for p in policies if p.model is not None and p.base is not None]

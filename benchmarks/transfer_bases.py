@@ -26,7 +26,7 @@ from quad_dob_training.evaluation.evaluate import SUITES, parse_seeds
 from quad_dob_training.evaluation.metrics import flight_metrics
 from quad_dob_training.evaluation.statistics import bootstrap_mean, paired_difference
 from quad_dob_training.policies import fly_policy, make_policy
-from quad_dob_training.progress import Progress, compiling_notice, steps
+from quad_dob_training.progress import Progress, compiling_notice, reported
 from quad_dob_training.rollout import warm_up_copy
 
 
@@ -53,7 +53,7 @@ def main() -> None:
           f"{len(seeds)} seeds, Benchmark {args.benchmark}", file=sys.stderr, flush=True)
     # bare residual: the shipped policy of the benchmark flown
     residuals = [make_policy(spec, benchmark=args.benchmark)
-             for spec in steps(specs, "loading residuals")]
+             for spec in reported(specs, "loading residuals")]
     # the base alone, as the residual loads it: the same env, the residual held at zero
     bases = [dataclasses.replace(policy, model=None,
                                  name=f"{policy.base} at {policy.base_benchmark} gains")

@@ -13,7 +13,7 @@ import pytest
 from quad_dob_env import compile_notice
 from quad_dob_training import cli, progress
 from quad_dob_training.evaluation import console
-from quad_dob_training.progress import Progress, compiling_notice, steps
+from quad_dob_training.progress import Progress, compiling_notice, reported
 
 
 class Terminal(io.StringIO):
@@ -58,14 +58,14 @@ def test_a_terminal_gets_one_bar_redrawn_in_place_and_ended_with_a_newline():
     assert "1/4 done" in text.splitlines()[-1]  # closed: the bar's last state, then a newline
 
 
-def test_quiet_reports_nothing_and_steps_reports_each_item():
+def test_quiet_reports_nothing_and_reported_reports_each_item():
     silent = io.StringIO()
     with Progress("job", 1, stream=silent, quiet=True) as report:
         report.start("x")
         report.done()
     assert silent.getvalue() == ""
     stream = io.StringIO()
-    assert list(steps(["a", "b"], "walk", stream=stream)) == ["a", "b"]
+    assert list(reported(["a", "b"], "walk", stream=stream)) == ["a", "b"]
     assert [line.split(" (")[0] for line in stream.getvalue().splitlines()] == [
         "walk 1/2 a", "walk 2/2 b"]
 

@@ -167,7 +167,7 @@ class Progress:
                                f"({duration_text(self.clock() - self.began)} in)")
 
 
-def steps(items: Iterable[Item], label: str, *, name: Callable[[Item], str] = str,
+def reported(items: Iterable[Item], label: str, *, name: Callable[[Item], str] = str,
           stream: TextIO | None = None, total: int | None = None) -> Iterator[Item]:
     """``items``, reported through a ``Progress`` as each is taken and its work finishes
     (the work between two items is the earlier one's). ``name``: an item's words in the
