@@ -37,7 +37,7 @@ from quad_dob_env.compile_notice import (  # noqa: F401 (the commands' one impor
 Item = TypeVar("Item")
 
 # seconds without a printed line after which a log is told what is still running: the
-# silence a person reading a log should have to sit through at most (issue target: 10 s)
+# silence a person reading a log should have to sit through at most (the target: 10 s)
 HEARTBEAT = 8.0
 
 
@@ -168,7 +168,7 @@ class Progress:
 
 
 def reported(items: Iterable[Item], label: str, *, name: Callable[[Item], str] = str,
-          stream: TextIO | None = None, total: int | None = None) -> Iterator[Item]:
+             stream: TextIO | None = None, total: int | None = None) -> Iterator[Item]:
     """``items``, reported through a ``Progress`` as each is taken and its work finishes
     (the work between two items is the earlier one's). ``name``: an item's words in the
     report."""

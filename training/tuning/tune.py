@@ -583,10 +583,10 @@ def main(controllers: list[str] | None, out: Path, benchmark: str = TOOLS_BENCHM
                                 "gains: geometric-ndob:tuned" if controller == "geometric-ndob"
                                 else ""))
     out.mkdir(parents=True, exist_ok=True)
-    report: dict[str, Any] = {"benchmark": benchmark, "vehicle": vehicle,
-                              "seeds": list(seeds), "passes": passes,
-                              "scenarios": list(TUNING_SCENARIOS[benchmark]),
-                              "margin": MARGINS.get(benchmark)}
+    document: dict[str, Any] = {"benchmark": benchmark, "vehicle": vehicle,
+                                "seeds": list(seeds), "passes": passes,
+                                "scenarios": list(TUNING_SCENARIOS[benchmark]),
+                                "margin": MARGINS.get(benchmark)}
     print(f"tune: {', '.join(chosen)} for Benchmark {benchmark} on the {vehicle} vehicle, "
           f"{len(seeds)} tuning seeds, into {out}", file=sys.stderr, flush=True)
     warm_up(chosen[0], benchmark, vehicle, seeds)
@@ -602,8 +602,8 @@ def main(controllers: list[str] | None, out: Path, benchmark: str = TOOLS_BENCHM
                                                      benchmark=benchmark, vehicle=vehicle,
                                                      seeds=seeds, passes=passes,
                                                      report=progress)
-        report[controller] = {"winner": winner, "history": history}
+        document[controller] = {"winner": winner, "history": history}
         print(f"{controller}: {json.dumps(winner)}")
-        (out / "tuning.json").write_text(json.dumps(report, indent=1) + "\n")
+        (out / "tuning.json").write_text(json.dumps(document, indent=1) + "\n")
     print(f"wrote {out / 'tuning.json'} in {time.perf_counter() - start:.0f} s")
     return 0

@@ -142,14 +142,14 @@ def simulate(benchmark: str, seeds: list[int], duration: float | None,
                 fly_policy(make_policy(spec, benchmark=benchmark), first, seeds)
     results = []
     with Progress("wind-tunnel", len(WIND_SPEEDS) * len(pairs),
-                  quiet=not progress) as report:
+                  quiet=not progress) as reporter:
         for wind in WIND_SPEEDS:
             scenario = make_scenario(f"figure8-wind-{wind}", **options)
             for spec in pairs:
-                report.start(f"{spec}, {wind} m/s")
+                reporter.start(f"{spec}, {wind} m/s")
                 results.append(_flown_in_tunnel(spec, scenario, seeds, float(wind), pairs,
                                                  laps_wanted))
-                report.done(f"{results[-1]['crashes']} of {len(seeds)} lost")
+                reporter.done(f"{results[-1]['crashes']} of {len(seeds)} lost")
     return results
 
 
