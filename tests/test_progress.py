@@ -88,7 +88,6 @@ def test_the_simulators_entry_points_announce_a_slow_first_call_once(monkeypatch
     """rl-zoo3 or a user's script drives the envs directly: the first reset and step in a
     process give the notice themselves, and a call inside another gives none of its own."""
     monkeypatch.setattr(compile_notice, "COMPILE_MESSAGE_SAID", threading.Event())
-    monkeypatch.setattr(compile_notice, "_CALLED", set())
     monkeypatch.setattr(compile_notice, "COMPILE_NOTICE_AFTER", 0.05)
 
     class Simulator:
@@ -108,6 +107,12 @@ def test_the_simulators_entry_points_announce_a_slow_first_call_once(monkeypatch
     assert re.fullmatch(r"compiled in \d+ s", first[1]) and len(first) == 2
     assert simulator.step() == "inner" and simulator.inner() == "inner"
     assert capsys.readouterr().err == ""  # later calls: no timer, no line
+    # and no wrapper: the class holds the plain methods again, the step pays nothing
+    for name in ("step", "inner"):
+        plain = Simulator.__dict__[name]
+        assert not isinstance(plain, compile_notice.announces_compiling)
+        assert not hasattr(plain, "__wrapped__")  # the method itself, no wrapper around it
+        assert getattr(simulator, name).__func__ is plain
     # a long compilation is not silent: a line every COMPILE_HEARTBEAT seconds
     monkeypatch.setattr(compile_notice, "COMPILE_HEARTBEAT", 0.05)
     with compile_notice.compiling_notice():
