@@ -20,7 +20,7 @@ $(STAMP): pyproject.toml
 	$(PIP) --upgrade pip
 	$(PIP) torch==2.13.0 --extra-index-url $(TORCH_CPU_INDEX) --retries 0 --timeout 5 \
 		|| $(PIP) 'torch>=2.3'
-	$(PIP) -e '.[dev]'
+	$(PIP) -e '.[dev,raptor]'
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -19,6 +19,8 @@ envs, residual or wrappers, nor ``quad_dob_composition`` or ``quad_dob_training`
   NF-C's adaptation and with integral action.
 - ``inner``: their attitude laws, compiled per vehicle, for an inner loop that runs them
   at its own rate (``InnerLaw``, what ``Controller.inner_law`` hands it).
+- ``raptor``: RAPTOR's foundation policy (Eschmann et al. 2025) as a controller, its weights
+  read from the ``foundation-policy`` package's checkpoint.
 
 - ``plugins``: a user's controller by ``py:package.module:Name`` or by the name an
   installed package registers (entry-point group ``quad_dob_env.controllers``).
@@ -33,7 +35,7 @@ action on position instead of an observer), ``indi``, ``indi-outer`` (INDI's out
 alone under Lee's attitude law, first-order 5 Hz filter: the INDI Neural-Fly flew), ``l1``,
 ``l1-matched`` (L1 compensating the thrust axis's part alone, as Neural-Fly's),
 ``nf-constant`` (Neural-Fly's NF-C), ``nf-baseline`` (their nonlinear baseline), ``pid``,
-``smc``.
+``smc``, and ``raptor`` (an outside learned policy, RAPTOR's, with the extra ``raptor``).
 """
 
 from __future__ import annotations
@@ -56,6 +58,7 @@ from quad_dob_baselines.l1 import NEURAL_FLY_L1, L1AdaptiveController
 from quad_dob_baselines.neural_fly import NeuralFlyBaseline, NeuralFlyConstant
 from quad_dob_baselines.observer import NonlinearDisturbanceObserver
 from quad_dob_baselines.pid import CascadedPID
+from quad_dob_baselines.raptor import RaptorController
 from quad_dob_baselines.smc import SlidingModeController
 from quad_dob_env.params import VehicleParams, get_vehicle
 from quad_dob_env.validation import unknown_name_error
@@ -119,6 +122,7 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     "nf-baseline": lambda vehicle, **options: NeuralFlyBaseline(**options),
     "pid": lambda vehicle, **options: CascadedPID(**options),
     "smc": lambda vehicle, **options: SlidingModeController(**options),
+    "raptor": lambda vehicle, **options: RaptorController(**options),
 }
 
 
@@ -189,6 +193,7 @@ __all__ = [
     "NeuralFlyBaseline",
     "NeuralFlyConstant",
     "NonlinearDisturbanceObserver",
+    "RaptorController",
     "SlidingModeController",
     "controller_names",
     "gain_set",

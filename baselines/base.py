@@ -58,6 +58,10 @@ class Controller:
     # ``training/tuning/tune.py``'s own tables
     tunable_gains: ClassVar[dict[str, float]] = {}
     estimator_bandwidths: ClassVar[tuple[str, ...]] = ()
+    # what it can fly: the actuations it commands (``quad_dob_env.dynamics.ACTUATIONS``), and
+    # the one control step it runs at [s] (None: any); ``reset`` refuses anything else
+    actuations: ClassVar[tuple[str, ...]] = ("rotors", "wrench")
+    control_period: ClassVar[float | None] = None
 
     def __init__(self) -> None:
         self.vehicle: VehicleParams | None = None
@@ -71,9 +75,24 @@ class Controller:
         """Start episodes: all vehicles when ``indices`` is None (re-sizing the batch).
         ``actuation`` names how the vehicle turns a command into thrust and moments
         (``quad_dob_env.dynamics.Actuator``), for controllers that model their limits."""
+        problem = self.refusal(dt, actuation)
+        if problem is not None:
+            raise ValueError(problem)
         if indices is None:
             self.n, self.vehicle, self.dt = int(num_vehicles), vehicle, float(dt)
             self.actuation = actuation
+
+    def refusal(self, dt: float, actuation: str) -> str | None:
+        """Why this controller cannot fly a control step of ``dt`` s with ``actuation``
+        (``actuations``, ``control_period``), or None when it can."""
+        if actuation not in self.actuations:
+            return (f"{self.name} flies the actuation(s) {', '.join(self.actuations)}; this "
+                    f"scenario's is {actuation!r}")
+        if self.control_period is not None and abs(dt - self.control_period) > 1e-9:
+            return (f"{self.name} runs every {self.control_period:g} s; this scenario's control "
+                    f"step is {dt:g} s: fly it at dt={self.control_period:g} (quad-dob evaluate "
+                    f"--scenario-option dt={self.control_period:g})")
+        return None
 
     def compute(self, time: NDArray, state: VehicleState,
                 reference: Reference) -> tuple[NDArray, NDArray]:

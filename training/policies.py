@@ -62,7 +62,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_baselines import controller_names, is_controller_name, user_controller
+from quad_dob_baselines import (
+    controller_names,
+    is_controller_name,
+    make_controller,
+    user_controller,
+)
 from quad_dob_composition import make_vector_env
 from quad_dob_composition.oracle import is_oracle_name
 from quad_dob_env.envs import QuadrotorVectorEnv
@@ -128,6 +133,16 @@ class Policy:
             observations = np.clip((observations - mean) / scale, -clip, clip).astype(np.float32)
         actions, _ = self.model.predict(observations, deterministic=True)
         return actions
+
+    def refusal(self, scenario: Scenario) -> str | None:
+        """Why its controller cannot fly ``scenario``'s control step and actuation
+        (``Controller.refusal``: RAPTOR's 10 ms and rotors), or None; asked before any
+        flight, so a long evaluation does not stop halfway."""
+        if not is_controller_name(self.base):
+            return None
+        controller = make_controller(self.base, scenario.vehicle,
+                                     self.base_benchmark or scenario.loop.benchmark)
+        return controller.refusal(scenario.dt, scenario.actuation)
 
     def env_kwargs(self) -> dict[str, Any]:
         """The env options the model was trained with (its spaces depend on them), less

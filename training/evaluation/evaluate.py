@@ -173,6 +173,9 @@ def evaluate(policies: list[str], scenarios: list[str], seeds: list[int],
             if resolved not in built_as:
                 built_as[resolved] = make_policy(resolved, trust_pickle=trust_pickle,
                                                  env_id=env_id)
+            problem = built_as[resolved].refusal(scenario)
+            if problem is not None:
+                raise ValueError(f"{spec} cannot fly {scenario.name}: {problem}")
     if progress:
         warm_up(list(built_as.values()), next(iter(made.values())), seeds)
     units = sum(len({resolve_spec(spec, scenario.loop.benchmark) for spec in flown})
