@@ -6,6 +6,10 @@ the RMS position error after the scenario's settle time in mm with its 95 % boot
 interval, the delay margin, the flights lost of the seeds, and the distinct flights where
 fewer than the seeds (a scenario whose seeds vary nothing flies one flight).
 
+Several folders make one table, a row per benchmark, vehicle and scenario (RAPTOR's in
+docs/raptor.md: ``python benchmarks/suite_table.py DIR1 DIR2 ... --rank raptor``).
+``--rank NAME`` adds NAME's place among the row's policies by the one rule below.
+
 ``--strongest`` prints instead, per scenario, the strongest classical row by the one rule
 (``evaluation.ranking``: fewest flights lost, then the lowest mean RMS error; what a learned
 policy has to beat) and the runner-up, and whether the two are
@@ -25,28 +29,48 @@ from quad_dob_training.evaluation.ranking import Standing, ranked
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("folder", type=Path)
+    parser.add_argument("folders", type=Path, nargs="+", metavar="folder")
     parser.add_argument("--skip", nargs="*", default=[], help="policies to leave out")
     parser.add_argument("--strongest", action="store_true",
                         help="the strongest classical baseline per scenario instead")
+    parser.add_argument("--rank", metavar="NAME",
+                        help="add NAME's place among each row's policies (the one rule)")
     args = parser.parse_args()
-    rows = [row for row in csv.DictReader(open(args.folder / "evaluation.csv"))
+    rows = [row for folder in args.folders
+            for row in csv.DictReader(open(folder / "evaluation.csv"))
             if row["policy"] not in args.skip]
     if args.strongest:
         strongest(rows)
         return
+    several = len(args.folders) > 1
+    if several:  # a column per spec: bare residual is each benchmark's shipped policy
+        for row in rows:
+            row["policy"] = row.get("policy_spec") or row["policy"]
     policies = list(dict.fromkeys(row["policy"] for row in rows))
-    scenarios = list(dict.fromkeys(row["scenario"] for row in rows))
-    cell = {(row["scenario"], row["policy"]): row for row in rows}
+    if args.rank is not None and args.rank not in policies:
+        parser.error(f"--rank {args.rank}: no such policy in the rows; they are "
+                     + ", ".join(policies))
+    # a row of the table: (benchmark, vehicle, scenario); one folder's rows are its scenarios
+    keys = list(dict.fromkeys(_row_key(row) for row in rows))
+    cell = {(_row_key(row), row["policy"]): row for row in rows}
     paths = {row["delay_margin_path"] for row in rows if row.get("delay_margin_path")}
     if paths:  # one line for where the margins' latency went, not a word in every cell
         print(f"Delay margins: latency added on the {', '.join(sorted(paths))}\n")
-    print("| scenario | " + " | ".join(policies) + " |")
-    print("|---|" + "---|" * len(policies))
-    for scenario in scenarios:
-        cells = []
+    head = ["benchmark", "vehicle", "scenario"] if several else ["scenario"]
+    if args.rank is not None:
+        head.append(f"{args.rank}'s rank")
+    print("| " + " | ".join(head + policies) + " |")
+    print("|---|" + "---|" * (len(head) - 1 + len(policies)))
+    for key in keys:
+        cells = list(key) if several else [key[2]]
+        if args.rank is not None:
+            flown = {policy: Standing(int(row["crashes"]), float(row["rms_position_settled_mean"]))
+                     for (where, policy), row in cell.items() if where == key}
+            order = ranked(flown)
+            cells.append(f"{order.index(args.rank) + 1} of {len(order)}"
+                         if args.rank in order else "—")
         for policy in policies:
-            row = cell.get((scenario, policy))
+            row = cell.get((key, policy))
             if row is None:
                 cells.append("—")
                 continue
@@ -62,7 +86,11 @@ def main() -> None:
             if row.get("distinct_flights") and row["distinct_flights"] != row["flights"]:
                 text += f", {row['distinct_flights']} distinct"
             cells.append(text)
-        print(f"| {scenario} | " + " | ".join(cells) + " |")
+        print("| " + " | ".join(cells) + " |")
+
+
+def _row_key(row: dict) -> tuple[str, str, str]:
+    return row.get("benchmark", ""), row.get("vehicle", ""), row["scenario"]
 
 
 LEARNED = ("residual", "ppo:", "sac:")
