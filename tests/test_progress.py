@@ -155,6 +155,10 @@ def test_a_console_table_fits_120_columns_and_keeps_the_names_whole():
     # ± with the mean's decimals, never an exponent
     row = {"rate_mean": 1234.0, "rate_low": 1100.0, "rate_high": 1340.0}
     assert console.mean_text(row, "rate", 1.0, 0) == "1234 ± 120"
+    # a 27 g vehicle's effort keeps three significant figures, not 0.000
+    small = {"effort_mean": 1.234e-4, "effort_low": 1.1e-4, "effort_high": 1.3e-4}
+    assert console.mean_text(small, "effort", 1.0, None) == "0.000123 ± 0.000010"
+    assert console.mean_text(row, "rate", 1.0, None) == "1234 ± 120"
 
 
 @pytest.fixture

@@ -7,6 +7,7 @@ characters, with a legend that names what ``±`` and the intervals are.
 
 from __future__ import annotations
 
+import math
 import textwrap
 from collections.abc import Sequence
 
@@ -74,11 +75,17 @@ def text_table(header: Sequence[str], rows: Sequence[Sequence[str]],
                       *(line(row) for row in cells)])
 
 
-def mean_text(row: dict, key: str, scale: float, digits: int) -> str:
-    """The mean ± the half-width of its 95 % interval, both to ``digits`` decimals."""
+def mean_text(row: dict, key: str, scale: float, digits: int | None) -> str:
+    """The mean ± the half-width of its 95 % interval, both to ``digits`` decimals (None:
+    as many as give the mean three significant figures, so a 27 g vehicle's effort does
+    not print as 0.000)."""
     value = row.get(f"{key}_mean")
     if value is None:
         return "—"
+    if digits is None:
+        magnitude = abs(value * scale)
+        digits = 0 if magnitude == 0 or not math.isfinite(magnitude) else max(
+            0, 2 - math.floor(math.log10(magnitude)))
     low, high = row.get(f"{key}_low"), row.get(f"{key}_high")
     spread = ("" if low is None or high is None or high == low
               else f" ± {(high - low) / 2 * scale:.{digits}f}")
@@ -116,7 +123,8 @@ def evaluation_table(rows: Sequence[dict], baseline: str | None) -> str:
     for row in rows:
         cells = [row["scenario"] if row["scenario"] != shown else "", row["policy"],
                  mean_text(row, "rms_position_settled", 1e3, 2),
-                 mean_text(row, "rms_moment", 1.0, 3), mean_text(row, "rms_command_rate", 1.0, 0),
+                 mean_text(row, "rms_moment", 1.0, None),
+                 mean_text(row, "rms_command_rate", 1.0, None),
                  f"{row['crashes']}/{row['flights']}"]
         if baseline:
             cells.append(_change(row, baseline))
