@@ -487,6 +487,21 @@ def test_the_command_refuses_before_flying(tmp_path, capsys):
 
 # --- the evaluation rows --------------------------------------------------------------------
 
+def test_the_z_share_never_rounds_above_one():
+    """A landing straight down (v1's ground-effect-landing, pid, 20 seeds: no horizontal
+    error at all) made a share of 1 + 2e-16, which evaluation.json's schema refused."""
+    from quad_dob_training.evaluation.statistics import z_share
+
+    rng = np.random.default_rng(0)
+    for _ in range(20000):
+        flights = rng.integers(1, 25)
+        rms = np.abs(rng.normal(size=(flights, 3))) * np.array([1e-9, 1e-9, 1.0]) \
+            * rng.uniform(0.1, 10, size=(flights, 1))
+        assert 0.0 <= z_share(rms) <= 1.0
+    assert z_share([0.0, 0.0, 0.3]) == 1.0
+    assert z_share([0.3, 0.4, 0.0]) == 0.0
+
+
 def test_evaluation_rows_hold_the_settled_rms_per_axis_and_the_z_share():
     """rms_position_settled_{x,y,z}_{mean,std,low,high} as the norm's, and z_share_settled =
     Σ rms_z² / Σ rms² over the seeds; the rows still make a valid evaluation.json."""
