@@ -7,7 +7,8 @@ interval, the delay margin, the flights lost of the seeds, and the distinct flig
 fewer than the seeds (a scenario whose seeds vary nothing flies one flight).
 
 Several folders make one table, a row per benchmark, vehicle and scenario (RAPTOR's in
-docs/raptor.md: ``python benchmarks/suite_table.py DIR1 DIR2 ... --rank raptor``).
+docs/raptor.md: ``python benchmarks/suite_table.py DIR1 DIR2 ... --rank raptor``), where
+each benchmark's own shipped policy (``residual:v1`` in v1, ...) is one column, ``residual``.
 ``--rank NAME`` adds NAME's place among the row's policies by the one rule below.
 
 ``--strongest`` prints instead, per scenario, the strongest classical row by the one rule
@@ -43,9 +44,10 @@ def main() -> None:
         strongest(rows)
         return
     several = len(args.folders) > 1
-    if several:  # a column per spec: bare residual is each benchmark's shipped policy
+    if several:  # one column for each benchmark's own shipped residual, as bare residual
         for row in rows:
-            row["policy"] = row.get("policy_spec") or row["policy"]
+            if row["policy"] == f"residual:{row.get('benchmark')}":
+                row["policy"] = "residual"
     policies = list(dict.fromkeys(row["policy"] for row in rows))
     if args.rank is not None and args.rank not in policies:
         parser.error(f"--rank {args.rank}: no such policy in the rows; they are "
