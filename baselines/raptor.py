@@ -55,8 +55,8 @@ from quad_dob_env.trajectories import Reference
 RAPTOR_DT = 0.01
 # the package this module reads its weights from, and the extra that installs it
 PACKAGE = "foundation-policy"
-INSTALL_HINT = ("pip install 'quad-dob-env[raptor]' (or pip install foundation-policy==1.0.2); "
-                "make test installs it")
+INSTALL_HINT = ("pip install '.[raptor]' in the clone, or pip install foundation-policy==1.0.2 "
+                "(make test installs it)")
 OBSERVATION_SIZE = 22
 # [m], [m/s] per axis: the errors PX4's RAPTOR module clips before the policy reads them
 # (PX4-Autopilot src/modules/mc_raptor, max_position_error and max_velocity_error), the
@@ -142,17 +142,17 @@ class RecurrentPolicy:
 
 
 def checkpoint_path() -> Path:
-    """The weights ``foundation-policy`` installs, or an ImportError that says how to get
-    them."""
+    """The weights ``foundation-policy`` installs, or a ValueError that says how to get
+    them (as a missing Ray is told: the command line names it, with no traceback)."""
     from importlib import resources
 
     try:
         path = resources.files("foundation_policy").joinpath("blob", "checkpoint.h5")
     except ModuleNotFoundError:
-        raise ImportError(f"the controller 'raptor' flies the weights of the {PACKAGE} "
+        raise ValueError(f"the controller 'raptor' flies the weights of the {PACKAGE} "
                           f"package, which is not installed: {INSTALL_HINT}") from None
     if not path.is_file():
-        raise ImportError(f"{PACKAGE} is installed but has no blob/checkpoint.h5; reinstall "
+        raise ValueError(f"{PACKAGE} is installed but has no blob/checkpoint.h5; reinstall "
                           f"it: {INSTALL_HINT}")
     return Path(str(path))
 

@@ -63,7 +63,7 @@ def test_without_the_package_the_error_says_how_to_install(monkeypatch):
         raise ModuleNotFoundError(name)
 
     monkeypatch.setattr(resources, "files", missing)
-    with pytest.raises(ImportError, match=r"pip install 'quad-dob-env\[raptor\]'"):
+    with pytest.raises(ValueError, match=r"pip install '\.\[raptor\]'.*foundation-policy==1\.0\.2"):
         checkpoint_path()
 
 
