@@ -70,11 +70,17 @@ MAX_VELOCITY_ERROR = 1.0
 RAPTOR_TO_ROTOR = (0, 3, 2, 1)
 # [rad] the policy's body frame is the vehicle's yawed by this, per rotor configuration
 FRAME_YAW = {"x": 0.0, "wide-x": 0.0, "plus": math.pi / 4}
+
+
+def _sigmoid(x: NDArray) -> NDArray:
+    return 1.0 / (1.0 + np.exp(-x))
+
+
 ACTIVATIONS = {
     "IDENTITY": lambda x: x,
     "RELU": lambda x: np.maximum(x, 0.0),
     "TANH": np.tanh,
-    "SIGMOID": lambda x: 1.0 / (1.0 + np.exp(-x)),
+    "SIGMOID": _sigmoid,
 }
 
 
@@ -101,10 +107,6 @@ class Gru:
     @property
     def size(self) -> int:
         return self.initial_hidden.shape[0]
-
-
-def _sigmoid(x: NDArray) -> NDArray:
-    return 1.0 / (1.0 + np.exp(-x))
 
 
 @dataclass(frozen=True)
@@ -226,6 +228,11 @@ def _clipped(error: NDArray, limit: float | None) -> NDArray:
     return error if limit is None else np.clip(error, -limit, limit)
 
 
+def heading_of(reference: Reference) -> NDArray[np.float64]:
+    """The reference's yaw ψ (N,) from its heading b1d = [cos ψ, sin ψ, 0]."""
+    return np.arctan2(reference.heading[:, 1], reference.heading[:, 0])
+
+
 def yaw_rotation(angle: NDArray) -> NDArray[np.float64]:
     """Rotations about z by ``angle`` (N,): (N, 3, 3)."""
     c, s = np.cos(angle), np.sin(angle)
@@ -259,6 +266,13 @@ class RaptorController(Controller):
         self.max_position_error = max_position_error
         self.max_velocity_error = max_velocity_error
         self.policy = load_policy(None if checkpoint is None else Path(checkpoint))
+        # set for the vehicle at reset: its frame turn (T), ω_max, and each vehicle's
+        # hidden state and previous action
+        self.frame_yaw = 0.0
+        self.body_turn = np.eye(3)
+        self.max_rotor_speed = 0.0
+        self.hidden = np.zeros((0, self.policy.gru.size))
+        self.previous_action = np.zeros((0, 4))
 
     def reset(self, num_vehicles: int, vehicle: VehicleParams, dt: float,
               indices: NDArray[np.intp] | None = None, actuation: str = "rotors") -> None:
@@ -279,8 +293,7 @@ class RaptorController(Controller):
         """The policy's 22 inputs (module docstring): the tracking error in the world frame
         turned by the reference's yaw (plus the frame yaw), the attitude and body rates of
         the policy's body frame, and its previous action."""
-        heading = np.arctan2(reference.heading[:, 1], reference.heading[:, 0])
-        world = yaw_rotation(heading + self.frame_yaw)  # the policy's world axes
+        world = yaw_rotation(heading_of(reference) + self.frame_yaw)  # its world axes
         # a world vector v reads Aᵀ v in the policy's world; its attitude is Aᵀ R T, T the
         # body turn; a body rate ω reads Tᵀ ω in its body frame
         position = _clipped(np.einsum("nji,nj->ni", world, state.position - reference.position),
@@ -303,13 +316,15 @@ class RaptorController(Controller):
         rotor_speed[:, RAPTOR_TO_ROTOR] = self.max_rotor_speed * (action + 1.0) / 2.0  # ω_min 0
         wrench = (self.vehicle.thrust_coefficient * rotor_speed**2) @ \
             self.vehicle.allocation_matrix.T
-        heading = np.arctan2(reference.heading[:, 1], reference.heading[:, 0])
+        # what it steers to in the end: the reference's heading, level (it has no other
+        # attitude target)
         self.diagnostics = {"action": action, "rotor_speed_command": rotor_speed,
-                            "desired_rotation": yaw_rotation(heading)}
+                            "desired_rotation": yaw_rotation(heading_of(reference))}
         return wrench[:, 0].copy(), wrench[:, 1:].copy()
 
     def describe(self) -> dict[str, Any]:
         return {"name": self.name, "checkpoint": self.policy.checkpoint,
-                "frame_yaw_deg": math.degrees(getattr(self, "frame_yaw", 0.0)),
+                "frame_yaw_deg": {configuration: math.degrees(angle)
+                                  for configuration, angle in FRAME_YAW.items()},
                 "max_position_error": self.max_position_error,
                 "max_velocity_error": self.max_velocity_error}

@@ -21,7 +21,7 @@ from quad_dob_baselines.raptor import (  # noqa: E402
     yaw_rotation,
 )
 from quad_dob_composition.checks import check_controller  # noqa: E402
-from quad_dob_env.dynamics import VehicleState  # noqa: E402
+from quad_dob_env.dynamics import Actuator, VehicleState  # noqa: E402
 from quad_dob_env.params import get_vehicle  # noqa: E402
 from quad_dob_env.scenarios import make_scenario  # noqa: E402
 from quad_dob_env.trajectories import Hover, Reference  # noqa: E402
@@ -99,6 +99,62 @@ def test_the_error_is_read_in_the_frame_of_the_reference_heading():
     np.testing.assert_allclose(observation[:3], [0.0, -0.3, 0.0], atol=1e-12)
     np.testing.assert_allclose(observation[12:15], [0.0, 0.0, 0.5], atol=1e-12)
     np.testing.assert_allclose(observation[15:18], [0.2, 0.0, 0.0], atol=1e-12)
+
+
+def test_large_errors_are_clipped_per_axis_in_the_policys_frame():
+    # the paper vehicle ("+": its world turned 45° beyond the heading), facing 1.2 rad,
+    # 2-3 m and 2-3 m/s off: each axis of the turned error is clipped to 0.5 m and 1 m/s
+    position, velocity = np.array([2.0, -3.0, 0.2]), np.array([3.0, 0.5, -2.0])
+    observation = started(make_controller("raptor", "paper"), "paper",
+                          state_at(position + np.array([0.0, 0.0, 1.0]), yaw=1.2,
+                                   velocity=velocity),
+                          1.2)[0]
+    c, s = np.cos(1.2 + np.pi / 4), np.sin(1.2 + np.pi / 4)
+
+    def turned(v):  # Rz(ψ)ᵀ v, written out
+        return np.array([c * v[0] + s * v[1], -s * v[0] + c * v[1], v[2]])
+
+    np.testing.assert_allclose(observation[:3], np.clip(turned(position), -0.5, 0.5),
+                               atol=1e-12)
+    np.testing.assert_allclose(observation[12:15], np.clip(turned(velocity), -1.0, 1.0),
+                               atol=1e-12)
+    assert np.abs(turned(position)).max() > 0.5 and np.abs(turned(velocity)).max() > 1.0
+
+
+class Answers:
+    """The network replaced by one that answers every observation with ``output``, and
+    keeps what it was shown."""
+
+    def __init__(self, network, output):
+        self.gru, self.output, self.shown = network.gru, np.asarray(output, float), []
+        self.initial_hidden = network.initial_hidden
+
+    def step(self, observation, hidden):
+        self.shown.append(observation.copy())
+        return np.tile(self.output, (len(observation), 1)), hidden
+
+
+@pytest.mark.parametrize("vehicle", ["crazyflie", "paper", "neural-fly"])
+def test_the_action_is_a_rotor_speed_linear_in_it_and_the_mixer_flies_it_as_asked(vehicle):
+    params = get_vehicle(vehicle)
+    controller = make_controller("raptor", vehicle)
+    # beyond the range on one motor, at both ends on two: RAPTOR's order FR, BR, BL, FL
+    controller.policy = Answers(controller.policy, [1.7, -1.0, 0.0, 0.5])
+    controller.reset(1, params, 0.01)
+    state = state_at((0.0, 0.0, 1.0))
+    reference = Reference(np.array([[0.0, 0.0, 1.0]]), *(np.zeros((1, 3)) for _ in range(4)),
+                          np.array([[1.0, 0.0, 0.0]]), np.zeros((1, 3)), np.zeros((1, 3)))
+    thrust, moment = controller.compute(np.zeros(1), state, reference)
+    # ω = ω_max (a + 1)/2 on the clipped action: 1, 0, 1/2, 3/4 of ω_max; thrust ∝ ω²;
+    # this project's rotors are FR, FL, BL, BR
+    expected = params.max_rotor_thrust * np.array([1.0, 0.75**2, 0.25, 0.0])
+    applied = Actuator(params, "rotors").apply(thrust, moment)
+    np.testing.assert_allclose(applied.rotor_thrusts[0], expected, rtol=0,
+                               atol=1e-9 * params.max_rotor_thrust)
+    # the next observation carries the raw output back, as L2F trained it
+    controller.compute(np.zeros(1), state, reference)
+    np.testing.assert_allclose(controller.policy.shown[1][0, 18:], [1.7, -1.0, 0.0, 0.5])
+    np.testing.assert_allclose(controller.policy.shown[0][0, 18:], 0.0)
 
 
 def test_a_plus_vehicle_reads_its_rates_in_the_frame_turned_by_45_degrees():

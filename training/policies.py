@@ -63,6 +63,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from quad_dob_baselines import (
+    Controller,
     controller_names,
     is_controller_name,
     make_controller,
@@ -138,10 +139,13 @@ class Policy:
         """Why its controller cannot fly ``scenario``'s control step and actuation
         (``Controller.refusal``: RAPTOR's 10 ms and rotors), or None; asked before any
         flight, so a long evaluation does not stop halfway."""
-        if not is_controller_name(self.base):
+        if isinstance(self.base, Controller):  # as quad-dob tune flies its candidates
+            controller = self.base
+        elif is_controller_name(self.base):
+            controller = make_controller(self.base, scenario.vehicle,
+                                         self.base_benchmark or scenario.loop.benchmark)
+        else:
             return None
-        controller = make_controller(self.base, scenario.vehicle,
-                                     self.base_benchmark or scenario.loop.benchmark)
         return controller.refusal(scenario.dt, scenario.actuation)
 
     def env_kwargs(self) -> dict[str, Any]:
