@@ -47,6 +47,29 @@ def _gate_under_noise(mp, module):
     mp.setattr(module, "open_share", lambda *_, **__: (0.5, 0.25))
 
 
+class _FakeL2FChild:
+    def __init__(self, threads):
+        self.threads = threads
+
+    def measure(self, n, mode, steps, seconds=None):
+        return {"rate": 1e6, "dt": 0.01, "steps": steps, "reset_share": 0.0}
+
+    def close(self):
+        pass
+
+
+def _l2f_speed(mp, module):
+    mp.setattr(module, "load_l2f", lambda: SimpleNamespace(vector_selector={1: None, 2: None},
+                                                           __file__="/site/l2f/__init__.py"))
+    mp.setattr(module, "hold_to_cores", lambda cores: cores)
+    mp.setattr(module, "warm_up", lambda: None)
+    mp.setattr(module, "L2FChild", _FakeL2FChild)
+    mp.setattr(module, "our_env", lambda *_: None)
+    mp.setattr(module, "compiled_and_warm", lambda _: None)
+    mp.setattr(module, "flown", lambda _: (0.01, True))
+    mp.setattr(module, "timed_env_steps_per_second", lambda *_: 1e5)
+
+
 def _landings_under_margin(mp, module):
     mp.setattr(module, "make_policy", lambda spec, **_: Policy(spec, spec))
     mp.setattr(module, "make_scenario", lambda name, **_: SimpleNamespace(name=name, dt=0.01))
@@ -237,6 +260,11 @@ CASES = {
         _gate_under_noise, [], "gate_under_noise: residual on paper-none",
         ["loading 1/1 residual: residual:v1", "gate_under_noise 1/3 ideal: gate open 50.0%",
          "gate_under_noise 2/3 mocap", "gate_under_noise 3/3 gnss-imu"]),
+    "l2f_speed": (
+        _l2f_speed, ["--sizes", "1,2", "--repeats", "2"],
+        "l2f_speed: L2F (OMP_NUM_THREADS 1, 2) and ours (ours v4, ours like) at 2 batch sizes",
+        ["l2f_speed 1/6 N = 1: building and warming", "l2f_speed 2/6 N = 1, repeat 1/2",
+         "l2f_speed 4/6 N = 2: building and warming", "l2f_speed 6/6 N = 2, repeat 2/2"]),
     "landings_under_margin": (
         _landings_under_margin, ["--policies", "pid,smc", "--scenarios", "a,b", "--seeds",
                                  "1-3"],
