@@ -157,9 +157,9 @@ def _actuate_batch(thrust, moment, actuation_code, mixer, max_rotor_thrust, max_
 class Actuator:
     """Turns a commanded thrust and moment into what the vehicle can produce.
 
-    ``rotors``: the command is mixed to four rotor thrusts in ``[0, max_rotor_thrust]``,
-    yaw at the lowest priority (thrust, roll and pitch first, then the yaw that still
-    fits), and mapped back through the allocation matrix, so the saturation is the physical
+    ``rotors``: the command is mixed to four rotor thrusts in ``[0, max_rotor_thrust]``, as
+    asked where they fit, else yaw at the lowest priority (thrust, roll and pitch first,
+    then the yaw that still fits), and mapped back through the allocation matrix, so the saturation is the physical
     one (yaw authority is the rotors' drag torque).
     ``wrench``: thrust is clipped to ``[0, 4 max_rotor_thrust]`` and each moment to
     ``moment_limit("wrench")``, as in the paper's model where moments are applied directly.
