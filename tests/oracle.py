@@ -8,9 +8,8 @@ never for speed:
   ``R' = R hat(Ω)``, ``J Ω' = -Ω × JΩ + M + d_Ω`` with the first-order actuator lag, the
   drag on ``u = Rᵀ(v - w)`` and, optionally, the NDOB's z in continuous form, all integrated
   together by classical RK4 on the 3x3 matrix R with many small steps.
-- ``mix``: the rotor allocation from the geometry: as asked where every rotor fits in
-  [0, f_max], else each rotor clipped, yaw at the lowest priority; or the wrench clipped
-  per axis.
+- ``mix``: the rotor allocation from the geometry, each rotor clipped to [0, f_max], yaw at
+  the lowest priority; or the wrench clipped per axis.
 - ``lee_command``: Lee, Leok, McClamroch 2010 (z up) with the observer's estimates; Ωd and
   Ω̇d by finite differences of Rd along the thrust vector's Taylor expansion, not by the
   product rule the package uses.
@@ -87,9 +86,6 @@ def mix(vehicle: Vehicle, thrust: float, moment: np.ndarray, actuation: str) -> 
         top, limits = vehicle.wrench_limits()
         return np.concatenate([[np.clip(thrust, 0.0, top)], np.clip(moment, -limits, limits)])
     inverse = np.linalg.inv(vehicle.allocation())
-    asked = inverse @ np.array([thrust, *moment])
-    if np.all((asked >= 0.0) & (asked <= vehicle.max_rotor)):
-        return asked  # the rotors can make it: nothing to give up
     base = np.clip(inverse @ np.array([thrust, moment[0], moment[1], 0.0]), 0.0,
                    vehicle.max_rotor)
     yaw = inverse @ np.array([0.0, 0.0, 0.0, moment[2]])

@@ -89,23 +89,6 @@ def test_mixer_equals_the_oracle(name):
                                    atol=1e-9 * params.max_total_thrust)
 
 
-@pytest.mark.parametrize("name", ["paper", "crazyflie", "neural-fly"])
-def test_rotor_thrusts_that_fit_are_flown_as_asked_at_their_limits_too(name):
-    # what a controller that commands its rotors (raptor) or a rotor_thrusts action sends:
-    # rotors at 0 or at their maximum beside others, with a yaw moment; clipping thrust,
-    # roll and pitch before the yaw changed such commands (a rotor at 0 came back at 0.25)
-    params = get_vehicle(name)
-    rng = np.random.default_rng(8)
-    rotors = rng.uniform(0.0, 1.0, (200, 4)) * params.max_rotor_thrust
-    at_limit = rng.random((200, 4)) < 0.3
-    rotors[at_limit] = rng.choice([0.0, params.max_rotor_thrust], at_limit.sum())
-    wrench = rotors @ params.allocation_matrix.T
-    applied = Actuator(params, "rotors").apply(wrench[:, 0], wrench[:, 1:])
-    np.testing.assert_allclose(applied.rotor_thrusts, rotors, rtol=0,
-                               atol=1e-9 * params.max_rotor_thrust)
-    assert not applied.saturated.any()
-
-
 def test_lee_law_equals_the_oracle_on_random_states():
     n = 40
     rng = np.random.default_rng(6)

@@ -135,7 +135,7 @@ class Answers:
 
 
 @pytest.mark.parametrize("vehicle", ["crazyflie", "paper", "neural-fly"])
-def test_the_action_is_a_rotor_speed_linear_in_it_and_the_mixer_flies_it_as_asked(vehicle):
+def test_the_action_is_a_rotor_speed_linear_in_it(vehicle):
     params = get_vehicle(vehicle)
     controller = make_controller("raptor", vehicle)
     # beyond the range on one motor, at both ends on two: RAPTOR's order FR, BR, BL, FL

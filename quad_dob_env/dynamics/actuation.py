@@ -89,28 +89,16 @@ def actuate_vehicle(thrust, moment, actuation_code, mixer, max_rotor_thrust, max
     """Commanded (f, M) -> the actuator command the vehicle can follow, and whether a limit
     was hit.
 
-    ``rotors`` (code 0): four rotor thrusts in [0, max]. A command whose four rotor thrusts
-    all fit is flown as asked. One that does not is mixed with yaw at the lowest priority,
-    as flight controllers do: thrust, roll and pitch are mixed and clipped first, then the
-    yaw moment is scaled down to the headroom left, because yaw comes from rotor drag and
-    asking for more than that would starve the others. (Clipping first whatever the
-    command changed rotor thrusts that fitted: a controller that commands its rotors,
-    such as RAPTOR, or a rotor_thrusts action at a rotor's limit, with a yaw moment.)
+    ``rotors`` (code 0): four rotor thrusts in [0, max], mixed with yaw at the lowest
+    priority, as flight controllers do: thrust, roll and pitch are mixed and clipped first,
+    then the yaw moment is scaled down to the headroom left, because yaw comes from rotor
+    drag and asking for more than that would starve the others.
     ``wrench`` (code 1): thrust and each moment clipped to their limits.
     """
     if actuation_code == 0:
         base = _mat4_vec(mixer, thrust, moment[0], moment[1], 0.0)
         yaw = (mixer[0][3] * moment[2], mixer[1][3] * moment[2], mixer[2][3] * moment[2],
                mixer[3][3] * moment[2])
-        # a rotor asked for exactly 0 or max comes back from the mixer a rounding off it
-        low, high = -1e-9 * max_rotor_thrust, max_rotor_thrust * (1.0 + 1e-9)
-        asked = (base[0] + yaw[0], base[1] + yaw[1], base[2] + yaw[2], base[3] + yaw[3])
-        if (low <= asked[0] <= high and low <= asked[1] <= high and low <= asked[2] <= high
-                and low <= asked[3] <= high):
-            return (min(max(asked[0], 0.0), max_rotor_thrust),
-                    min(max(asked[1], 0.0), max_rotor_thrust),
-                    min(max(asked[2], 0.0), max_rotor_thrust),
-                    min(max(asked[3], 0.0), max_rotor_thrust)), False
         clipped_base = (min(max(base[0], 0.0), max_rotor_thrust),
                         min(max(base[1], 0.0), max_rotor_thrust),
                         min(max(base[2], 0.0), max_rotor_thrust),
@@ -157,9 +145,9 @@ def _actuate_batch(thrust, moment, actuation_code, mixer, max_rotor_thrust, max_
 class Actuator:
     """Turns a commanded thrust and moment into what the vehicle can produce.
 
-    ``rotors``: the command is mixed to four rotor thrusts in ``[0, max_rotor_thrust]``, as
-    asked where they fit, else yaw at the lowest priority (thrust, roll and pitch first,
-    then the yaw that still fits), and mapped back through the allocation matrix, so the saturation is the physical
+    ``rotors``: the command is mixed to four rotor thrusts in ``[0, max_rotor_thrust]``,
+    yaw at the lowest priority (thrust, roll and pitch first, then the yaw that still
+    fits), and mapped back through the allocation matrix, so the saturation is the physical
     one (yaw authority is the rotors' drag torque).
     ``wrench``: thrust is clipped to ``[0, 4 max_rotor_thrust]`` and each moment to
     ``moment_limit("wrench")``, as in the paper's model where moments are applied directly.
