@@ -23,6 +23,7 @@ Subpackages, by concern (each docstring says what lives there and what it may im
 - ``learning``: train, baseline_evaluation, sweep.
 - ``tuning``: tune, the baselines' gain search.
 - ``wind_tunnel``: published, tool, flight_logs, flight_statistics, plots.
+- ``real_flights``: crazyflie_log, the Crazyflie's on-board log format.
 
 Data folders: ``hyperparams/`` (rl-zoo3's schema), ``pretrained/`` (the shipped residual
 policies), ``sweeps/``, ``schemas/`` (``evaluation.json``'s JSON Schema).
