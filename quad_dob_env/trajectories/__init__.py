@@ -6,6 +6,8 @@
   ``Lemniscate``, ``TakeoffHoverLanding`` (C³ vertical profile), ``WaypointHops``
   (rest-to-rest C³ hops through 3-D waypoints), ``RampedStart`` (any of them on a clock
   that starts from rest).
+- ``polynomial``: ``PiecewisePolynomial``, the Crazyflie firmware's piecewise polynomial
+  references with its time scale (Crazyswarm2's trajectory files).
 - ``family``: ``TrajectoryFamily`` (members, one per vehicle, drawn at each reset) and
   ``random_references`` (a seeded pool of smooth random references, by kind).
 
@@ -24,6 +26,7 @@ from quad_dob_env.trajectories.library import (
     TakeoffHoverLanding,
     WaypointHops,
 )
+from quad_dob_env.trajectories.polynomial import PiecewisePolynomial
 
 __all__ = [
     "REFERENCE_FIELDS",
@@ -33,6 +36,7 @@ __all__ = [
     "Hover",
     "Lemniscate",
     "PaperHelix",
+    "PiecewisePolynomial",
     "RampedStart",
     "Reference",
     "TakeoffHoverLanding",
