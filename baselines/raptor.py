@@ -48,9 +48,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_baselines.base import Controller
+from quad_dob_baselines.base import E3, Controller
 from quad_dob_env.dynamics import VehicleState
 from quad_dob_env.params import VehicleParams
+from quad_dob_env.so3 import exp
 from quad_dob_env.trajectories import Reference
 
 # [s] the policy's step: L2F's control step, at which it was trained (package README)
@@ -230,17 +231,14 @@ def _clipped(error: NDArray, limit: float | None) -> NDArray:
     return error if limit is None else np.clip(error, -limit, limit)
 
 
-def heading_of(reference: Reference) -> NDArray[np.float64]:
+def reference_yaw(reference: Reference) -> NDArray[np.float64]:
     """The reference's yaw ψ (N,) from its heading b1d = [cos ψ, sin ψ, 0]."""
     return np.arctan2(reference.heading[:, 1], reference.heading[:, 0])
 
 
-def yaw_rotation(angle: NDArray) -> NDArray[np.float64]:
-    """Rotations about z by ``angle`` (N,): (N, 3, 3)."""
-    c, s = np.cos(angle), np.sin(angle)
-    out = np.zeros((np.shape(angle)[0], 3, 3))
-    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1], out[:, 2, 2] = c, -s, s, c, 1.0
-    return out
+def about_z(angle: NDArray) -> NDArray[np.float64]:
+    """Rotations about z by ``angle`` (N,): (N, 3, 3), exp(ψ ê3)."""
+    return exp(np.multiply.outer(angle, E3))
 
 
 class RaptorController(Controller):
@@ -281,7 +279,7 @@ class RaptorController(Controller):
         super().reset(num_vehicles, vehicle, dt, indices, actuation)
         if indices is None:
             self.frame_yaw = FRAME_YAW[vehicle.configuration]
-            self.body_turn = yaw_rotation(np.array([self.frame_yaw]))[0]
+            self.body_turn = about_z(np.array([self.frame_yaw]))[0]
             # ω_max from the rotor's largest thrust: T = k_F ω²
             self.max_rotor_speed = math.sqrt(vehicle.max_rotor_thrust
                                              / vehicle.thrust_coefficient)
@@ -295,7 +293,7 @@ class RaptorController(Controller):
         """The policy's 22 inputs (module docstring): the tracking error in the world frame
         turned by the reference's yaw (plus the frame yaw), the attitude and body rates of
         the policy's body frame, and its previous action."""
-        world = yaw_rotation(heading_of(reference) + self.frame_yaw)  # its world axes
+        world = about_z(reference_yaw(reference) + self.frame_yaw)  # its world axes
         # a world vector v reads Aᵀ v in the policy's world; its attitude is Aᵀ R T, T the
         # body turn; a body rate ω reads Tᵀ ω in its body frame
         position = _clipped(np.einsum("nji,nj->ni", world, state.position - reference.position),
@@ -321,7 +319,7 @@ class RaptorController(Controller):
         # what it steers to in the end: the reference's heading, level (it has no other
         # attitude target)
         self.diagnostics = {"action": action, "rotor_speed_command": rotor_speed,
-                            "desired_rotation": yaw_rotation(heading_of(reference))}
+                            "desired_rotation": about_z(reference_yaw(reference))}
         return wrench[:, 0].copy(), wrench[:, 1:].copy()
 
     def describe(self) -> dict[str, Any]:

@@ -16,9 +16,9 @@ import h5py  # noqa: E402  (foundation-policy's dependency)
 from quad_dob_baselines import make_controller  # noqa: E402
 from quad_dob_baselines.raptor import (  # noqa: E402
     RAPTOR_TO_ROTOR,
+    about_z,
     checkpoint_path,
     load_policy,
-    yaw_rotation,
 )
 from quad_dob_composition.checks import check_controller  # noqa: E402
 from quad_dob_env.dynamics import Actuator, VehicleState  # noqa: E402
@@ -77,7 +77,7 @@ def started(controller, vehicle, state, heading=0.0):
 
 def state_at(position, yaw=0.0, velocity=(0.0, 0.0, 0.0), rates=(0.0, 0.0, 0.0)):
     return VehicleState(np.array([position], float), np.array([velocity], float),
-                        yaw_rotation(np.array([yaw])), np.array([rates], float))
+                        about_z(np.array([yaw])), np.array([rates], float))
 
 
 @pytest.mark.parametrize("vehicle", ["crazyflie", "paper"])
@@ -227,7 +227,7 @@ def test_a_step_moves_it_straight_to_the_reference(vehicle, axis):
 @pytest.mark.parametrize("vehicle", ["crazyflie", "paper"])
 def test_a_yaw_error_is_turned_out(vehicle):
     # 45°: within the attitudes its students started from (a rotation of up to 1 rad)
-    initial = tuple(map(tuple, yaw_rotation(np.array([np.pi / 4]))[0]))
+    initial = tuple(map(tuple, about_z(np.array([np.pi / 4]))[0]))
     flight = fly(make_controller("raptor", vehicle),
                  hover_scenario(vehicle, initial_rotation=initial))[0]
     yaw = yaw_of(flight.rotation)
