@@ -10,6 +10,8 @@
   steps and sinusoids are ``Constant(wind=...)``, ``.during`` and ``Sinusoid(wind=...)``.
 - ``ground_effect``: the in-ground-effect thrust multiplier (the paper's law and
   Cheeseman–Bennett's).
+- ``payload``: ``SuspendedPayload``, a point mass on a cable under the vehicle (Crazyswarm2's
+  payload flights): a force that follows the vehicle's true state (``Disturbance.follow``).
 
 Every model has three channels: force d_x (world, N), torque d_Ω (body, N m) and wind
 velocity (world, m/s), which acts through the vehicle's drag.
@@ -21,6 +23,7 @@ May import ``params``, ``so3``, ``dynamics``, ``linalg``, ``rng``, ``validation`
 from quad_dob_env.disturbances.base import Disturbance, Sum, Window, split_by_randomness
 from quad_dob_env.disturbances.forces import AtanRamp, Constant, Impulse, Sinusoid
 from quad_dob_env.disturbances.ground_effect import GROUND_EFFECT_MODELS, GroundEffect
+from quad_dob_env.disturbances.payload import SuspendedPayload
 from quad_dob_env.disturbances.wind import DRYDEN_INTENSITIES, Dryden, Gust
 
 __all__ = [
@@ -35,6 +38,7 @@ __all__ = [
     "Impulse",
     "Sinusoid",
     "Sum",
+    "SuspendedPayload",
     "Window",
     "split_by_randomness",
 ]

@@ -32,12 +32,21 @@ class Disturbance:
     #: the env skips the rest for random models each step.
     uses_time: bool = True
     channels: tuple[bool, bool, bool] = (True, True, True)
+    #: True when the model depends on the vehicle's true state (a payload on a cable): the
+    #: env then calls ``follow`` each step before ``add_to``.
+    follows_vehicle: bool = False
 
     def bind(self, num_vehicles: int, dt: float) -> None:
         """Prepare per-vehicle storage for a batch of this size stepped every ``dt`` s."""
 
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         """Draw fresh random parameters for vehicles ``indices``, ``rngs[j]`` for the j-th."""
+
+    def follow(self, position: NDArray[np.float64], velocity: NDArray[np.float64]) -> None:
+        """Take the true vehicle position and velocity (N, 3, world frame) at the start of
+        the control step. The env calls it once a step, before ``add_to``, and only when
+        ``follows_vehicle``; a model that depends on the vehicle's state advances its own
+        state here."""
 
     def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         """Force, torque and wind velocity, each (N, K, 3), at ``times`` (N, K).
@@ -80,6 +89,7 @@ class Sum(Disturbance):
         self.is_random = any(part.is_random for part in flat)
         self.uses_time = any(part.uses_time for part in flat)
         self.channels = tuple(any(part.channels[k] for part in flat) for k in range(3))
+        self.follows_vehicle = any(part.follows_vehicle for part in flat)
 
     def bind(self, num_vehicles: int, dt: float) -> None:
         for part in self.parts:
@@ -88,6 +98,11 @@ class Sum(Disturbance):
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         for part in self.parts:
             part.resample(indices, rngs)
+
+    def follow(self, position: NDArray[np.float64], velocity: NDArray[np.float64]) -> None:
+        for part in self.parts:
+            if part.follows_vehicle:
+                part.follow(position, velocity)
 
     def add_to(self, times: NDArray[np.float64], force: NDArray, torque: NDArray,
                wind: NDArray) -> None:
@@ -134,6 +149,7 @@ class Window(Disturbance):
         self.inner = inner
         self.is_random = inner.is_random
         self.channels = inner.channels
+        self.follows_vehicle = inner.follows_vehicle
         self.start = as_finite(start, "Window.start")
         self.end = as_finite(end, "Window.end")
         if self.end <= self.start:
@@ -144,6 +160,10 @@ class Window(Disturbance):
 
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         self.inner.resample(indices, rngs)
+
+    def follow(self, position: NDArray[np.float64], velocity: NDArray[np.float64]) -> None:
+        # the inner model keeps following outside the window: its state runs on regardless
+        self.inner.follow(position, velocity)
 
     def sampled_parameters(self, index: int) -> dict[str, float]:
         return self.inner.sampled_parameters(index)
