@@ -21,6 +21,8 @@ envs, residual or wrappers, nor ``quad_dob_composition`` or ``quad_dob_training`
   at its own rate (``InnerLaw``, what ``Controller.inner_law`` hands it).
 - ``raptor``: RAPTOR's foundation policy (Eschmann et al. 2025) as a controller, its weights
   read from the ``foundation-policy`` package's checkpoint.
+- ``crazyflie_lee``: the Lee law as the Crazyflie's firmware flies it (position and
+  attitude integrals, no Ω̇d term), its gains in the firmware's names.
 
 - ``plugins``: a user's controller by ``py:package.module:Name`` or by the name an
   installed package registers (entry-point group ``quad_dob_env.controllers``).
@@ -35,7 +37,8 @@ action on position instead of an observer), ``indi``, ``indi-outer`` (INDI's out
 alone under Lee's attitude law, first-order 5 Hz filter: the INDI Neural-Fly flew), ``l1``,
 ``l1-matched`` (L1 compensating the thrust axis's part alone, as Neural-Fly's),
 ``nf-constant`` (Neural-Fly's NF-C), ``nf-baseline`` (their nonlinear baseline), ``pid``,
-``smc``, and ``raptor`` (an outside learned policy, RAPTOR's, with the extra ``raptor``).
+``smc``, ``raptor`` (an outside learned policy, RAPTOR's, with the extra ``raptor``), and
+``crazyflie-lee`` (the Crazyflie firmware's Lee law, which Crazyswarm2's logs flew).
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ from typing import Any
 
 from quad_dob_baselines import plugins
 from quad_dob_baselines.base import Controller
+from quad_dob_baselines.crazyflie_lee import FirmwareLeeController, FirmwareLeeGains
 from quad_dob_baselines.gain_sets import (
     BENCHMARK_INPUTS,
     GAIN_SETS,
@@ -123,6 +127,7 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     "pid": lambda vehicle, **options: CascadedPID(**options),
     "smc": lambda vehicle, **options: SlidingModeController(**options),
     "raptor": lambda vehicle, **options: RaptorController(**options),
+    "crazyflie-lee": lambda vehicle, **options: FirmwareLeeController(**options),
 }
 
 
@@ -185,6 +190,8 @@ __all__ = [
     "TUNED_OBSERVER_RATES",
     "CascadedPID",
     "Controller",
+    "FirmwareLeeController",
+    "FirmwareLeeGains",
     "GainSet",
     "GeometricController",
     "GeometricIntegralController",

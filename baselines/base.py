@@ -75,16 +75,18 @@ class Controller:
         """Start episodes: all vehicles when ``indices`` is None (re-sizing the batch).
         ``actuation`` names how the vehicle turns a command into thrust and moments
         (``quad_dob_env.dynamics.Actuator``), for controllers that model their limits."""
-        problem = self.refusal(dt, actuation)
+        problem = self.refusal(dt, actuation, vehicle)
         if problem is not None:
             raise ValueError(problem)
         if indices is None:
             self.n, self.vehicle, self.dt = int(num_vehicles), vehicle, float(dt)
             self.actuation = actuation
 
-    def refusal(self, dt: float, actuation: str) -> str | None:
+    def refusal(self, dt: float, actuation: str,
+                vehicle: VehicleParams | None = None) -> str | None:
         """Why this controller cannot fly a control step of ``dt`` s with ``actuation``
-        (``actuations``, ``control_period``), or None when it can."""
+        (``actuations``, ``control_period``), or ``vehicle`` (a subclass's own reason: gains
+        for one vehicle class), or None when it can."""
         if actuation not in self.actuations:
             return (f"{self.name} flies the actuation(s) {', '.join(self.actuations)}; this "
                     f"scenario's is {actuation!r}")

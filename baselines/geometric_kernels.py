@@ -62,6 +62,13 @@ class GeometricLaw(NamedTuple):
     kv: tuple  # [N s/m]
     k_attitude: tuple  # kR, on eR
     k_rate: tuple  # kΩ, on eΩ
+    # the weight of Lee 2010's -J(hat(Ω) RᵀRd Ωd - RᵀRd Ω̇d) in M: 1 as Lee wrote it, 0 as
+    # the Crazyflie firmware flies it (controller_lee.c has no such term)
+    rotation_feedforward: float = 1.0
+    # the weight of the errors' terms in Ḟ and F̈, whence Ωd and Ω̇d: 1 as Lee 2010
+    # (F differentiated along the model), 0 as the Crazyflie firmware (Ωd from the
+    # reference's jerk alone, controller_lee.c's hw = m/f (j - (z_d · j) z_d))
+    rate_feedback: float = 1.0
 
 
 class GeometricOutputs(NamedTuple):
@@ -121,35 +128,45 @@ def geometric_law(x, v, R, w, reference, law, force_estimate, torque_estimate,
     predicted = combine(thrust / mass, body_z, 1.0 / mass, force_estimate)
     acceleration_error = (predicted[0] - acceleration[0], predicted[1] - acceleration[1],
                           predicted[2] - gravity - acceleration[2])
-    force_dot = (-kx[0] * velocity_error[0] - kv[0] * acceleration_error[0] + mass * jerk[0],
-                 -kx[1] * velocity_error[1] - kv[1] * acceleration_error[1] + mass * jerk[1],
-                 -kx[2] * velocity_error[2] - kv[2] * acceleration_error[2] + mass * jerk[2])
+    feedback = law.rate_feedback
+    force_dot = (feedback * (-kx[0] * velocity_error[0] - kv[0] * acceleration_error[0])
+                 + mass * jerk[0],
+                 feedback * (-kx[1] * velocity_error[1] - kv[1] * acceleration_error[1])
+                 + mass * jerk[1],
+                 feedback * (-kx[2] * velocity_error[2] - kv[2] * acceleration_error[2])
+                 + mass * jerk[2])
     thrust_dot = dot(force_dot, body_z) + dot(force, body_z_dot)
     jerk_error = combine(thrust_dot / mass, body_z, thrust / mass, body_z_dot)
     jerk_error = combine(1.0, jerk_error, -1.0, jerk)
-    force_ddot = (-kx[0] * acceleration_error[0] - kv[0] * jerk_error[0] + mass * snap[0],
-                  -kx[1] * acceleration_error[1] - kv[1] * jerk_error[1] + mass * snap[1],
-                  -kx[2] * acceleration_error[2] - kv[2] * jerk_error[2] + mass * snap[2])
+    force_ddot = (feedback * (-kx[0] * acceleration_error[0] - kv[0] * jerk_error[0])
+                  + mass * snap[0],
+                  feedback * (-kx[1] * acceleration_error[1] - kv[1] * jerk_error[1])
+                  + mass * snap[1],
+                  feedback * (-kx[2] * acceleration_error[2] - kv[2] * jerk_error[2])
+                  + mass * snap[2])
     rd, rate_d, acceleration_d = desired_attitude(force, force_dot, force_ddot,
                                                   reference.heading, reference.heading_rate,
                                                   reference.heading_acceleration)
     moment, attitude_error, rate_error = attitude_law(R, w, rd, rate_d, acceleration_d,
                                                       law.inertia, law.k_attitude, law.k_rate,
-                                                      torque_estimate)
+                                                      torque_estimate,
+                                                      law.rotation_feedforward)
     return thrust, moment, force, rd, rate_d, acceleration_d, attitude_error, rate_error
 
 
 @njit(cache=True, inline="always")
-def attitude_law(R, w, rd, rate_d, acceleration_d, inertia, kR, kOmega, torque_estimate):
-    """Lee 2010's attitude law towards (Rd, Ωd, Ω̇d) with the torque estimate d̂Ω; returns
-    the moment, eR and eΩ. The geometric controller's monolithic law and its inner loop
+def attitude_law(R, w, rd, rate_d, acceleration_d, inertia, kR, kOmega, torque_estimate,
+                 feedforward_weight):
+    """Lee 2010's attitude law towards (Rd, Ωd, Ω̇d) with the torque estimate d̂Ω, its
+    -J(...) term times ``feedforward_weight`` (``GeometricLaw.rotation_feedforward``);
+    returns the moment, eR and eΩ. The geometric controller's monolithic law and its inner loop
     (``quad_dob_baselines.inner``) both call it."""
     attitude_error, rate_error, r_t_rd = attitude_errors(R, w, rd, rate_d)
     rate_body = mat_vec_tuple(r_t_rd, rate_d)
     acceleration_body = mat_vec_tuple(r_t_rd, acceleration_d)
     gyroscopic = cross_tuple(w, mat_vec_tuple(inertia, w))
-    feedforward = mat_vec_tuple(inertia, combine(1.0, cross_tuple(w, rate_body), -1.0,
-                                                 acceleration_body))
+    feedforward = mat_vec_tuple(inertia, combine(feedforward_weight, cross_tuple(w, rate_body),
+                                                 -feedforward_weight, acceleration_body))
     # M = -kR eR - kΩ eΩ + Ω × JΩ - J(hat(Ω) RᵀRd Ωd - RᵀRd Ω̇d) - d̂Ω
     moment = (-kR[0] * attitude_error[0] - kOmega[0] * rate_error[0] + gyroscopic[0]
               - feedforward[0] - torque_estimate[0],
@@ -166,7 +183,8 @@ def attitude_law(R, w, rd, rate_d, acceleration_d, inertia, kR, kOmega, torque_e
 def geometric_law_of(mass, gravity, inertia, gains):
     """A ``GeometricLaw`` from J (3, 3) and the gains (4, 3): kx, kv, kR, kΩ by row."""
     return GeometricLaw(mass, gravity, matrix_entries(inertia), as_vector(gains[0]),
-                        as_vector(gains[1]), as_vector(gains[2]), as_vector(gains[3]))
+                        as_vector(gains[1]), as_vector(gains[2]), as_vector(gains[3]), 1.0,
+                        1.0)
 
 
 @njit(cache=True, nogil=True)

@@ -177,7 +177,7 @@ def inner_command(R, w, constants, vehicle, tick):
             z = vehicle.torque_state
             torque_estimate = (z[0] + km_w[0], z[1] + km_w[1], z[2] + km_w[2])
         moment, _, _ = attitude_law(R, w, rd, rate_d, acceleration_d, J, gains[0], gains[1],
-                                    torque_estimate)
+                                    torque_estimate, 1.0)
         return thrust, moment, vehicle
     attitude_error, rate_error, r_t_rd = attitude_errors(R, w, rd, rate_d)
     rate_body = mat_vec_tuple(r_t_rd, rate_d)

@@ -51,8 +51,10 @@ def test_pid_and_smc_fly_the_undisturbed_helix_under_5_cm(name):
 
 
 # raptor commands rotors alone, and the paper-* scenarios apply a wrench: its own tests
-# (test_raptor.py) fly it on rotor-actuated ones
-@pytest.mark.parametrize("name", [name for name in CONTROLLERS if name != "raptor"])
+# (test_raptor.py) fly it on rotor-actuated ones; crazyflie-lee's gains are the Crazyflie
+# firmware's, which refuse the 4.34 kg paper vehicle (test_crazyflie_lee.py)
+@pytest.mark.parametrize("name", [name for name in CONTROLLERS
+                                  if name not in ("raptor", "crazyflie-lee")])
 def test_every_controller_stays_bounded_in_every_paper_scenario(name):
     scenarios = [make_scenario(s) for s in ("paper-I", "paper-II", "paper-IIA",
                                             "ground-effect-landing")]

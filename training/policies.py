@@ -136,7 +136,7 @@ class Policy:
         return actions
 
     def refusal(self, scenario: Scenario) -> str | None:
-        """Why its controller cannot fly ``scenario``'s control step and actuation
+        """Why its controller cannot fly ``scenario``'s control step, actuation and vehicle
         (``Controller.refusal``: RAPTOR's 10 ms and rotors), or None; asked before any
         flight, so a long evaluation does not stop halfway."""
         if isinstance(self.base, Controller):  # as quad-dob tune flies its candidates
@@ -146,7 +146,7 @@ class Policy:
                                          self.base_benchmark or scenario.loop.benchmark)
         else:
             return None
-        return controller.refusal(scenario.dt, scenario.actuation)
+        return controller.refusal(scenario.dt, scenario.actuation, scenario.vehicle)
 
     def env_kwargs(self) -> dict[str, Any]:
         """The env options the model was trained with (its spaces depend on them), less
