@@ -319,6 +319,19 @@ NEURAL_FLY_INFLOW, NEURAL_FLY_INFLOW_QUADRATIC = oblique_flow_thrust(X500_THRUST
                                                                   11 * 0.0254 / 2)
 PAPER_INFLOW, PAPER_INFLOW_QUADRATIC = oblique_flow_thrust(APC_10X47_THRUST_COEFFICIENT, 0.127)
 
+
+# The Crazyflie 2.1 of Crazyswarm2's logs (sources in VEHICLE_SOURCES["crazyflie-2.1"])
+CRAZYFLIE_21_MASS = 0.032  # [kg] the logs' info files, the firmware's ctrlLee.mass
+CRAZYFLIE_21_THRUST_COEFFICIENT = 2.3e-8  # [N/(rad/s)²] Förster 2015 via rotorpy
+# the firmware's fit of one motor's largest thrust [g] at full PWM and a 3.9 V pack
+# (IMRCLab crazyflie-firmware motors.c motorsGetMaxThrust: e00 + e10 pwm + e01 v/4.2)
+CRAZYFLIE_21_MAX_ROTOR_THRUST = (-10.291152501242268 + 3.926415845326646
+                                 + 26.077196474667165 * 3.9 / 4.2) * 9.81e-3
+CRAZYFLIE_21_ROTOR_DRAG = 10.2506e-7  # k_d [N/(rad/s · m/s)] Förster 2015 via rotorpy
+CRAZYFLIE_21_INFLOW = 7.553e-7  # k_z, rotorpy's crazyflie_params.py
+CRAZYFLIE_21_HOVER_SPEED = math.sqrt(CRAZYFLIE_21_MASS * 9.81 / 4
+                                     / CRAZYFLIE_21_THRUST_COEFFICIENT)  # [rad/s]
+
 VEHICLES: dict[str, VehicleParams] = {
     "paper": VehicleParams(
         name="paper", mass=4.34, inertia=_diagonal(0.0820, 0.0845, 0.1377), arm_length=0.315,
@@ -340,6 +353,25 @@ VEHICLES: dict[str, VehicleParams] = {
         motor_time_constant=0.015, thrust_coefficient=3.16e-10 * (60.0 / (2 * math.pi)) ** 2,
         # Förster 2015 through rotorpy 3 (crazyflie_params.py): k_d, k_z per rotor
         rotor_drag_coefficient=10.2506e-7, inflow_coefficient=7.553e-7, rotor_height=0.0,
+    ),
+    # The Crazyflie 2.1 as Crazyswarm2's logs flew it (issue 59; docs/research/
+    # crazyflie-sources.md): the firmware's own constants where it has them, Förster's
+    # identification through rotorpy where it does not. v2's "crazyflie" above is kept as
+    # v2 flew it; this one replaces its yaw coefficient (4x the firmware's) and its motor
+    # time constant (no source of the class).
+    "crazyflie-2.1": VehicleParams(
+        name="crazyflie-2.1", mass=CRAZYFLIE_21_MASS,
+        inertia=_diagonal(16.571710e-6, 16.655602e-6, 29.261652e-6),
+        arm_length=0.046, torque_coefficient=0.0069929, configuration="x",
+        max_rotor_thrust=CRAZYFLIE_21_MAX_ROTOR_THRUST, rotor_radius=0.0231,
+        thrust_coefficient=CRAZYFLIE_21_THRUST_COEFFICIENT,
+        motor_time_constant=0.072,
+        # the rotors' drag linearised at hover (4 k_d ω_h sideways, 4 k_z ω_h vertically),
+        # what v1's linear drag stands for; rotor aerodynamics replace it where on
+        drag_linear=tuple(4 * k * CRAZYFLIE_21_HOVER_SPEED for k in (
+            CRAZYFLIE_21_ROTOR_DRAG, CRAZYFLIE_21_ROTOR_DRAG, CRAZYFLIE_21_INFLOW)),
+        rotor_drag_coefficient=CRAZYFLIE_21_ROTOR_DRAG,
+        inflow_coefficient=CRAZYFLIE_21_INFLOW, rotor_height=0.0,
     ),
     "neural-fly": VehicleParams(
         name="neural-fly", mass=NEURAL_FLY_MASS,

@@ -69,6 +69,40 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
         "rotor_height": "rotorpy 3: hubs in the centre of mass's plane",
         "arm_width": "unused (an X)",
     },
+    "crazyflie-2.1": {
+        "mass": "Crazyswarm2's info files for the bare vehicle, 0.032 kg, the mass its "
+                "firmware was told (ctrlLee.mass); each log's own weight comes from its "
+                "hover thrust (quad_dob_env.crazyswarm2)",
+        "inertia": "Förster 2015 (ETH, 'System Identification of the Crazyflie 2.0'), "
+                   "diag(16.571710, 16.655602, 29.261652)e-6 kg m², the firmware's J "
+                   "(IMRCLab crazyflie-firmware controller_lee.c)",
+        "arm_length": "the firmware's power distribution, 0.046 m centre to motor "
+                      "(power_distribution_quadrotor.c)",
+        "torque_coefficient": "the firmware's power distribution, 0.0069929 m yaw moment per "
+                              "newton (power_distribution_quadrotor.c); v2's crazyflie has "
+                              "4x it",
+        "max_rotor_thrust": "the firmware's fit of one motor's largest thrust, "
+                            "-10.29 + 3.926 pwm + 26.08 v/4.2 [g] (IMRCLab motors.c "
+                            "motorsGetMaxThrust) at full PWM and a 3.9 V pack: 17.9 g",
+        "rotor_radius": "Bitcraze 45 mm propellers, 23.1 mm",
+        "configuration": "Bitcraze, X",
+        "gravity": "standard gravity, 9.81 m/s²",
+        "drag_linear": "Förster 2015's rotor drag k_d and rotorpy's k_z times 4 ω_h at "
+                       "0.032 kg: what v1's linear drag stands for",
+        "drag_quadratic": "zero: rotorpy 3 sets the Crazyflie's parasitic drag c_D to zero",
+        "motor_time_constant": "72 ms of the rotor speed: rotorpy's tau_m (citing Eschmann "
+                               "et al. 2024), the middle of utiasDSL drone-models' 58 ms "
+                               "(2.1+ propellers) and 86 ms (legacy propellers)",
+        "thrust_coefficient": "Förster 2015 via rotorpy 3, k_F = 2.3e-8 N/(rad/s)²",
+        "max_body_rate": "±2000 °/s, the full-scale range of the Crazyflie 2.1's BMI088 "
+                         "gyroscope (Bosch datasheet)",
+        "rotor_drag_coefficient": "Förster 2015 K_xy = 10.2506e-7 kg/rad, rotorpy 3's k_d",
+        "inflow_coefficient": "rotorpy 3's k_z = 7.553e-7 kg/rad (crazyflie_params.py)",
+        "inflow_quadratic": "zero: no oblique-flow data for a 45 mm rotor; rotorpy 3 keeps "
+                            "the linear law alone",
+        "rotor_height": "rotorpy 3: hubs in the centre of mass's plane",
+        "arm_width": "unused (an X)",
+    },
     "neural-fly": {
         "mass": "O'Connell et al. 2022 (Neural-Fly), Tables S1-S2: 2.53 kg (the text rounds "
                 "to 2.6)",
