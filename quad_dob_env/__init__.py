@@ -31,7 +31,8 @@ recommended ``geometric-ndob:tuned``, in wind), and ``QuadDOB/TracksResidual-v1`
 on ``random-tracks``, the task distribution generalists train on); the ``-v2``, ``-v3``
 and ``-v4`` ids fly the same scenarios (but the paper's wrench-actuated helix) in Benchmark
 v2's, v3's and v4's loops (``benchmark``; v3's sourced values in ``benchmark_v3``, v4's in
-``benchmark_v4``);
+``benchmark_v4``; the Crazyflie's loop as Crazyswarm2's logs flew it in
+``crazyflie_loop``);
 ``gym.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")`` gives the native
 ``QuadrotorVectorEnv`` for each. The envs' version history is in ``QuadrotorEnv``'s
 docstring.

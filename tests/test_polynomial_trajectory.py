@@ -69,3 +69,19 @@ def test_a_trajectory_file_is_read_with_or_without_its_header(tmp_path):
         PiecewisePolynomial.from_csv(tmp_path / "bad.csv")
     with pytest.raises(ValueError, match="time_scale"):
         PiecewisePolynomial.from_csv(path, time_scale=0.0)
+
+
+def test_a_start_time_delays_the_whole_reference():
+    parts = pieces(np.random.default_rng(9))
+    now = PiecewisePolynomial(parts, time_scale=1.3)
+    later = PiecewisePolynomial(parts, time_scale=1.3, start_time=2.5)
+    times = np.linspace(0.0, now.duration + 0.5, 17)
+    np.testing.assert_allclose(later.position_derivatives(times + 2.5),
+                               now.position_derivatives(times), rtol=0, atol=1e-12)
+    # before it begins, its start at rest
+    before = later.position_derivatives(np.array([0.0, 1.0, 2.4]))
+    np.testing.assert_allclose(before[0], np.repeat(now.position_derivatives(
+        np.zeros(1))[0], 3, axis=0), atol=1e-12)
+    assert np.all(before[1:] == 0.0)
+    with pytest.raises(ValueError, match="start_time"):
+        PiecewisePolynomial(parts, start_time=-1.0)

@@ -30,10 +30,11 @@ AXES = 4  # x, y, z, yaw
 class PiecewisePolynomial(Trajectory):
     """``pieces``: (duration [s], coefficients (4, order + 1): x, y, z, yaw, lowest power
     first); ``time_scale``: the firmware's s (> 1 flies it slower); ``offset``: added to the
-    position (the firmware's relative start adds the setpoint it starts from)."""
+    position (the firmware's relative start adds the setpoint it starts from);
+    ``start_time`` [s]: when the first piece begins (before it, the start at rest)."""
 
     def __init__(self, pieces: Sequence[tuple[float, ArrayLike]], time_scale: float = 1.0,
-                 offset: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+                 offset: ArrayLike = (0.0, 0.0, 0.0), start_time: float = 0.0) -> None:
         if not pieces:
             raise ValueError("PiecewisePolynomial needs at least one piece")
         self.time_scale = as_finite(time_scale, "PiecewisePolynomial.time_scale", 0.0,
@@ -53,11 +54,13 @@ class PiecewisePolynomial(Trajectory):
         self.starts = np.concatenate([[0.0], np.cumsum(self.durations)[:-1]])
         self.coefficients = np.stack(coefficients)  # (pieces, 4, order + 1)
         self.offset = np.asarray(offset, dtype=float).reshape(3)
+        self.start_time = as_finite(start_time, "PiecewisePolynomial.start_time", 0.0)
         self.duration = float(self.durations.sum()) * self.time_scale  # [s], flown
 
     @classmethod
     def from_csv(cls, path: str | Path, time_scale: float = 1.0,
-                 offset: ArrayLike = (0.0, 0.0, 0.0)) -> PiecewisePolynomial:
+                 offset: ArrayLike = (0.0, 0.0, 0.0), start_time: float = 0.0
+                 ) -> PiecewisePolynomial:
         """A trajectory file as Crazyswarm2 writes it: rows of duration and 4 × (order + 1)
         coefficients, after an optional header row."""
         rows = [row for row in csv.reader(Path(path).read_text().splitlines()) if row]
@@ -71,11 +74,11 @@ class PiecewisePolynomial(Trajectory):
                                  "a duration and the same number of coefficients for x, y, z "
                                  "and yaw")
             pieces.append((values[0], np.reshape(values[1:], (AXES, -1))))
-        return cls(pieces, time_scale, offset)
+        return cls(pieces, time_scale, offset, start_time)
 
     def _derivatives(self, times: NDArray, orders: int) -> NDArray:
         """(orders, N, 4): each axis's value and derivatives at the flown ``times``."""
-        local = np.asarray(times, dtype=float) / self.time_scale
+        local = (np.asarray(times, dtype=float) - self.start_time) / self.time_scale
         total = self.starts[-1] + self.durations[-1]
         clamped = np.clip(local, 0.0, total)
         piece = np.clip(np.searchsorted(self.starts, clamped, side="right") - 1, 0,

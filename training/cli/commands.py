@@ -29,6 +29,7 @@ from quad_dob_training.cli.checks import (
 from quad_dob_training.cli.listing import ALGORITHMS, print_hyperparams
 from quad_dob_training.cli.listing import main as list_main
 from quad_dob_training.evaluation.margins import DELAY_GRID, DELAY_PATHS
+from quad_dob_training.real_flights import CRAZYSWARM2_LOGS
 from quad_dob_training.wind_tunnel.published import COUNTERPART_SETS
 
 MAX_VIDEO_WIDTH = 4096  # a panel's pixels
@@ -172,6 +173,19 @@ def _wind_tunnel(args: argparse.Namespace) -> int:
     writable_folder(args.out, "--out")
     return wind_tunnel_main(args.benchmark, args.seeds, args.neural_fly, args.out,
                             args.duration, args.counterparts)
+
+
+def _real_flights(args: argparse.Namespace) -> int:
+    from quad_dob_training.evaluation.evaluate import parse_seeds
+    from quad_dob_training.real_flights.crazyswarm2 import main as crazyswarm2_main
+
+    writable_folder(args.out, "--out")
+    for folder, flag in ((args.logs, "--logs"), (args.trajectories, "--trajectories")):
+        if not folder.is_dir():
+            raise ValueError(f"{flag} {str(folder)!r} is not a folder")
+    # a log's flight: 10 s of lead-in and up to 20 s of log at 500 Hz
+    return crazyswarm2_main(args.logs, args.trajectories, args.log or list(CRAZYSWARM2_LOGS),
+                            parse_seeds(args.seeds, 15000), args.out)
 
 
 def _benchmark_option(parser: argparse.ArgumentParser) -> None:
@@ -424,6 +438,26 @@ def build_parser() -> argparse.ArgumentParser:
                         "(v4's, the laws they flew: nf-constant, nf-baseline, indi-outer, "
                         "l1-matched) (default: the benchmark's)")
     tunnel.set_defaults(handler=_wind_tunnel)
+    real = commands.add_parser(
+        "real-flights", help="fly the simulator's counterpart of each flight of a real "
+        "dataset on your copy and score both sides by the same code over the same samples "
+        "(Neural-Fly's tunnel: wind-tunnel --neural-fly)")
+    real.add_argument("dataset", choices=["crazyswarm2"],
+                      help="crazyswarm2: the Crazyflie's logs of IMRCLab/crazyswarm2-tools")
+    real.add_argument("--logs", type=Path, required=True, metavar="DIR",
+                      help="your copy of IMRCLab/crazyswarm2-tools (its logs/ and info/)")
+    real.add_argument("--trajectories", type=Path, required=True, metavar="DIR",
+                      help="your copy of Crazyswarm2's tune-lee trajectory files "
+                      "(crazyflie_examples/crazyflie_examples/data)")
+    real.add_argument("--log", type=positive_int, action="append", default=None,
+                      metavar="N", help="a log to compare, repeatable (default: "
+                      f"{' '.join(str(n) for n in CRAZYSWARM2_LOGS)})")
+    real.add_argument("--seeds", default="9001-9005",
+                      help="a count N (seeds 0..N-1) or a range A-B: the sensors' noise "
+                      "(default: %(default)s)")
+    real.add_argument("--out", type=Path, default=Path("results/real-flights"),
+                      help="folder for crazyswarm2.json (default: %(default)s)")
+    real.set_defaults(handler=_real_flights)
     listing = commands.add_parser(
         "list", help="list env ids, scenarios with their feasibility margins, wind presets, "
         "controllers, policies and vehicles")

@@ -1,6 +1,8 @@
 """Confidence intervals for comparisons over seeds: percentile bootstrap of the mean; and
 the vertical share of the squared error, pooled over flights (``z_share``), which
-``quad-dob evaluate`` and ``quad-dob wind-tunnel`` both report.
+``quad-dob evaluate`` and ``quad-dob wind-tunnel`` both report; and a tracking error's size
+over a window (``error_statistics``: RMS per axis and of the norm, p95, max), the one
+reckoning of real and simulated logs alike.
 
 Two policies flown on the same seeds meet the same wind and start, so their difference is
 paired: the interval of the mean per-seed difference is far tighter than the two means'
@@ -9,10 +11,11 @@ intervals side by side. "Better" means that interval excludes zero.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 CONFIDENCE = 0.95
 RESAMPLES = 10_000
@@ -65,3 +68,42 @@ def z_share(rms: ArrayLike) -> float:
     vertical = float(per_axis[2])
     total = float(per_axis[0] + per_axis[1]) + vertical
     return vertical / total if total > 0 else float("nan")
+
+
+@dataclass(frozen=True)
+class AxisValues:
+    """One value per world axis."""
+
+    x: float
+    y: float
+    z: float
+
+    @classmethod
+    def of(cls, values: NDArray) -> AxisValues:
+        return cls(*(float(value) for value in values))
+
+
+@dataclass(frozen=True)
+class ErrorStatistics:
+    """A position error's size over a window: per axis and of its norm [m]."""
+
+    rms: AxisValues  # RMS of each axis
+    rms_total: float  # RMS of |e|: the square root of the axes' mean squares summed
+    p95: float  # the 95th percentile of |e|
+    max: float  # the largest |e|
+    samples: int
+
+
+def error_statistics(error: NDArray) -> ErrorStatistics:
+    """The RMS per axis and of the norm, the p95 and the max of ``error`` (T, 3): the one
+    reckoning of a tracking error's size for real and simulated logs, the tunnel's
+    (``wind_tunnel.flight_statistics``) and Crazyswarm2's (``real_flights``)."""
+    error = np.asarray(error, dtype=float)
+    if error.ndim != 2 or error.shape[1] != 3 or len(error) == 0:
+        raise ValueError(f"error_statistics needs a (T, 3) error with T >= 1, got "
+                         f"{error.shape}")
+    rms = np.sqrt(np.mean(error**2, axis=0))
+    norm = np.linalg.norm(error, axis=1)
+    return ErrorStatistics(rms=AxisValues.of(rms), rms_total=float(np.sqrt(np.sum(rms**2))),
+                           p95=float(np.percentile(norm, 95)), max=float(norm.max()),
+                           samples=len(error))

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from quad_dob_training.evaluation.statistics import z_share
+from quad_dob_training.evaluation.statistics import AxisValues, error_statistics, z_share
 from quad_dob_training.wind_tunnel.flight_logs import FlightLog
 
 SKIP = 5.0  # [s] Neural-Fly's table scores after the first 5 s
@@ -39,19 +39,6 @@ HOVER_SPAN = 1.0  # [s] the hover throttle at the start and end: its mean over t
 # 1999 (Neural-Fly's logs: the only 1999s are a 0.1 s start-up transient, issue 54)
 LIMIT_PWM = 1990.0
 PERIODIC_BINS = 64  # phase bins a lap is cut into for the lap-periodic share
-
-
-@dataclass(frozen=True)
-class AxisValues:
-    """One value per world axis."""
-
-    x: float
-    y: float
-    z: float
-
-    @classmethod
-    def of(cls, values: NDArray) -> AxisValues:
-        return cls(*(float(value) for value in values))
 
 
 @dataclass(frozen=True)
@@ -269,8 +256,8 @@ def log_statistics(log: FlightLog, laps: int | None = None, skip: float = SKIP
     window = lap_window(log, skip, laps)
     kept = window.mask(log.t)
     error = log.p - log.p_d
-    rms = np.sqrt(np.mean(error[kept] ** 2, axis=0))
-    total = float(np.sqrt(np.sum(rms ** 2)))  # RMS of the norm: sqrt of the axes' squares
+    size = error_statistics(error[kept])
+    rms = np.array([size.rms.x, size.rms.y, size.rms.z])
     fa = reconstruct_fa(log)
     start = log.t < log.t[0] + HOVER_SPAN
     end = log.t > log.t[-1] - HOVER_SPAN
@@ -278,7 +265,7 @@ def log_statistics(log: FlightLog, laps: int | None = None, skip: float = SKIP
     command = (log.T_sp / log.hover_throttle)[kept]  # the collective over the hover command
     limits = limit_samples(log)
     return LogStatistics(
-        window=window, rms=AxisValues.of(rms), rms_total=total,
+        window=window, rms=size.rms, rms_total=size.rms_total,
         mean=AxisValues.of(error[kept].mean(axis=0)),
         z_share=z_share(rms),
         harmonics=harmonics(error, log.t, window), fa_z_fit=fit_fa_z(log, window, fa),
