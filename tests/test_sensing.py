@@ -326,3 +326,27 @@ def test_readings_at_a_reset_are_the_hovering_rotors_and_refresh_every_step():
     first = ideal.measurement.accelerometer.copy()
     ideal.step(np.full((1, 4), 0.5))  # more thrust: the ideal accelerometer reads it
     assert ideal.measurement.accelerometer[0, 2] > first[0, 2] + 1.0
+
+
+def test_a_single_marker_s_fix_corrects_the_position_and_leaves_the_attitude_to_the_gyro():
+    """``mocap-position``: with a fix whose attitude is off by 0.3 rad of noise, ``mocap``
+    pulls the estimate's attitude about; a single marker's fix does not read it, and the
+    position still follows the fix."""
+    noisy = dataclasses.replace(MOCAP.pose, attitude_std=0.3)
+    errors = {}
+    for kind in ("mocap", "mocap-position"):
+        suite = dataclasses.replace(MOCAP, pose=dataclasses.replace(noisy, kind=kind))
+        env = QuadrotorVectorEnv(2, "hover-calm", {"sensing": suite})
+        env.reset(seed=[3, 4])
+        attitude, position = 0.0, 0.0
+        for _ in range(100):
+            _, _, _, _, info = env.step(np.zeros((2, 4), np.float32))
+            truth = env.core.state
+            turn = np.einsum("nji,njk->nik", truth.rotation, info["estimate"]["rotation"])
+            attitude = max(attitude, float(np.abs(turn - np.eye(3)).max()))
+            position = max(position, float(np.abs(info["estimate"]["position"]
+                                                   - truth.position).max()))
+        errors[kind] = attitude, position
+    assert errors["mocap"][0] > 0.01  # the noisy attitude fixes reached the estimate
+    assert errors["mocap-position"][0] < 1e-3  # the gyroscope's alone
+    assert errors["mocap-position"][1] < 0.005  # the fix's position still holds it

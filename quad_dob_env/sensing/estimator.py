@@ -17,7 +17,8 @@ fix compares against corrected values), with gains of a bandwidth times the fix 
 - position innovation ``y = p_m - p̂(t - L)``: ``p̂ += 3 ω_p T y``, ``v̂ += 3 ω_p² T y``,
   ``b̂_a -= ω_p³ T R̂ᵀ y`` (three poles at -ω_p, Mahony-style bias feedback);
 - GNSS velocity ``v̂ += ω_v T (v_m - v̂(t - L))``;
-- attitude error: from mocap ``e_w = R̂ ½ vee(R̂ᵀR_m - R_mᵀR̂)`` (R̂ of the fix's time);
+- attitude error: from mocap ``e_w = R̂ ½ vee(R̂ᵀR_m - R_mᵀR̂)`` (R̂ of the fix's time;
+  none from ``mocap-position``, one marker's fix, where the attitude is the gyroscope's);
   from GNSS with a compass ``e_w = e_tilt + δψ e3``, the heading error δψ and
   ``e_tilt = ŝ × s / (|ŝ| |s|)``, ``ŝ`` the IMU's mean world specific force over the fix
   interval and ``s = Δv_m / T + g e3`` what the receiver's velocities show (the
@@ -163,7 +164,7 @@ def estimate_kernel(start, stop, indices, step_count, predict, ring, delays, per
         if taken >= 0 and taken % period == 0:
             fix, then = taken % depth, (step - lag) % length
             measured = (0.0, 0.0, 0.0)  # the IMU's mean world specific force over the fix
-            if kind != 0 and e[i, HAS_LAST_V] > 0.0:
+            if kind == 1 and e[i, HAS_LAST_V] > 0.0:
                 m0, m1, m2 = 0.0, 0.0, 0.0
                 for back in range(period):
                     entry = (step - lag - back) % length
@@ -182,7 +183,7 @@ def estimate_kernel(start, stop, indices, step_count, predict, ring, delays, per
             shift_p, shift_v, turn = fixed.shift_p, fixed.shift_v, fixed.turn
             for k in range(3):
                 e[i, BA + k] -= fixed.accelerometer_bias_step[k]
-            if kind != 0:
+            if kind == 1:
                 for k in range(3):
                     e[i, LAST_V + k] = ring[fix, i, VELOCITY + k]
                 e[i, HAS_LAST_V] = 1.0
@@ -250,6 +251,8 @@ def _correction(fix_position, fix_rotation, fix_velocity, fix_heading, then_posi
         a01 = R_then[0] * Rm[1] + R_then[3] * Rm[4] + R_then[6] * Rm[7]
         # the error, a rotation vector in the body frame of then, turned into the world's
         world = mat_vec_tuple(R_then, (0.5 * (a21 - a12), 0.5 * (a02 - a20), 0.5 * (a10 - a01)))
+    elif kind == 2:  # mocap of one marker: the position alone, the attitude left to the gyro
+        world = (0.0, 0.0, 0.0)
     else:  # GNSS: velocity, heading and the levelling against its acceleration
         shift_v = (shift_v[0] + velocity_bandwidth * T * (fix_velocity[0] - then_velocity[0]),
                    shift_v[1] + velocity_bandwidth * T * (fix_velocity[1] - then_velocity[1]),

@@ -16,7 +16,7 @@ from quad_dob_env.params import VEHICLES
 from quad_dob_env.validation import as_finite, unknown_name_error
 from quad_dob_env.variation import SensorNoise
 
-POSE_KINDS = ("mocap", "gnss")
+POSE_KINDS = ("mocap", "gnss", "mocap-position")
 G0 = 9.80665  # standard gravity, for datasheet figures given in g
 
 
@@ -33,6 +33,8 @@ class PoseSensor:
 
     ``kind="mocap"``: position and attitude, white noise of ``position_std`` [m] per axis and
     ``attitude_std`` [rad] per axis (a random rotation of that size).
+    ``kind="mocap-position"``: a single marker's fix, the position alone (its attitude is
+    not used: the estimator's attitude is the gyroscope's), as the Crazyflie's extPos.
     ``vertical_position_std`` [m], when given, is the vertical axis's (None: as the others).
     ``kind="gnss"``: position (``position_std`` horizontal, ``vertical_position_std``
     vertical) and velocity (``velocity_std`` [m/s] per axis) from a receiver, and a compass

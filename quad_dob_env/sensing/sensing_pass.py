@@ -67,7 +67,7 @@ class PoseSettings(NamedTuple):
     vehicle's is taken within a step is its own (an unmodelled latency drawn per episode)."""
 
     tick: NDArray  # (N,) int64 the tick after which the fix is taken; 0: the step's end
-    kind: int = 0  # 0 mocap, 1 gnss
+    kind: int = 0  # its index in POSE_KINDS: 0 mocap, 1 gnss, 2 mocap-position
     period: int = 1  # a fix every so many steps
     position_std: float = 0.0  # [m], horizontal
     vertical_std: float = 0.0  # [m]

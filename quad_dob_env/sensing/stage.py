@@ -17,7 +17,7 @@ from quad_dob_env.params import VehicleParams
 from quad_dob_env.rng import named_stream
 from quad_dob_env.sensing.estimator import estimate_kernel, start_estimates_kernel
 from quad_dob_env.sensing.measurement import Measurement
-from quad_dob_env.sensing.models import SensorSuite
+from quad_dob_env.sensing.models import POSE_KINDS, SensorSuite
 from quad_dob_env.sensing.sensing_pass import (
     ESTIMATE_WIDTH,
     HISTORY_WIDTH,
@@ -147,7 +147,7 @@ class SensingStage:
             # a fix every so many steps: the nearest grid period not faster than the rate
             self.period = max(1, math.ceil(1.0 / (pose.rate * dt) - 1e-9))
             self._pose = PoseSettings(
-                tick=self.pose_tick, kind=0 if pose.kind == "mocap" else 1,
+                tick=self.pose_tick, kind=POSE_KINDS.index(pose.kind),
                 period=self.period,
                 position_std=pose.position_std, vertical_std=pose.vertical_std,
                 attitude_std=pose.attitude_std, velocity_std=pose.velocity_std,
