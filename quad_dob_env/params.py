@@ -327,10 +327,16 @@ CRAZYFLIE_21_THRUST_COEFFICIENT = 2.3e-8  # [N/(rad/s)²] Förster 2015 via roto
 # (IMRCLab crazyflie-firmware motors.c motorsGetMaxThrust: e00 + e10 pwm + e01 v/4.2)
 CRAZYFLIE_21_MAX_ROTOR_THRUST = (-10.291152501242268 + 3.926415845326646
                                  + 26.077196474667165 * 3.9 / 4.2) * 9.81e-3
-CRAZYFLIE_21_ROTOR_DRAG = 10.2506e-7  # k_d [N/(rad/s · m/s)] Förster 2015 via rotorpy
-CRAZYFLIE_21_INFLOW = 7.553e-7  # k_z, rotorpy's crazyflie_params.py
 CRAZYFLIE_21_HOVER_SPEED = math.sqrt(CRAZYFLIE_21_MASS * 9.81 / 4
                                      / CRAZYFLIE_21_THRUST_COEFFICIENT)  # [rad/s]
+# utiasDSL drone-models (77f04ab, drone_models/data/params.toml, cf2x_L250: a Crazyflie 2.1
+# with the legacy propellers, 31.9 g): the linear drag identified in flight, 0.01471782 N/(m/s)
+# sideways and 0.01277641 vertically, as the rotors' k_d and k_z at that vehicle's hover
+# (4 k ω_h), so it grows with the rotor speed as rotor drag does. Förster 2015's k_d (via
+# rotorpy, 10.25e-7) is for the Crazyflie 2.0 and gives half of it
+_L250_HOVER_SPEED = math.sqrt(0.0319 * 9.81 / 4 / CRAZYFLIE_21_THRUST_COEFFICIENT)
+CRAZYFLIE_21_ROTOR_DRAG = 0.01471782 / (4 * _L250_HOVER_SPEED)  # k_d [N/(rad/s · m/s)]
+CRAZYFLIE_21_INFLOW = 0.01277641 / (4 * _L250_HOVER_SPEED)  # k_z
 
 VEHICLES: dict[str, VehicleParams] = {
     "paper": VehicleParams(

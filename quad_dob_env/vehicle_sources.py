@@ -87,8 +87,8 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
         "rotor_radius": "Bitcraze 45 mm propellers, 23.1 mm",
         "configuration": "Bitcraze, X",
         "gravity": "standard gravity, 9.81 m/s²",
-        "drag_linear": "Förster 2015's rotor drag k_d and rotorpy's k_z times 4 ω_h at "
-                       "0.032 kg: what v1's linear drag stands for",
+        "drag_linear": "the rotors' k_d and k_z below times 4 ω_h at 0.032 kg: what v1's "
+                       "linear drag stands for",
         "drag_quadratic": "zero: rotorpy 3 sets the Crazyflie's parasitic drag c_D to zero",
         "motor_time_constant": "72 ms of the rotor speed: rotorpy's tau_m (citing Eschmann "
                                "et al. 2024), the middle of utiasDSL drone-models' 58 ms "
@@ -96,8 +96,12 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
         "thrust_coefficient": "Förster 2015 via rotorpy 3, k_F = 2.3e-8 N/(rad/s)²",
         "max_body_rate": "±2000 °/s, the full-scale range of the Crazyflie 2.1's BMI088 "
                          "gyroscope (Bosch datasheet)",
-        "rotor_drag_coefficient": "Förster 2015 K_xy = 10.2506e-7 kg/rad, rotorpy 3's k_d",
-        "inflow_coefficient": "rotorpy 3's k_z = 7.553e-7 kg/rad (crazyflie_params.py)",
+        "rotor_drag_coefficient": "utiasDSL drone-models cf2x_L250 (a Crazyflie 2.1 with legacy "
+                                  "propellers, 31.9 g): linear drag 0.01471782 N/(m/s) "
+                                  "identified in flight, as 4 k_d ω_h at its hover; Förster "
+                                  "2015's K_xy (Crazyflie 2.0) gives half of it",
+        "inflow_coefficient": "utiasDSL drone-models cf2x_L250: vertical linear drag "
+                              "0.01277641 N/(m/s), as 4 k_z ω_h at its hover",
         "inflow_quadratic": "zero: no oblique-flow data for a 45 mm rotor; rotorpy 3 keeps "
                             "the linear law alone",
         "rotor_height": "rotorpy 3: hubs in the centre of mass's plane",
