@@ -9,7 +9,12 @@ import json
 import numpy as np
 import pytest
 
-from quad_dob_env.crazyflie_loop import CONTROL_PERIOD, LEAD_IN, PAYLOAD_MASS
+from quad_dob_env.crazyflie_loop import (
+    CABLE_LENGTH,
+    CONTROL_PERIOD,
+    LEAD_IN,
+    PAYLOAD_VEHICLE_MASS,
+)
 from quad_dob_training.cli.commands import main as cli_main
 from quad_dob_training.evaluation.statistics import error_statistics
 from quad_dob_training.real_flights.crazyflie_log import EventType, write_log
@@ -46,10 +51,11 @@ mass: 0.032
 # one 1 s piece, 8th order: x from 0 to 0.1 m as 0.1 (3τ² - 2τ³) (at rest at both ends),
 # z held at 1 m (an absolute file, as translation_y.csv is: the start shifts it)
 COEFFICIENTS = ([0.0, 0.0, 0.3, -0.2, 0, 0, 0, 0], [0.0] * 8, [1.0] + [0.0] * 7, [0.0] * 8)
-WEIGHT = 0.040 * GRAVITY  # [N] the hover thrust the log holds at its end
+WEIGHT = 0.040 * GRAVITY  # [N] the hover thrust the log holds at its end: with a payload
+BARE_WEIGHT = 0.030 * GRAVITY  # [N] a bare Crazyflie's
 
 
-def write_folder(tmp_path, number, payload_offset=None, seconds=2.6):
+def write_folder(tmp_path, number, payload_offset=None, seconds=2.6, weight=WEIGHT):
     """logs/logN, info/infoN.yaml and trajectories/step.csv: a log at 250 Hz that follows the
     reference with a known error, its thrust the weight; the payload's fields if given."""
     (tmp_path / "logs").mkdir(exist_ok=True)
@@ -71,8 +77,10 @@ def write_folder(tmp_path, number, payload_offset=None, seconds=2.6):
     for k, t in enumerate(times):
         target = (0, 0, 1000)
         estimate = (3 * ((k % 5) - 2), -2, 1000 + (k % 3))  # a known error [mm]
-        values = [*estimate, *target, WEIGHT]
-        if payload_offset is not None:
+        values = [*estimate, *target, weight]
+        if payload_offset == "untracked":  # the firmware logs zeros without the marker
+            values += [0, 0, 0]
+        elif payload_offset is not None:
             values += [e + o for e, o in zip(estimate, payload_offset, strict=True)]
         records.append((0xFFFF, 10.0 + t, tuple(values)))
     write_log(tmp_path / "logs" / f"log{number}", [event], records)
@@ -87,6 +95,7 @@ def test_a_log_is_read_as_the_comparison_needs_it(tmp_path):
     assert flight.gains.kpos_i == (0.0, 0.0, 10.0) and flight.gains.mass == 0.032
     assert flight.weight == pytest.approx(WEIGHT, rel=1e-6)
     assert flight.cable_length == pytest.approx(0.5)  # 0.3 sideways, 0.4 down
+    assert flight.payload_mass == pytest.approx(0.040 - PAYLOAD_VEHICLE_MASS, rel=1e-6)
     np.testing.assert_allclose(flight.setpoint[0], [0.0, 0.0, 1.0])
     k = np.arange(len(times))
     expected = np.stack([3 * ((k % 5) - 2), np.full(len(k), -2), k % 3], axis=1) / 1000.0
@@ -97,8 +106,9 @@ def test_the_counterpart_flies_the_log_s_flight(tmp_path):
     write_folder(tmp_path, 8, payload_offset=(0, 0, -510))
     flight = read_flight(tmp_path, 8)
     scenario = flight_scenario(flight, tmp_path / "traj")
-    # the weight less the payload, which hangs on the log's cable
-    assert scenario.vehicle.mass == pytest.approx(0.040 - PAYLOAD_MASS, rel=1e-6)
+    # the payload vehicle, and the rest of the weight on the log's cable
+    assert scenario.vehicle.mass == pytest.approx(PAYLOAD_VEHICLE_MASS, rel=1e-6)
+    assert scenario.disturbance.mass == pytest.approx(0.040 - PAYLOAD_VEHICLE_MASS, rel=1e-6)
     assert scenario.disturbance.cable_length == pytest.approx(0.51)
     assert scenario.dt == CONTROL_PERIOD
     # the file's path, shifted to start at the log's first setpoint, after the lead-in,
@@ -109,8 +119,20 @@ def test_the_counterpart_flies_the_log_s_flight(tmp_path):
                                atol=1e-12)
 
 
+def test_the_weight_says_whether_a_payload_hangs(tmp_path):
+    # log 183's case: heavy, its payload's fields all zero (untracked): the cable's 0.5 m
+    write_folder(tmp_path, 12, payload_offset="untracked")
+    flight = read_flight(tmp_path, 12)
+    assert flight.cable_length == CABLE_LENGTH
+    # log 178's case: a bare vehicle, whatever fields it logs
+    write_folder(tmp_path, 13, payload_offset=(0, 0, -500), weight=BARE_WEIGHT)
+    bare = read_flight(tmp_path, 13)
+    assert bare.cable_length is None and bare.payload_mass == 0.0
+    assert flight_scenario(bare, tmp_path / "traj").disturbance is None
+
+
 def test_both_sides_are_scored_alike_and_written(tmp_path, capsys):
-    write_folder(tmp_path, 9)  # no payload: a bare vehicle of the log's weight
+    write_folder(tmp_path, 9, weight=BARE_WEIGHT)  # a bare vehicle of the log's weight
     assert main(tmp_path, tmp_path / "traj", [9], [0, 1], tmp_path / "out") == 0
     summary = json.loads((tmp_path / "out" / "crazyswarm2.json").read_text())
     flight = read_flight(tmp_path, 9)

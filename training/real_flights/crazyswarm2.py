@@ -7,8 +7,9 @@ Per log (``logs/logN`` and ``info/infoN.yaml`` of the user's copy of
 of Crazyswarm2's ``tune-lee`` trajectory files), the simulator flies:
 
 - the vehicle ``crazyflie-2.1`` at the log's weight, its hover thrust over g
-  (``quad_dob_env.crazyflie_loop``), less the payload where the log carries one, which then
-  hangs on a cable of the log's own measured length;
+  (``quad_dob_env.crazyflie_loop``), less the payload where the weight says it carries one
+  (the weight less the payload vehicle's own), which then hangs on a cable of the log's own
+  measured length (0.5 m where it did not track the payload);
 - the firmware's Lee law (``crazyflie-lee``) with the info file's gains and told mass;
 - the loop as the firmware runs it (``crazyflie_loop.loop_options``), at 500 Hz;
 - the reference the firmware flew: the trajectory file at the info file's time scale,
@@ -34,9 +35,11 @@ from numpy.typing import NDArray
 
 from quad_dob_baselines.crazyflie_lee import FirmwareLeeController, FirmwareLeeGains
 from quad_dob_env.crazyflie_loop import (
+    CABLE_LENGTH,
     CONTROL_PERIOD,
     LEAD_IN,
     PAYLOAD_MASS,
+    PAYLOAD_VEHICLE_MASS,
     VEHICLE,
     loop_options,
     payload,
@@ -86,6 +89,13 @@ class Flight:
     def error(self) -> NDArray:
         return self.estimate - self.setpoint
 
+    @property
+    def payload_mass(self) -> float:
+        """[kg] the weight less the payload vehicle's mass; 0 without a payload."""
+        if self.cable_length is None:
+            return 0.0
+        return self.weight / GRAVITY - PAYLOAD_VEHICLE_MASS
+
 
 def _vector(fields: dict[str, NDArray], group: str, names: str = "xyz") -> NDArray:
     """(T, 3) of ``group.x``, ``.y``, ``.z``; the firmware logs them as int16 mm."""
@@ -111,14 +121,17 @@ def read_flight(folder: Path, number: int) -> Flight:
     thrust = fields[names[0]]
     weight = float(np.median(thrust[t >= t[-1] - HOVER_SPAN]))
     estimate = _vector(fields, "stateEstimateZ")
+    # a payload where the log's weight says one hangs below (crazyflie_loop), on the cable
+    # the log measures where it tracked the payload (log 183's fields are all zero)
     cable_length = None
-    if "stateEstimateZ.px" in fields:
-        # the payload's logged position; all zero where the marker was not tracked (183)
-        payload_position = _vector(fields, "stateEstimateZ", ("px", "py", "pz"))
-        tracked = np.any(payload_position != 0.0, axis=1)
-        if tracked.any():
-            cable_length = float(np.median(np.linalg.norm(
-                payload_position[tracked] - estimate[tracked], axis=1)))
+    if weight / GRAVITY >= PAYLOAD_VEHICLE_MASS + PAYLOAD_MASS / 2:
+        cable_length = CABLE_LENGTH
+        if "stateEstimateZ.px" in fields:
+            payload_position = _vector(fields, "stateEstimateZ", ("px", "py", "pz"))
+            tracked = np.any(payload_position != 0.0, axis=1)
+            if tracked.any():
+                cable_length = float(np.median(np.linalg.norm(
+                    payload_position[tracked] - estimate[tracked], axis=1)))
     return Flight(number=number, trajectory=str(info["trajectory"]),
                   time_scale=float(info["timescale"]),
                   gains=FirmwareLeeGains.from_parameters(info), t=t, estimate=estimate,
@@ -132,8 +145,8 @@ def flight_scenario(flight: Flight, trajectories: Path) -> Scenario:
     if not path.is_file():
         raise ValueError(f"no trajectory {str(path)!r}: --trajectories must be your copy of "
                          "Crazyswarm2's tune-lee crazyflie_examples/crazyflie_examples/data")
-    carried = PAYLOAD_MASS if flight.cable_length is not None else 0.0
-    vehicle = replace(VEHICLES[VEHICLE], mass=flight.weight / GRAVITY - carried)
+    payload_mass = flight.payload_mass
+    vehicle = replace(VEHICLES[VEHICLE], mass=flight.weight / GRAVITY - payload_mass)
     start = flight.setpoint[0]
     # a relative start shifts the file's path so that it begins at the setpoint it starts
     # from (crazyflie-firmware planner.c, plan_start_trajectory: shift = setpoint - p(0))
@@ -145,7 +158,7 @@ def flight_scenario(flight: Flight, trajectories: Path) -> Scenario:
         name=f"crazyswarm2-log{flight.number}", vehicle=vehicle, trajectory=reference,
         duration=LEAD_IN + float(flight.t[-1]) + 2 * CONTROL_PERIOD,
         disturbance=(None if flight.cable_length is None
-                     else payload(PAYLOAD_MASS, flight.cable_length)),
+                     else payload(payload_mass, flight.cable_length)),
         initial_position=tuple(float(value) for value in start), dt=CONTROL_PERIOD,
         loop=LoopOptions(**loop_options()), settle_time=LEAD_IN,
         description=f"Crazyswarm2 log {flight.number}: {flight.trajectory} at time scale "
