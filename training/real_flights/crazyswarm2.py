@@ -208,6 +208,7 @@ class LogComparison:
 
     number: int
     description: str
+    reference: str  # the trajectory file's name and time scale, short
     payload: bool
     real: ErrorStatistics
     simulated: tuple[ErrorStatistics, ...]
@@ -235,6 +236,7 @@ def compare(flight: Flight, trajectories: Path, seeds: Sequence[int]) -> LogComp
     rms = tuple(bootstrap_mean([s.rms_total for s in statistics]))
     p95 = tuple(bootstrap_mean([s.p95 for s in statistics]))
     return LogComparison(number=flight.number, description=scenario.description,
+                         reference=f"{Path(flight.trajectory).stem} x{flight.time_scale:g}",
                          payload=flight.cable_length is not None,
                          real=error_statistics(flight.error), simulated=statistics,
                          lost=simulated.lost, rms=rms, p95=p95)
@@ -255,11 +257,12 @@ def _millimetres(value: float) -> str:
 
 
 def table(comparisons: Sequence[LogComparison]) -> str:
-    """The side-by-side table, in mm: sim mean [95 % CI], real, ratio; RMS and p95."""
+    """The side-by-side table, in mm: sim mean [95 % CI over the seeds], real, ratio; RMS
+    and p95."""
     rows = []
     for c in comparisons:
         rows.append([
-            str(c.number), c.description.split(": ", 1)[1], "yes" if c.payload else "no",
+            str(c.number), c.reference, "yes" if c.payload else "no",
             f"{_millimetres(c.rms[0])} [{_millimetres(c.rms[1])}, {_millimetres(c.rms[2])}]",
             _millimetres(c.real.rms_total), f"{c.rms_ratio:.2f}",
             f"{_millimetres(c.p95[0])} [{_millimetres(c.p95[1])}, {_millimetres(c.p95[2])}]",
