@@ -101,6 +101,15 @@ def attitude_errors(rotation, angular_velocity, desired_rotation, desired_rate):
     return attitude_error, rate_error, r_t_rd
 
 
+@njit(cache=True, inline="always")
+def force_derivative(feedback, kx, kv, error, error_rate, mass, reference_rate):
+    """A derivative of F = -kx ex - kv ev + m ẍd + ...: ``feedback`` (-kx e - kv ė) + m (the
+    reference's next derivative), per axis; ``feedback`` is ``GeometricLaw.rate_feedback``."""
+    return (feedback * (-kx[0] * error[0] - kv[0] * error_rate[0]) + mass * reference_rate[0],
+            feedback * (-kx[1] * error[1] - kv[1] * error_rate[1]) + mass * reference_rate[1],
+            feedback * (-kx[2] * error[2] - kv[2] * error_rate[2]) + mass * reference_rate[2])
+
+
 @njit(cache=True)
 def geometric_law(x, v, R, w, reference, law, force_estimate, torque_estimate,
                   acceleration_correction):
@@ -129,21 +138,13 @@ def geometric_law(x, v, R, w, reference, law, force_estimate, torque_estimate,
     acceleration_error = (predicted[0] - acceleration[0], predicted[1] - acceleration[1],
                           predicted[2] - gravity - acceleration[2])
     feedback = law.rate_feedback
-    force_dot = (feedback * (-kx[0] * velocity_error[0] - kv[0] * acceleration_error[0])
-                 + mass * jerk[0],
-                 feedback * (-kx[1] * velocity_error[1] - kv[1] * acceleration_error[1])
-                 + mass * jerk[1],
-                 feedback * (-kx[2] * velocity_error[2] - kv[2] * acceleration_error[2])
-                 + mass * jerk[2])
+    force_dot = force_derivative(feedback, kx, kv, velocity_error, acceleration_error, mass,
+                                 jerk)
     thrust_dot = dot(force_dot, body_z) + dot(force, body_z_dot)
     jerk_error = combine(thrust_dot / mass, body_z, thrust / mass, body_z_dot)
     jerk_error = combine(1.0, jerk_error, -1.0, jerk)
-    force_ddot = (feedback * (-kx[0] * acceleration_error[0] - kv[0] * jerk_error[0])
-                  + mass * snap[0],
-                  feedback * (-kx[1] * acceleration_error[1] - kv[1] * jerk_error[1])
-                  + mass * snap[1],
-                  feedback * (-kx[2] * acceleration_error[2] - kv[2] * jerk_error[2])
-                  + mass * snap[2])
+    force_ddot = force_derivative(feedback, kx, kv, acceleration_error, jerk_error, mass,
+                                  snap)
     rd, rate_d, acceleration_d = desired_attitude(force, force_dot, force_ddot,
                                                   reference.heading, reference.heading_rate,
                                                   reference.heading_acceleration)
