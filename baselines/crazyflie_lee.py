@@ -56,7 +56,8 @@ class FirmwareLeeGains:
     """The firmware's ``ctrlLee`` parameters, in its own names and units (per axis x, y, z):
     position gains per mass [1/s², 1/s, 1/s³], attitude gains [N m / rad, N m s / rad,
     N m / (rad s)], and the mass [kg] the firmware was told. The defaults are Crazyswarm2's
-    logs 182-184 and 201-206 (``info*.yaml``; 178 sets ``kpos_i`` to 32 on every axis)."""
+    logs 182 and 184 (``info*.yaml``); 178 sets ``kpos_i`` to 32 on every axis, 183 to 20,
+    and 201-206 tell the mass 0.0419 kg."""
 
     kpos_p: Triple = (17.0, 17.0, 17.0)
     kpos_d: Triple = (7.0, 7.0, 7.0)

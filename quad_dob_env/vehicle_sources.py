@@ -72,7 +72,7 @@ VEHICLE_SOURCES: dict[str, dict[str, str]] = {
     "crazyflie-2.1": {
         "mass": "Crazyswarm2's info files for the bare vehicle, 0.032 kg, the mass its "
                 "firmware was told (ctrlLee.mass); each log's own weight comes from its "
-                "hover thrust (quad_dob_env.crazyswarm2)",
+                "hover thrust (quad_dob_training.real_flights.crazyswarm2)",
         "inertia": "Förster 2015 (ETH, 'System Identification of the Crazyflie 2.0'), "
                    "diag(16.571710, 16.655602, 29.261652)e-6 kg m², the firmware's J "
                    "(IMRCLab crazyflie-firmware controller_lee.c)",

@@ -48,9 +48,11 @@ Kw_y: 0.00125
 Kw_z: 0.0025
 mass: 0.032
 """
-# one 1 s piece, 8th order: x from 0 to 0.1 m as 0.1 (3τ² - 2τ³) (at rest at both ends),
-# z held at 1 m (an absolute file, as translation_y.csv is: the start shifts it)
-COEFFICIENTS = ([0.0, 0.0, 0.3, -0.2, 0, 0, 0, 0], [0.0] * 8, [1.0] + [0.0] * 7, [0.0] * 8)
+# one 1 s piece, 8th order: x from 0.2 to 0.3 m as 0.1 (3τ² - 2τ³) (at rest at both ends),
+# y and z held at -0.1 and 1.5 m: an absolute file starting elsewhere than the log's first
+# setpoint (0, 0, 1), which the relative start shifts it to
+COEFFICIENTS = ([0.2, 0.0, 0.3, -0.2, 0, 0, 0, 0], [-0.1] + [0.0] * 7, [1.5] + [0.0] * 7,
+                [0.0] * 8)
 WEIGHT = 0.040 * GRAVITY  # [N] the hover thrust the log holds at its end: with a payload
 BARE_WEIGHT = 0.030 * GRAVITY  # [N] a bare Crazyflie's
 
@@ -142,6 +144,11 @@ def test_both_sides_are_scored_alike_and_written(tmp_path, capsys):
     assert summary["logs"]["9"]["lost"] == 0
     simulated = summary["logs"]["9"]["simulated"]
     assert len(simulated) == 2 and all(s["samples"] == len(flight.t) for s in simulated)
+    # the log's setpoint holds still where the file moves 0.1 m: their difference is the move
+    tau = np.clip(flight.t / 2.0, 0.0, 1.0)
+    moved = 0.1 * (3 * tau**2 - 2 * tau**3)
+    assert summary["logs"]["9"]["reference_residual"] == pytest.approx(
+        np.sqrt(np.mean(moved**2)), rel=1e-9)
     # the firmware's law flies a 0.1 m move at time scale 2 within centimetres
     assert 0.0 < summary["logs"]["9"]["sim_rms"][0] < 0.02
     assert "real RMS" in capsys.readouterr().out

@@ -196,7 +196,7 @@ class Recorder(Disturbance):
         self.follows_vehicle = follows_vehicle
         self.seen = []
 
-    def follow(self, position, velocity):
+    def follow(self, position, velocity, vehicle_mass=None):
         self.seen.append((np.array(position), np.array(velocity)))
 
     def add_to(self, times, force, torque, wind):
@@ -297,3 +297,22 @@ def test_a_reset_hangs_the_payload_under_the_vehicle_again():
     # hung straight down at the reset's start, then one step at rest relative to it
     np.testing.assert_allclose(payload.tension[0], MASS * G, rtol=1e-9)
     np.testing.assert_allclose(payload.position[0, :2], start[:2], atol=1e-12)
+
+
+@pytest.mark.parametrize("ratio", [0.9, 1.3])
+def test_a_payload_about_as_heavy_as_the_vehicle_pulls_smoothly(ratio):
+    """The pull is solved with the vehicle's own response to it (T (1 + m_p/M)): read from
+    the last step's acceleration alone, T rings at the step rate by -m_p/M a step (0.04 of
+    m_p g here at 0.9) and grows once m_p > M (past 4 m_p g within 1 s at 1.3)."""
+    vehicle = make_scenario("hover-calm", vehicle="crazyflie").vehicle
+    heavy = ratio * vehicle.mass
+    push = Constant(force=(0.05, 0.0, 0.0)).during(0.0, 0.2)
+    env = payload_flight(SuspendedPayload(heavy, LENGTH) + push)
+    payload = env.core.random_disturbance  # the push is no random part
+    tensions = []
+    for _ in range(100):
+        _, _, terminated, truncated, _ = env.step(np.array([1.0, 0.0, 0.0, 0.0]))
+        assert not (terminated or truncated)
+        tensions.append(payload.tension[0])
+    ringing = np.abs(np.diff(tensions[25:], 2)).max()  # a mode at the step rate shows here
+    assert ringing < 2e-3 * heavy * G

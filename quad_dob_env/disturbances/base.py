@@ -42,11 +42,13 @@ class Disturbance:
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         """Draw fresh random parameters for vehicles ``indices``, ``rngs[j]`` for the j-th."""
 
-    def follow(self, position: NDArray[np.float64], velocity: NDArray[np.float64]) -> None:
+    def follow(self, position: NDArray[np.float64], velocity: NDArray[np.float64],
+               vehicle_mass: NDArray[np.float64] | None = None) -> None:
         """Take the true vehicle position and velocity (N, 3, world frame) at the start of
-        the control step. The env calls it once a step, before ``add_to``, and only when
-        ``follows_vehicle``; a model that depends on the vehicle's state advances its own
-        state here."""
+        the control step, and each vehicle's true mass (N,; None: vehicles moved by hand,
+        which nothing pushes back). The env calls it once a step, before ``add_to``, and
+        only when ``follows_vehicle``; a model that depends on the vehicle's state advances
+        its own state here."""
 
     def evaluate(self, times: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         """Force, torque and wind velocity, each (N, K, 3), at ``times`` (N, K).
@@ -99,10 +101,11 @@ class Sum(Disturbance):
         for part in self.parts:
             part.resample(indices, rngs)
 
-    def follow(self, position: NDArray[np.float64], velocity: NDArray[np.float64]) -> None:
+    def follow(self, position: NDArray[np.float64], velocity: NDArray[np.float64],
+               vehicle_mass: NDArray[np.float64] | None = None) -> None:
         for part in self.parts:
             if part.follows_vehicle:
-                part.follow(position, velocity)
+                part.follow(position, velocity, vehicle_mass)
 
     def add_to(self, times: NDArray[np.float64], force: NDArray, torque: NDArray,
                wind: NDArray) -> None:
@@ -161,9 +164,10 @@ class Window(Disturbance):
     def resample(self, indices: NDArray[np.intp], rngs: Sequence[np.random.Generator]) -> None:
         self.inner.resample(indices, rngs)
 
-    def follow(self, position: NDArray[np.float64], velocity: NDArray[np.float64]) -> None:
+    def follow(self, position: NDArray[np.float64], velocity: NDArray[np.float64],
+               vehicle_mass: NDArray[np.float64] | None = None) -> None:
         # the inner model keeps following outside the window: its state runs on regardless
-        self.inner.follow(position, velocity)
+        self.inner.follow(position, velocity, vehicle_mass)
 
     def sampled_parameters(self, index: int) -> dict[str, float]:
         return self.inner.sampled_parameters(index)

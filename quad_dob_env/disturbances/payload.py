@@ -68,15 +68,22 @@ class SuspendedPayload(Disturbance):
         self.force[indices] = 0.0
         self.tension[indices] = 0.0
 
-    def follow(self, position: ArrayLike, velocity: ArrayLike) -> None:
+    def follow(self, position: ArrayLike, velocity: ArrayLike,
+               vehicle_mass: ArrayLike | None = None) -> None:
         vehicle_position = np.asarray(position, dtype=np.float64)
         vehicle_velocity = np.asarray(velocity, dtype=np.float64)
+        # 1/M per vehicle; a vehicle moved by hand (None) feels no pull back
+        inverse_mass = (np.zeros(len(vehicle_position)) if vehicle_mass is None
+                        else 1.0 / np.asarray(vehicle_mass, dtype=np.float64))
         length, g, m, dt = self.cable_length, self.gravity, self.mass, self.dt
         fresh = self._unplaced
         if fresh.any():  # hanging straight down, at rest relative to the vehicle
             self.position[fresh] = vehicle_position[fresh] - length * UP
             self.velocity[fresh] = vehicle_velocity[fresh]
             self._vehicle_velocity[fresh] = vehicle_velocity[fresh]
+            # the pull of a payload hanging at rest, as if it had hung there a step already:
+            # what the vehicle's last acceleration held
+            self.force[fresh] = -m * g * UP
             fresh[:] = False
         # the vehicle's acceleration over the last step (a backward difference: the env
         # hands over states, not forces); zero at the first step after placing
@@ -99,9 +106,14 @@ class SuspendedPayload(Disturbance):
                         + acceleration_scale * dt**2)
         taut = distance >= length - slack_margin
         # T = m_p (|v_p - v|_⊥²/L - g q·e3 - q·a), from d²/dt² |r_p - x|² = 0 (Sreenath,
-        # Lee, Kumar 2013: the load's equation along q)
+        # Lee, Kumar 2013: the load's equation along q). The vehicle's a holds this step's
+        # pull, a = a_o + T q / M (the vehicle's equation), so T is solved with it:
+        # T (1 + m_p/M) = m_p (|v_p - v|_⊥²/L - g q·e3 - q·a_o), a_o the last step's
+        # acceleration less the last step's pull. Read from the backward difference alone,
+        # T would ring at the step rate and grow once m_p > M
+        other = vehicle_acceleration - self.force * inverse_mass[:, None]
         tension = m * (tangential_speed_squared / length - g * direction[:, 2]
-                       - np.einsum("ij,ij->i", direction, vehicle_acceleration))
+                       - np.einsum("ij,ij->i", direction, other)) / (1.0 + m * inverse_mass)
         # taut-cable constraint |r_p - x| = L (Sreenath, Lee, Kumar 2013, taut-cable model)
         self.position[taut] = vehicle_position[taut] + length * direction[taut]
         # a taut cable cannot stretch: no separating radial velocity. While it pulls

@@ -323,7 +323,7 @@ class QuadrotorBatch:
                     own.fill(0.0)
             times = self.time[:, None] + self._sample_offsets if random.uses_time else None
             if random.follows_vehicle:  # a state-dependent model reads the true state first
-                random.follow(self.state.position, self.state.velocity)
+                random.follow(self.state.position, self.state.velocity, self.mass)
             random.add_to(times, *self._own)
 
     def _kernel_arguments(self) -> tuple[tuple, tuple]:

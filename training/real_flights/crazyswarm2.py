@@ -60,8 +60,9 @@ from quad_dob_training.real_flights.crazyflie_log import read_log
 GRAVITY = 9.81  # [m/s²] the firmware's GRAVITY_MAGNITUDE
 HOVER_SPAN = 1.5  # [s] the log's end, hovering after the reference, where its weight is read
 EVENT = "fixedFrequency"  # Crazyswarm2's logging event
-# the pairs (same reference and time scale) whose payload-minus-baseline change is compared:
-# by their info files, 182 flew at 32 g and 201 at 41.9 g
+# the pairs (same reference and time scale) whose payload change is compared, heavier less
+# lighter: 182 carries 19 g by its weight, 201 5 g (their info files tell 32 and 41.9 g).
+# No bare log flies a reference a payload log flies at its time scale (178 alone is bare)
 PAYLOAD_PAIRS = ((182, 201),)
 # the orderings the issue asks the simulator to keep: the figure-8 at time scales 2.0, 1.0
 # and 0.8 with the payload (201, 202, 203)
@@ -158,7 +159,7 @@ def flight_scenario(flight: Flight, trajectories: Path) -> Scenario:
         name=f"crazyswarm2-log{flight.number}", vehicle=vehicle, trajectory=reference,
         duration=LEAD_IN + float(flight.t[-1]) + 2 * CONTROL_PERIOD,
         disturbance=(None if flight.cable_length is None
-                     else payload(payload_mass, flight.cable_length)),
+                     else payload(payload_mass, flight.cable_length, vehicle.gravity)),
         initial_position=tuple(float(value) for value in start), dt=CONTROL_PERIOD,
         loop=LoopOptions(**loop_options()), settle_time=LEAD_IN,
         description=f"Crazyswarm2 log {flight.number}: {flight.trajectory} at time scale "
@@ -215,6 +216,9 @@ class LogComparison:
     lost: int
     rms: tuple[float, float, float]  # mean, low, high [m]
     p95: tuple[float, float, float]
+    # [m] RMS of the rebuilt reference less the log's setpoint at its samples: how well the
+    # trajectory file, time scale, shift and start reproduce what the firmware flew
+    reference_residual: float
 
     @property
     def rms_ratio(self) -> float:
@@ -233,13 +237,15 @@ def compare(flight: Flight, trajectories: Path, seeds: Sequence[int]) -> LogComp
                        if error is not None)
     if not statistics:
         raise RuntimeError(f"log {flight.number}: every simulated flight was lost")
+    rebuilt = scenario.trajectory.position_derivatives(LEAD_IN + flight.t)[0]
+    residual = float(np.sqrt(np.mean(np.sum((rebuilt - flight.setpoint) ** 2, axis=1))))
     rms = tuple(bootstrap_mean([s.rms_total for s in statistics]))
     p95 = tuple(bootstrap_mean([s.p95 for s in statistics]))
     return LogComparison(number=flight.number, description=scenario.description,
                          reference=f"{Path(flight.trajectory).stem} x{flight.time_scale:g}",
                          payload=flight.cable_length is not None,
                          real=error_statistics(flight.error), simulated=statistics,
-                         lost=simulated.lost, rms=rms, p95=p95)
+                         lost=simulated.lost, rms=rms, p95=p95, reference_residual=residual)
 
 
 def ordering_kept(comparisons: dict[int, LogComparison], order: Sequence[int]) -> bool | None:
@@ -304,15 +310,17 @@ def main(logs: Path, trajectories: Path, numbers: Sequence[int], seeds: Sequence
             "description": c.description, "payload": c.payload, "lost": c.lost,
             "real": asdict(c.real), "simulated": [asdict(s) for s in c.simulated],
             "sim_rms": c.rms, "sim_p95": c.p95, "rms_ratio": c.rms_ratio,
-            "p95_ratio": c.p95_ratio}
+            "p95_ratio": c.p95_ratio, "reference_residual": c.reference_residual}
     print()
-    for bare, loaded in PAYLOAD_PAIRS:
-        if bare in comparisons and loaded in comparisons:
-            real = comparisons[loaded].real.rms_total - comparisons[bare].real.rms_total
-            sim = comparisons[loaded].rms[0] - comparisons[bare].rms[0]
-            summary["payload_changes"][f"{loaded}-{bare}"] = {"real": real, "sim": sim}
-            print(f"RMS of log {loaded} less log {bare}: sim {_millimetres(sim)} mm, real "
-                  f"{_millimetres(real)} mm")
+    print("the rebuilt reference against each log's setpoint, RMS [mm]: " + ", ".join(
+        f"{c.number} {_millimetres(c.reference_residual)}" for c in flown))
+    for heavier, lighter in PAYLOAD_PAIRS:
+        if heavier in comparisons and lighter in comparisons:
+            real = comparisons[heavier].real.rms_total - comparisons[lighter].real.rms_total
+            sim = comparisons[heavier].rms[0] - comparisons[lighter].rms[0]
+            summary["payload_changes"][f"{heavier}-{lighter}"] = {"real": real, "sim": sim}
+            print(f"RMS of log {heavier} (heavier payload) less log {lighter}: sim "
+                  f"{_millimetres(sim)} mm, real {_millimetres(real)} mm")
     kept = ordering_kept(comparisons, TIME_SCALE_ORDER)
     summary["orderings"]["time_scale"] = kept
     if kept is not None:
