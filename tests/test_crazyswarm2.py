@@ -167,6 +167,15 @@ def test_the_command_names_what_is_missing(tmp_path, capsys):
     assert "is not a folder" in capsys.readouterr().err
 
 
+def test_a_log_without_the_estimate_is_named(tmp_path):
+    write_folder(tmp_path, 14)
+    event = EventType(0xFFFF, "fixedFrequency", (("ctrlLee.thrustSI", "f"),))
+    write_log(tmp_path / "logs" / "log14", [event], [(0xFFFF, 0.004 * k, (0.3,))
+                                                     for k in range(10)])
+    with pytest.raises(ValueError, match=r"stateEstimateZ\.x"):
+        read_flight(tmp_path, 14)
+
+
 def test_error_statistics_from_the_definitions():
     error = np.array([[3.0, 4.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 2.0]])
     size = error_statistics(error)

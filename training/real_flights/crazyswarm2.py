@@ -114,6 +114,11 @@ def read_flight(folder: Path, number: int) -> Flight:
     if not isinstance(info, dict) or "trajectory" not in info or "timescale" not in info:
         raise ValueError(f"{info_path}: an info file names its trajectory and timescale")
     fields = read_log(log_path).event(EVENT)
+    needed = [f"{group}.{axis}" for group in ("stateEstimateZ", "ctrltargetZ") for axis in "xyz"]
+    missing = [name for name in needed if name not in fields]
+    if missing:
+        raise ValueError(f"{log_path} logs no {', '.join(missing)}: the comparison needs the "
+                         "estimate and the setpoint (stateEstimateZ, ctrltargetZ)")
     t = fields["timestamp"] - fields["timestamp"][0]
     # the firmware's thrust [N]; older builds spelt it thrustSi (log 178)
     names = [name for name in ("ctrlLee.thrustSI", "ctrlLee.thrustSi") if name in fields]
