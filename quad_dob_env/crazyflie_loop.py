@@ -22,7 +22,7 @@ Not modelled, each stated in docs/real-flights.md: the firmware's 80 Hz gyro low
 loop option of an inner loop here; about 4° of phase at the attitude loop's 3.7 Hz) and the
 Kalman filter itself (its levelling of roll and pitch against the position fixes: here the
 gyroscope's integral, a drift of about 0.1° over a flight).
-Imports nothing above ``sensing.models`` and ``disturbances``.
+Imports nothing above ``params``, ``sensing.models`` and ``disturbances``.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ import math
 from typing import Any
 
 from quad_dob_env.disturbances.payload import SuspendedPayload
+from quad_dob_env.params import VEHICLES
 from quad_dob_env.sensing.models import (
     G0,
     MOCAP_POSITION_STD,
@@ -44,6 +45,8 @@ from quad_dob_env.sensing.models import (
 CONTROL_RATE = 500.0  # [Hz] the firmware's ATTITUDE_RATE, at which controller_lee runs
 CONTROL_PERIOD = 1.0 / CONTROL_RATE
 VEHICLE = "crazyflie-2.1"
+# [s] the rotor speed's, both ways: the vehicle preset's (its source there)
+MOTOR_TIME_CONSTANT = VEHICLES[VEHICLE].motor_time_constant
 # Bosch BMI088 datasheet (BST-BMI088-DS001): gyroscope 0.014 °/s/√Hz, accelerometer
 # 175 µg/√Hz (±3 g range); the bias walks have no datasheet figure: the mocap preset's
 BMI088 = Imu(gyroscope_noise_density=math.radians(0.014),
@@ -92,7 +95,7 @@ def loop_options() -> dict[str, Any]:
     """The loop's options, as ``LoopOptions`` fields, over Benchmark v2's rotors."""
     return {"benchmark": "v2", "sensing": CRAZYFLIE_SENSING, "inner_rate": 0.0,
             "speed_motors": True, "thrust_uncertainty": False, "rotor_aerodynamics": True,
-            "drag": True, "motor_time_constants": (0.072, 0.072),
+            "drag": True, "motor_time_constants": (MOTOR_TIME_CONSTANT, MOTOR_TIME_CONSTANT),
             "unmodelled_pose_latency": POSE_LATENCY}
 
 
@@ -112,7 +115,8 @@ CRAZYFLIE_LOOP_SOURCES: dict[str, str] = {
     "motors": "rotor speed, 72 ms both ways: the crazyflie-2.1 preset's time constant (the "
               "legacy propellers' 86 ms moves every log's ratio by 0.01 or less)",
     "thrust map": "the firmware compensates the battery (motors.c): thrust as asked",
-    "rotor aerodynamics, drag": "on: the preset's Förster/rotorpy coefficients",
+    "rotor aerodynamics, drag": "on: the crazyflie-2.1 preset's coefficients (drone-models' "
+                                "drag identified in flight, Förster's k_F)",
     "payload mass": "the log's weight less the payload vehicle's 35.6 g (logs 201-206's "
                     "median weight, 40.6 g, less the ReadMe's 5 g payload); none below "
                     "38.1 g",

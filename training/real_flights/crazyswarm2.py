@@ -24,7 +24,6 @@ written but summary statistics.
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -176,7 +175,6 @@ class SimulatedFlights:
     """The simulated side of one log: each seed's error at the log's sample times (None for
     a seed whose vehicle was lost before the window ended)."""
 
-    seeds: tuple[int, ...]
     errors: tuple[NDArray | None, ...]
     lost: int
 
@@ -203,8 +201,7 @@ def fly(flight: Flight, scenario: Scenario, seeds: Sequence[int]) -> SimulatedFl
     env.close()
     kept = errors[rows]  # (T, n, 3)
     per_seed = tuple(None if np.isnan(kept[:, i]).any() else kept[:, i] for i in range(n))
-    return SimulatedFlights(seeds=tuple(int(s) for s in seeds), errors=per_seed,
-                            lost=sum(error is None for error in per_seed))
+    return SimulatedFlights(errors=per_seed, lost=sum(error is None for error in per_seed))
 
 
 @dataclass(frozen=True)
@@ -241,7 +238,8 @@ def compare(flight: Flight, trajectories: Path, seeds: Sequence[int]) -> LogComp
     statistics = tuple(error_statistics(error) for error in simulated.errors
                        if error is not None)
     if not statistics:
-        raise RuntimeError(f"log {flight.number}: every simulated flight was lost")
+        raise ValueError(f"log {flight.number}: every simulated flight was lost (see its "
+                         "info file's gains and the loop in quad_dob_env.crazyflie_loop)")
     rebuilt = scenario.trajectory.position_derivatives(LEAD_IN + flight.t)[0]
     residual = float(np.sqrt(np.mean(np.sum((rebuilt - flight.setpoint) ** 2, axis=1))))
     rms = tuple(bootstrap_mean([s.rms_total for s in statistics]))
@@ -341,6 +339,4 @@ def main(logs: Path, trajectories: Path, numbers: Sequence[int], seeds: Sequence
 def _json_default(value: object) -> object:
     if isinstance(value, np.generic):
         return value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
     raise TypeError(f"not JSON: {type(value).__name__}")
